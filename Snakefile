@@ -1,0 +1,27 @@
+# The workflow's table of contents: datasets -> identify -> aggregate -> track.
+# Every step is a command a user can type by hand (python -m experiments.<step> ...).
+#
+#   snakemake --cores 2            # the default target: the paper grid (configs/grid/paper.yaml)
+#   snakemake --cores 2 smoke      # the CI grid;  `full` for R = 100 and records up to 2048 samples
+#   snakemake --cores 2 results/<name>/README.md   # any grid in configs/grid/<name>.yaml
+
+include: "experiments/rules/common.smk"
+include: "experiments/rules/datasets.smk"
+include: "experiments/rules/identify.smk"
+include: "experiments/rules/report.smk"
+
+
+rule paper:
+    input:
+        grid_targets("paper"),
+    default_target: True
+
+
+rule smoke:
+    input:
+        grid_targets("smoke"),
+
+
+rule full:
+    input:
+        grid_targets("full"),

@@ -1,0 +1,1 @@
+"""Experiments: the spacecraft truth model, datasets, the Hydra jobs, scoring, tracking, tables and plots."""

@@ -1,0 +1,100 @@
+"""Running a Hydra app so that bad input gets one clear line, a non-zero exit, and no output.
+
+Hydra reports a composition error over several lines with a stack-trace hint. Here the configuration is
+composed and checked once *before* Hydra starts the job (which creates its run directory): an unknown key,
+a wrong type or an impossible value is reported as ``error: <one line>`` on stderr with exit status 2, and
+nothing is written. Sweeps (``-m``) skip the pre-check and are checked per job.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import hydra
+from hydra import compose, initialize_config_dir
+from omegaconf import DictConfig, OmegaConf
+
+CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "configs")
+EXIT_BAD_INPUT = 2
+BAD_INPUT = (ValueError, FileNotFoundError, KeyError)
+
+
+_MISSING_OPTION = re.compile(r"Could not find '(\w+)/([^']+)'")
+
+
+def one_line(exc: BaseException) -> str:
+    """The message of an exception (and what it was raised from) on one line, without Hydra's hints."""
+    text = str(exc)
+    missing = _MISSING_OPTION.search(text)
+    if missing:
+        group, name = missing.groups()
+        known = sorted(p.stem for p in (Path(CONFIG_DIR) / group).glob("*.yaml"))
+        return f"unknown {group} '{name}'; known: {', '.join(known)}"
+    parts = []
+    while exc is not None:
+        text = str(exc).strip()
+        if text and text not in parts:
+            parts.append(text)
+        exc = exc.__cause__
+    lines = []
+    for line in "\n".join(parts).splitlines():
+        line = line.strip()
+        if not line or line.startswith(("To append to your config", "Set the environment variable")):
+            continue
+        lines.append(line)
+    return re.sub(r"\s+", " ", "; ".join(lines))
+
+
+def fail(message: str) -> None:
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(EXIT_BAD_INPUT)
+
+
+def run_app(config_name: str, task: Callable[[DictConfig], object],
+            check: Callable[[DictConfig], object] | None = None) -> None:
+    """Pre-check the command line, then hand it to ``hydra.main``.
+
+    ``check(cfg)`` raises ``ValueError`` (or FileNotFoundError) for impossible values; ``task(cfg)`` does
+    the work. A bad-input exception from either becomes one line on stderr and exit status 2.
+    """
+    args = sys.argv[1:]
+    if not any(a in ("-m", "--multirun") or a.startswith("-") for a in args):
+        try:
+            with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
+                cfg = compose(config_name=config_name, overrides=args)
+            OmegaConf.resolve(cfg)
+            if check is not None:
+                check(cfg)
+        except Exception as exc:  # noqa: BLE001 - every composition/validation error is bad input
+            fail(one_line(exc))
+
+    def guarded(cfg: DictConfig):
+        try:
+            if check is not None:
+                check(cfg)
+            return task(cfg)
+        except BAD_INPUT as exc:
+            _remove_empty_run_dir()
+            fail(one_line(exc))
+
+    hydra.main(config_path=CONFIG_DIR, config_name=config_name, version_base="1.3")(guarded)()
+
+
+def _remove_empty_run_dir() -> None:
+    """Take away the run directory Hydra made for a job that failed on bad input before writing anything."""
+    import shutil
+
+    from hydra.core.hydra_config import HydraConfig
+
+    try:
+        run_dir = Path(HydraConfig.get().runtime.output_dir)
+    except ValueError:
+        return
+    if run_dir.resolve() == Path.cwd().resolve() or not run_dir.is_dir():
+        return
+    leftovers = [p for p in run_dir.iterdir() if p.name != ".hydra" and p.suffix != ".log"]
+    if not leftovers:
+        shutil.rmtree(run_dir, ignore_errors=True)

@@ -1,0 +1,137 @@
+"""Noisy tip-accelerometer datasets: one ``.npz`` file per (noise, record length) cell, all replicates.
+
+File schema (every entry a plain numpy array; ``numpy.load(path)`` reads it, no pickle):
+
+| key | shape | meaning |
+|---|---|---|
+| ``t_s`` | (N,) | sample times, t_k = k·dt |
+| ``accel_m_s2`` | (R, N) | measured tip acceleration, one row per replicate |
+| ``accel_clean_m_s2`` | (N,) | the noise-free tip acceleration (truth) |
+| ``dt_s``, ``noise_ug``, ``noise_std_m_s2``, ``bias_m_s2``, ``seed`` | () | the cell's settings |
+| ``truth_freq_rad_s``, ``truth_damping`` | (4,) | eigenfrequencies and damping of the generating model |
+| ``truth_amplitude_m_s2``, ``truth_phase_rad`` | (4,) | modal amplitudes/phases of the tip signal |
+| ``cantilever_freq_rad_s`` | (4,) | the beam stiffness frequencies used (after calibration) |
+| ``crlb_std_rad_s`` | (4,) | Cramér–Rao bound of each frequency for this cell |
+| ``provenance_json`` | () str | the config, seed scheme, package versions |
+
+Replicate r of a cell draws its noise from ``numpy.random.default_rng([seed, noise_ng, N, r])`` with
+``noise_ng`` the noise level in nano-g: the same config gives the same bytes, and a cell with R = 20 holds
+the first 20 replicates of the same cell with R = 100.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+
+import numpy as np
+
+from experiments.crlb import crlb_std
+from experiments.io import write_npz
+from experiments.plant import PlantConfig, build_plant
+
+G0 = 9.80665                 # standard gravity, m/s²
+UG = G0 * 1e-6               # 1 µg in m/s²
+MIN_SAMPLES = 8
+
+
+@dataclass
+class DatasetConfig:
+    """One dataset cell. Units in names."""
+
+    noise_ug: float = 1000.0
+    n_samples: int = 256
+    replicates: int = 20
+    dt_s: float = 0.02
+    bias_m_s2: float = 0.0
+    seed: int = 20261121
+    out: str = "results/dataset.npz"
+    plant: PlantConfig = field(default_factory=PlantConfig)
+
+
+def check_dataset_config(cfg: DatasetConfig) -> None:
+    """Raise ``ValueError`` with one clear sentence for an impossible cell."""
+    if not cfg.noise_ug > 0:
+        raise ValueError(f"noise_ug = {cfg.noise_ug} must be positive (the 1σ noise level in µg)")
+    if cfg.n_samples < MIN_SAMPLES:
+        raise ValueError(f"n_samples = {cfg.n_samples} is too short: at least {MIN_SAMPLES} samples")
+    if cfg.replicates < 1:
+        raise ValueError(f"replicates = {cfg.replicates} must be at least 1")
+    if not cfg.dt_s > 0:
+        raise ValueError(f"dt_s = {cfg.dt_s} must be positive")
+    if not np.isfinite(cfg.bias_m_s2):
+        raise ValueError(f"bias_m_s2 = {cfg.bias_m_s2} must be a finite number")
+
+
+def replicate_rng(seed: int, noise_ug: float, n_samples: int, replicate: int) -> np.random.Generator:
+    return np.random.default_rng([int(seed), int(round(noise_ug * 1000)), int(n_samples), int(replicate)])
+
+
+def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
+    """Simulate one cell: the exact noise-free response plus seeded white noise and bias."""
+    check_dataset_config(cfg)
+    plant = build_plant(cfg.plant)
+    clean = plant.tip_acceleration(cfg.n_samples, cfg.dt_s)
+    sigma = cfg.noise_ug * UG
+    noisy = np.empty((cfg.replicates, cfg.n_samples))
+    for r in range(cfg.replicates):
+        rng = replicate_rng(cfg.seed, cfg.noise_ug, cfg.n_samples, r)
+        noisy[r] = clean + cfg.bias_m_s2 + sigma * rng.standard_normal(cfg.n_samples)
+    truth = plant.truth()
+    bound = crlb_std(truth["freq_rad_s"], truth["damping"], truth["amplitude_m_s2"], truth["phase_rad"],
+                     cfg.n_samples, cfg.dt_s, sigma, offset=cfg.bias_m_s2 != 0)
+    provenance = {
+        "config": _plain(asdict(cfg)),
+        "noise_scheme": "numpy.random.default_rng([seed, round(noise_ug*1000), n_samples, replicate])",
+        "versions": _versions(),
+    }
+    return {
+        "t_s": np.arange(cfg.n_samples) * cfg.dt_s,
+        "accel_m_s2": noisy,
+        "accel_clean_m_s2": clean,
+        "dt_s": np.float64(cfg.dt_s),
+        "noise_ug": np.float64(cfg.noise_ug),
+        "noise_std_m_s2": np.float64(sigma),
+        "bias_m_s2": np.float64(cfg.bias_m_s2),
+        "seed": np.int64(cfg.seed),
+        "truth_freq_rad_s": truth["freq_rad_s"],
+        "truth_damping": truth["damping"],
+        "truth_amplitude_m_s2": truth["amplitude_m_s2"],
+        "truth_phase_rad": truth["phase_rad"],
+        "cantilever_freq_rad_s": truth["cantilever_freq_rad_s"],
+        "crlb_std_rad_s": bound,
+        "provenance_json": np.array(json.dumps(provenance, sort_keys=True)),
+    }
+
+
+def write_cell(cfg: DatasetConfig) -> Path:
+    return write_npz(cfg.out, make_cell(cfg))
+
+
+def load_cell(path) -> dict[str, np.ndarray]:
+    """Read a cell file into a dict of arrays (scalars as 0-d arrays)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"dataset file {path} does not exist")
+    with np.load(path, allow_pickle=False) as f:
+        return {k: f[k] for k in f.files}
+
+
+def _plain(obj):
+    if isinstance(obj, dict):
+        return {k: _plain(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_plain(v) for v in obj]
+    return obj
+
+
+def _versions() -> dict[str, str]:
+    out = {}
+    for pkg in ("spacecraft-modal-id", "numpy", "scipy"):
+        try:
+            out[pkg] = version(pkg)
+        except PackageNotFoundError:
+            out[pkg] = "not installed"
+    return out

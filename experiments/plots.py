@@ -1,0 +1,128 @@
+"""Comparison figures of a grid's summary table (matplotlib, PNG and SVG, units on every axis)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
+
+from experiments.io import save_figure  # noqa: E402
+
+METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab:cyan", "D"),
+                "pem": ("tab:red", "^"), "pll": ("tab:green", "v")}
+MAX_FAILURE_RATE = 0.5   # a (method, cell) that failed more often than this is not drawn as a point
+
+
+def _save(fig, stem: Path) -> list[Path]:
+    paths = [save_figure(fig, stem.with_suffix(".png")), save_figure(fig, stem.with_suffix(".svg"))]
+    plt.close(fig)
+    return paths
+
+
+def _style(method):
+    return METHOD_STYLE.get(method, ("k", "x"))
+
+
+def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed_value) -> list[Path]:
+    """RMSE against ``x`` (noise_ug or n_samples) at ``fixed`` = ``fixed_value``; CRLB dashed."""
+    sub = summary[summary[fixed] == fixed_value]
+    modes = sorted(sub["mode"].unique())
+    fig, axes = plt.subplots(1, len(modes), figsize=(4.2 * len(modes), 3.8), squeeze=False)
+    for ax, mode in zip(axes[0], modes, strict=True):
+        sm = sub[sub["mode"] == mode].sort_values(x)
+        for method, g in sm.groupby("method", sort=True):
+            ok = g["failure_rate"] <= MAX_FAILURE_RATE
+            color, marker = _style(method)
+            ax.plot(g.loc[ok, x], g.loc[ok, "rmse_rad_s"], marker=marker, color=color, label=method, lw=1.4)
+        crlb = sm.drop_duplicates(x)
+        ax.plot(crlb[x], crlb["crlb_std_rad_s"], "k--", lw=1.2, label="CRLB")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(f"mode {mode} ({sm['true_rad_s'].iloc[0]:.2f} rad/s)")
+        ax.set_xlabel("noise 1σ (µg)" if x == "noise_ug" else "record length (samples)")
+        ax.grid(True, which="both", alpha=0.3)
+        if x == "n_samples":
+            ax.set_xticks(sorted(sm[x].unique()))
+            ax.get_xaxis().set_major_formatter(matplotlib.ticker.ScalarFormatter())
+            ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    axes[0][0].set_ylabel("RMSE of frequency (rad/s)")
+    axes[0][-1].legend(fontsize=8, loc="best")
+    what = f"{fixed_value:g} µg" if fixed == "noise_ug" else f"{fixed_value} samples"
+    fig.suptitle(f"RMSE against {'noise' if x == 'noise_ug' else 'record length'} at {what} "
+                 f"(methods failing > {MAX_FAILURE_RATE:.0%} of replicates not drawn)")
+    fig.tight_layout()
+    return _save(fig, stem)
+
+
+def _cell_axes(ax, noises, lengths):
+    ax.set_xticks(range(len(lengths)), [str(n) for n in lengths])
+    ax.set_yticks(range(len(noises)), [f"{v:g}" for v in noises])
+    ax.set_xlabel("record length (samples)")
+    ax.set_ylabel("noise 1σ (µg)")
+
+
+def winner_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
+    """Per mode and cell: the method with the lowest RMSE among those failing ≤ 10 %, RMSE/CRLB written in."""
+    methods = sorted(summary["method"].unique())
+    noises = sorted(summary["noise_ug"].unique())
+    lengths = sorted(summary["n_samples"].unique())
+    modes = sorted(summary["mode"].unique())
+    cmap = ListedColormap(["white"] + [_style(m)[0] for m in methods])
+    norm = BoundaryNorm(np.arange(-0.5, len(methods) + 1.5), cmap.N)
+    fig, axes = plt.subplots(1, len(modes), figsize=(3.6 * len(modes), 0.5 * len(noises) + 2.4),
+                             squeeze=False)
+    for ax, mode in zip(axes[0], modes, strict=True):
+        grid = np.zeros((len(noises), len(lengths)))
+        for i, noise in enumerate(noises):
+            for j, n in enumerate(lengths):
+                cell = summary[(summary["mode"] == mode) & (summary["noise_ug"] == noise)
+                               & (summary["n_samples"] == n) & (summary["failure_rate"] <= 0.1)]
+                cell = cell.dropna(subset=["rmse_rad_s"])
+                if cell.empty:
+                    continue
+                best = cell.loc[cell["rmse_rad_s"].idxmin()]
+                grid[i, j] = methods.index(best["method"]) + 1
+                ratio = best["rmse_over_crlb"]
+                label = f"{ratio:.1f}" if ratio < 100 else f"{ratio:.0e}".replace("e+0", "e")
+                ax.text(j, i, label if best["identifiable"] else f"({label})", ha="center", va="center",
+                        fontsize=7)
+        ax.imshow(grid, cmap=cmap, norm=norm, aspect="auto", origin="lower")
+        _cell_axes(ax, noises, lengths)
+        ax.set_title(f"mode {mode}")
+    handles = [plt.Rectangle((0, 0), 1, 1, color=_style(m)[0]) for m in methods]
+    fig.legend(handles + [plt.Rectangle((0, 0), 1, 1, fc="white", ec="k")], methods + ["none ≤ 10 % fail"],
+               loc="lower center", ncol=len(methods) + 1, fontsize=8)
+    fig.suptitle("Best method per cell (lowest RMSE among methods failing ≤ 10 %); number = its RMSE/CRLB, "
+                 "in brackets where the mode is not identifiable", fontsize=9)
+    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
+    return _save(fig, stem)
+
+
+def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
+    """Failure rate per method and cell (worst mode), in percent."""
+    methods = sorted(summary["method"].unique())
+    noises = sorted(summary["noise_ug"].unique())
+    lengths = sorted(summary["n_samples"].unique())
+    worst = summary.groupby(["method", "noise_ug", "n_samples"])["failure_rate"].max()
+    fig, axes = plt.subplots(1, len(methods), figsize=(3.4 * len(methods), 0.5 * len(noises) + 2.2),
+                             squeeze=False)
+    im = None
+    for ax, method in zip(axes[0], methods, strict=True):
+        grid = np.full((len(noises), len(lengths)), np.nan)
+        for i, noise in enumerate(noises):
+            for j, n in enumerate(lengths):
+                if (method, noise, n) in worst.index:
+                    grid[i, j] = 100 * worst[(method, noise, n)]
+                    ax.text(j, i, f"{grid[i, j]:.0f}", ha="center", va="center", fontsize=7)
+        im = ax.imshow(grid, cmap="Reds", vmin=0, vmax=100, aspect="auto", origin="lower")
+        _cell_axes(ax, noises, lengths)
+        ax.set_title(method)
+    fig.colorbar(im, ax=axes[0].tolist(), label="failure rate, worst mode (%)", shrink=0.8)
+    fig.suptitle("Failure rate (not converged / no estimate), percent of replicates")
+    return _save(fig, stem)

@@ -1,0 +1,33 @@
+rule aggregate:
+    input:
+        results=lambda wc: result_files(wc.grid),
+        experiments=lambda wc: experiment_dirs(wc.grid),
+    output:
+        "results/{grid}/README.md",
+    log:
+        "results/{grid}/logs/aggregate.log",
+    shell:
+        "python -m experiments.aggregate --grid {wildcards.grid} --out results/{wildcards.grid}"
+        " {input.results} > {log} 2>&1"
+
+
+rule track:
+    input:
+        results=lambda wc: result_files(wc.grid),
+        summary="results/{grid}/README.md",
+    output:
+        "results/{grid}/mlflow_runs.json",
+    log:
+        "results/{grid}/logs/track.log",
+    shell:
+        "python -m experiments.track --grid {wildcards.grid} --out {output} {input.results} > {log} 2>&1"
+
+
+rule reproduce:
+    output:
+        directory("results/{grid}/paper/{experiment}"),
+    log:
+        "results/{grid}/logs/paper/{experiment}.log",
+    shell:
+        "python -m experiments.reproduce experiment={wildcards.experiment} out_dir={output}"
+        " tracking.enabled=false > {log} 2>&1"

@@ -1,0 +1,57 @@
+"""Monte-Carlo statistics of a per-replicate results table, per (method, noise, record length, mode).
+
+Bias, std and RMSE are over the replicates the method reported as converged with a finite estimate; the
+others count as failures. RMSE/CRLB is the efficiency yardstick (1 = at the bound); it is reported for every
+cell, but it means something only where the mode is identifiable (see experiments.scoring).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+KEYS = ["method", "noise_ug", "n_samples", "mode"]
+
+
+def _stats(g: pd.DataFrame) -> pd.Series:
+    ok = g["converged"].to_numpy(bool) & np.isfinite(g["estimate_rad_s"].to_numpy(float))
+    err = g["error_rad_s"].to_numpy(float)[ok]
+    crlb = float(g["crlb_std_rad_s"].iloc[0])
+    n_ok = int(ok.sum())
+    rmse = float(np.sqrt(np.mean(err**2))) if n_ok else np.nan
+    return pd.Series({
+        "true_rad_s": float(g["true_rad_s"].iloc[0]),
+        "replicates": int(len(g)),
+        "failures": int(len(g) - n_ok),
+        "failure_rate": float(1 - n_ok / len(g)),
+        "bias_rad_s": float(np.mean(err)) if n_ok else np.nan,
+        "std_rad_s": float(np.std(err, ddof=1)) if n_ok > 1 else np.nan,
+        "rmse_rad_s": rmse,
+        "crlb_std_rad_s": crlb,
+        "rmse_over_crlb": rmse / crlb if n_ok and crlb > 0 else np.nan,
+        "identifiable": bool(g["identifiable"].iloc[0]),
+        "median_runtime_s": float(np.median(g.drop_duplicates("replicate")["runtime_s"])),
+    })
+
+
+def summarize(results: pd.DataFrame) -> pd.DataFrame:
+    """One row per (method, noise_ug, n_samples, mode), sorted."""
+    if results.empty:
+        return pd.DataFrame(columns=[*KEYS, "true_rad_s", "replicates", "failures", "failure_rate",
+                                     "bias_rad_s", "std_rad_s", "rmse_rad_s", "crlb_std_rad_s",
+                                     "rmse_over_crlb", "identifiable", "median_runtime_s"])
+    out = (results.groupby(KEYS, sort=True)[results.columns.drop(KEYS)]
+           .apply(_stats).reset_index())
+    return out
+
+
+def job_metrics(summary: pd.DataFrame) -> dict[str, float]:
+    """Flat MLflow metrics of one (method, cell) job: per-mode RMSE, bias, RMSE/CRLB, failure rate."""
+    m = {}
+    for row in summary.itertuples(index=False):
+        for name in ("rmse_rad_s", "bias_rad_s", "rmse_over_crlb", "failure_rate"):
+            m[f"mode{row.mode}_{name}"] = getattr(row, name)
+    if not summary.empty:
+        m["failure_rate"] = float(summary["failure_rate"].max())
+        m["median_runtime_s"] = float(summary["median_runtime_s"].iloc[0])
+    return m
