@@ -49,7 +49,7 @@ class IdentifyConfig:
 @dataclass
 class ReproduceConfig:
     experiment: Any = MISSING
-    out_dir: str = "results/paper"
+    out_dir: str = "results/paper/${experiment.name}"
     tracking: TrackingConfig = field(default_factory=lambda: TrackingConfig(experiment="paper"))
 
 

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-DEFAULT_DB = ROOT / "results" / "mlflow.db"
+DEFAULT_DB = Path("results") / "mlflow.db"   # relative to the working directory, like all outputs
 
 
 def tracking_uri() -> str:
@@ -22,7 +22,7 @@ def tracking_uri() -> str:
     if uri:
         return uri
     DEFAULT_DB.parent.mkdir(parents=True, exist_ok=True)
-    return f"sqlite:///{DEFAULT_DB}"
+    return f"sqlite:///{DEFAULT_DB.resolve()}"
 
 
 def _client():
@@ -55,7 +55,7 @@ def experiment_id(client, name: str) -> str:
             return exp.experiment_id
         artifact_root = None
         if tracking_uri().startswith("sqlite:///") and "MLFLOW_TRACKING_URI" not in os.environ:
-            artifact_root = (DEFAULT_DB.parent / "mlartifacts" / name).as_uri()
+            artifact_root = (DEFAULT_DB.parent.resolve() / "mlartifacts" / name).as_uri()
         return client.create_experiment(name, artifact_location=artifact_root)
     return _retry(get_or_create)
 

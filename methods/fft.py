@@ -20,6 +20,7 @@ class Options:
     window: str = "hann"                 # any scipy.signal.get_window name
     zero_pad_factor: int = 16            # FFT length = next power of two ≥ factor × N (at least 4096)
     search_halfwidth: float = 0.35       # band around each prior, relative (±35 %), cut at neighbours' midpoints
+    dynamic_range_db: float = 60.0       # peaks this far below the strongest are window sidelobes, not modes
 
 
 def identify(y, dt, prior, **options) -> Estimate:
@@ -41,7 +42,7 @@ def identify(y, dt, prior, **options) -> Estimate:
                                            scaling="spectrum")
     omega = 2 * np.pi * f_hz
     d_omega = omega[1] - omega[0]
-    peaks, _ = scipy.signal.find_peaks(power)
+    peaks, _ = scipy.signal.find_peaks(power, height=power.max() * 10 ** (-opts.dynamic_range_db / 10))
     log_p = np.log(np.maximum(power, np.finfo(float).tiny))
 
     order = np.argsort(prior)

@@ -22,7 +22,7 @@ def _load_grid(path):
 
 GRIDS = {
     os.path.splitext(os.path.basename(p))[0]: _load_grid(p)
-    for p in sorted(glob.glob("configs/grid/*.yaml"))
+    for p in sorted(glob.glob(os.path.join(workflow.basedir, "configs", "grid", "*.yaml")))
     if os.path.basename(p) != "schema.yaml"
 }
 

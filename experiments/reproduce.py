@@ -1,0 +1,65 @@
+"""Hydra app: reproduce one of the paper's figures or tables.
+
+    python -m experiments.reproduce experiment=paper_fig3
+    python -m experiments.reproduce experiment=paper_table5 experiment.params.replicates=50
+
+Each experiment is a module with a ``Params`` dataclass and ``run(params, out_dir) -> list[Path]``; its
+config is ``configs/experiment/<name>.yaml``. The files it writes are logged to MLflow (experiment
+``paper``) unless ``tracking.enabled=false``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+from pathlib import Path
+
+from omegaconf import OmegaConf
+
+from experiments.app import run_app
+from experiments.config import register
+
+# experiment name -> module (configs/experiment/<name>.yaml names the same module)
+EXPERIMENTS = {
+    "paper_fig3": "experiments.paper.fig3",
+    "paper_table5": "experiments.paper.table5",
+    "paper_fig4": "experiments.paper.pll_figs",
+    "paper_fig5": "experiments.paper.pll_figs",
+    "paper_fig6": "experiments.paper.pll_figs",
+}
+
+
+def available() -> dict[str, str]:
+    """The registered experiments whose modules exist."""
+    out = {}
+    for name, module in EXPERIMENTS.items():
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+            continue
+        out[name] = module
+    return out
+
+
+def task(cfg) -> None:
+    exp = OmegaConf.to_object(cfg.experiment)
+    module = importlib.import_module(cfg.experiment.module)
+    out_dir = Path(cfg.out_dir)
+    files = module.run(exp.params, out_dir)
+    for f in files:
+        print(f"wrote {f}")
+    if cfg.tracking.enabled:
+        from experiments.tracking import git_commit, log_run
+
+        params = OmegaConf.to_container(cfg.experiment.params, resolve=True)
+        digest = hashlib.sha256(repr(sorted(params.items())).encode()).hexdigest()[:12]
+        log_run(cfg.tracking.experiment, f"{cfg.experiment.name}/{digest}",
+                params={f"param.{k}": v for k, v in params.items()}, artifacts=files,
+                tags={"git_commit": git_commit(), "kind": "paper"})
+
+
+if __name__ == "__main__":
+    register(experiments=available())
+    run_app("reproduce", task)

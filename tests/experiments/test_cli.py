@@ -1,0 +1,79 @@
+"""Bad input to the command-line jobs: one clear line, exit status 2, no output left behind."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from experiments.datasets import DatasetConfig, write_cell
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run(module, *args, cwd):
+    return subprocess.run([sys.executable, "-m", module, *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=120)
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli")
+    write_cell(DatasetConfig(noise_ug=1000, n_samples=64, replicates=2, seed=5, out=str(d / "cell.npz")))
+    t = np.arange(256) * 0.02
+    (d / "ok.csv").write_text("t,accel\n" + "".join(f"{x:.2f},{np.cos(3 * x):.6f}\n" for x in t))
+    (d / "bad.csv").write_text("t,accel\n0,1\n0.02,2\n0.04,oops\n" + "".join(f"{0.06 + 0.02 * k:.2f},1\n"
+                                                                          for k in range(8)))
+    return d
+
+
+def assert_one_line_error(proc, *fragments):
+    assert proc.returncode == 2, proc.stderr
+    lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("error: ")
+    for f in fragments:
+        assert f in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["method=nope"], ["unknown method 'nope'", "fft"]),
+    (["method=fft", "data.dataset=cell.npz", "colour=red"], ["colour"]),
+    (["method=fft", "data.dataset=cell.npz", "method.options.windw=hann"], ["windw"]),
+    (["method=fft", "data.dataset=cell.npz", "method.options.zero_pad_factor=lots"], ["zero_pad_factor", "lots"]),
+    (["method=fft", "data.dataset=cell.npz", "prior=[3.8,16,26]"], ["3 entries", "4 modes"]),
+    (["method=fft", "data.dataset=cell.npz", "prior=[3.8,0,26,46]"], ["prior[1] = 0.0"]),
+    (["method=fft", "data.dataset=cell.npz", "prior=[3.8,16,26,460]"], ["460", "Nyquist"]),
+    (["method=fft", "data.path=bad.csv"], ["row 3", "oops"]),
+    (["method=fft", "data.path=missing.csv"], ["missing.csv", "does not exist"]),
+])
+def test_identify_rejects_bad_input_with_one_line(workdir, args, fragments):
+    before = set(workdir.rglob("*"))
+    proc = run("experiments.identify", *args, "out=res.csv", "hydra.run.dir=run", cwd=workdir)
+    assert_one_line_error(proc, *fragments)
+    assert set(workdir.rglob("*")) == before          # nothing written, not even Hydra's run folder
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["noise_ug=0"], ["noise_ug = 0.0 must be positive"]),
+    (["noise_ug=-3"], ["noise_ug = -3.0"]),
+    (["n_samples=7"], ["n_samples = 7 is too short"]),
+    (["n_samples=ten"], ["n_samples", "ten"]),
+])
+def test_make_dataset_rejects_bad_input_with_one_line(workdir, args, fragments):
+    proc = run("experiments.make_dataset", *args, "out=new.npz", cwd=workdir)
+    assert_one_line_error(proc, *fragments)
+    assert not (workdir / "new.npz").exists()
+
+
+def test_identify_on_a_users_csv_writes_estimate_json(workdir):
+    proc = run("experiments.identify", "method=fft", "data.path=ok.csv", "prior=[2.5]", "hydra.run.dir=mine",
+               "tracking.enabled=false", cwd=workdir)
+    assert proc.returncode == 0, proc.stderr
+    import json
+    est = json.loads((workdir / "mine" / "estimate.json").read_text())
+    assert est["method"] == "fft"
+    assert est["frequencies_rad_s"][0] == pytest.approx(3.0, rel=0.01)
+    assert set(est) >= {"method", "frequencies_rad_s", "std_rad_s", "converged"}
+    assert "mode 1:" in proc.stdout
