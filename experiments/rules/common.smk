@@ -6,6 +6,7 @@ import os
 import yaml
 from snakemake.utils import validate
 
+CONDA_ENV = "../../configs/conda/pipeline.yaml"
 GRID_SCHEMA = os.path.join(workflow.basedir, "configs", "grid", "schema.yaml")
 
 

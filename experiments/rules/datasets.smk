@@ -3,6 +3,8 @@ rule dataset:
         "results/{grid}/data/noise{noise}ug_n{n}.npz",
     params:
         grid=lambda wc: GRIDS[wc.grid],
+    conda:
+        CONDA_ENV
     log:
         "results/{grid}/logs/dataset/noise{noise}ug_n{n}.log",
     shell:

@@ -7,6 +7,8 @@ rule identify:
     params:
         run_dir="results/{grid}/runs/{method}/noise{noise}ug_n{n}",
         overrides=method_overrides,
+    conda:
+        CONDA_ENV
     log:
         "results/{grid}/logs/identify/{method}/noise{noise}ug_n{n}.log",
     benchmark:

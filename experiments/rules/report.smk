@@ -4,6 +4,8 @@ rule aggregate:
         experiments=lambda wc: experiment_dirs(wc.grid),
     output:
         "results/{grid}/README.md",
+    conda:
+        CONDA_ENV
     log:
         "results/{grid}/logs/aggregate.log",
     shell:
@@ -17,6 +19,8 @@ rule track:
         summary="results/{grid}/README.md",
     output:
         "results/{grid}/mlflow_runs.json",
+    conda:
+        CONDA_ENV
     log:
         "results/{grid}/logs/track.log",
     shell:
@@ -26,6 +30,8 @@ rule track:
 rule reproduce:
     output:
         directory("results/{grid}/paper/{experiment}"),
+    conda:
+        CONDA_ENV
     log:
         "results/{grid}/logs/paper/{experiment}.log",
     shell:

@@ -49,7 +49,8 @@ def test_signal_jacobian_matches_finite_differences():
 
 def test_single_undamped_sinusoid_bound_matches_textbook_formula():
     # Kay, Fundamentals of Statistical Signal Processing I, eq. (3.41): for a real tone with a, phi, w
-    # unknown, var(w) >= 12 / (eta N (N^2 - 1)) per sample^2 with eta = a^2 / (2 sigma^2). With damping unknown too the bound is larger; with damping known it is the textbook value.
+    # unknown, var(w) >= 12 / (eta N (N^2 - 1)) per sample^2 with eta = a^2 / (2 sigma^2). With damping
+    # unknown too the bound is larger; with damping known (zero) it is the textbook value.
     n, dt, a, sigma = 400, 0.02, 1.0, 0.01
     t = np.arange(n) * dt
     G = signal_jacobian([10.0], [0.0], [a], [0.3], t)[:, :3]

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Set-up and entry points. The first call creates .venv with Python 3.11 and installs the project.
+#   ./run.sh reproduce     the paper reproduction: the paper grid, tables, figures (snakemake paper)
+#   ./run.sh test          lint, workflow lint, and the test suite (with the smoke workflow end to end)
+#   ./run.sh smoke | full  the CI grid / the R = 100 grid up to 2048 samples
+#   ./run.sh snakemake ... / python ...   anything else, inside the environment
+set -euo pipefail
+cd "$(dirname "$0")"
+PYTHON=${PYTHON:-python3.11}
+command -v "$PYTHON" >/dev/null || PYTHON=python3
+
+if [ ! -x .venv/bin/python ] || [ pyproject.toml -nt .venv/.installed ]; then
+  "$PYTHON" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' \
+    || { echo "error: Python 3.11 is required (found $("$PYTHON" --version 2>&1))" >&2; exit 2; }
+  [ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
+  .venv/bin/python -m pip install --quiet --upgrade pip
+  .venv/bin/python -m pip install --quiet -e '.[dev]'
+  touch .venv/.installed
+fi
+export PATH="$PWD/.venv/bin:$PATH"
+CORES=${CORES:-$(nproc 2>/dev/null || echo 2)}
+
+case "${1:-}" in
+  reproduce|paper) shift; exec snakemake --cores "$CORES" paper "$@" ;;
+  smoke)           shift; exec snakemake --cores "$CORES" smoke "$@" ;;
+  full)            shift; exec snakemake --cores "$CORES" full "$@" ;;
+  test)
+    shift
+    ruff check .
+    snakemake --lint
+    exec python -m pytest "$@" ;;
+  "" | -h | --help) sed -n '2,6p' "$0" ;;
+  *) exec "$@" ;;
+esac

@@ -1,0 +1,82 @@
+"""End to end: the smoke grid through Snakemake (datasets -> identify -> aggregate -> MLflow), then again.
+
+Runs in a scratch working directory with its own MLflow store, so it neither needs nor touches results/.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import mlflow
+import pandas as pd
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.slow
+
+
+def snakemake(workdir, *args):
+    bindir = Path(sys.executable).parent          # the rules call `python -m ...` of this environment
+    env = os.environ | {"PATH": f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}"}
+    env.pop("MLFLOW_TRACKING_URI", None)
+    return subprocess.run([str(bindir / "snakemake"), "-s", str(ROOT / "Snakefile"), "--directory", str(workdir),
+                           "--cores", "2", *args], capture_output=True, text=True, timeout=900, env=env)
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory):
+    workdir = tmp_path_factory.mktemp("smoke")
+    proc = snakemake(workdir, "smoke")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return workdir
+
+
+def test_smoke_workflow_writes_tables_figures_and_page(smoke_run):
+    out = smoke_run / "results" / "smoke"
+    summary = pd.read_csv(out / "tables" / "comparison.csv")
+    grid = __import__("yaml").safe_load((ROOT / "configs" / "grid" / "smoke.yaml").read_text())
+    n_cells = len(grid["noise_ug"]) * len(grid["n_samples"])
+    assert set(summary["method"]) == set(grid["methods"])
+    assert len(summary) == len(grid["methods"]) * n_cells * 4
+    assert (summary["replicates"] == grid["replicates"]).all()
+    for fig in ("rmse_vs_noise", "rmse_vs_length", "winner_map", "failure_map"):
+        assert (out / "figures" / f"{fig}.png").stat().st_size > 10_000
+        assert (out / "figures" / f"{fig}.svg").exists()
+    page = (out / "README.md").read_text()
+    assert "figures/winner_map.png" in page and "tables/comparison.csv" in page
+    assert len(list((out / "benchmarks").rglob("*.tsv"))) == len(grid["methods"]) * n_cells
+
+
+def test_mlflow_holds_each_job_once_and_a_rerun_adds_nothing(smoke_run):
+    out = smoke_run / "results" / "smoke"
+    record = json.loads((out / "mlflow_runs.json").read_text())
+    client = mlflow.MlflowClient(f"sqlite:///{smoke_run / 'results' / 'mlflow.db'}")
+    exp = client.get_experiment_by_name(record["experiment"])
+    runs = client.search_runs([exp.experiment_id], max_results=1000)
+    assert len(runs) == len(record["runs"])
+    assert len({r.data.tags["run_key"] for r in runs}) == len(runs)
+    table = (out / "tables" / "comparison.csv").read_bytes()
+    proc = snakemake(smoke_run, "smoke")
+    assert proc.returncode == 0
+    assert "Nothing to be done" in proc.stdout + proc.stderr
+    # forcing the logging step again is idempotent too
+    (out / "mlflow_runs.json").unlink()
+    assert snakemake(smoke_run, "smoke").returncode == 0
+    assert len(client.search_runs([exp.experiment_id], max_results=1000)) == len(runs)
+    assert (out / "tables" / "comparison.csv").read_bytes() == table
+
+
+def test_a_killed_job_leaves_no_file_snakemake_takes_for_done(smoke_run, tmp_path):
+    # Re-running identify into a fresh path with the process killed mid-way leaves no output file.
+    cell = next((smoke_run / "results" / "smoke" / "data").glob("*.npz"))
+    target = tmp_path / "res.csv"
+    proc = subprocess.Popen([sys.executable, "-m", "experiments.identify", "method=fft",
+                             f"data.dataset={cell}", f"out={target}", "tracking.enabled=false",
+                             f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
+    proc.kill()
+    proc.wait()
+    assert not target.exists()
+    shutil.rmtree(tmp_path / "run", ignore_errors=True)
