@@ -28,9 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.crlb import crlb_std
-from experiments.io import write_npz
-from experiments.plant import PlantConfig, build_plant
+from experiments.io import read_npz, write_npz
+from experiments.plant import PlantConfig
 
 G0 = 9.80665                 # standard gravity, m/s²
 UG = G0 * 1e-6               # 1 µg in m/s²
@@ -71,6 +70,9 @@ def replicate_rng(seed: int, noise_ug: float, n_samples: int, replicate: int) ->
 
 def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
     """Simulate one cell: the exact noise-free response plus seeded white noise and bias."""
+    from experiments.crlb import crlb_std
+    from experiments.plant import build_plant
+
     check_dataset_config(cfg)
     plant = build_plant(cfg.plant)
     clean = plant.tip_acceleration(cfg.n_samples, cfg.dt_s)
@@ -112,11 +114,7 @@ def write_cell(cfg: DatasetConfig) -> Path:
 
 def load_cell(path) -> dict[str, np.ndarray]:
     """Read a cell file into a dict of arrays (scalars as 0-d arrays)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"dataset file {path} does not exist")
-    with np.load(path, allow_pickle=False) as f:
-        return {k: f[k] for k in f.files}
+    return read_npz(path)
 
 
 def _plain(obj):

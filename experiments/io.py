@@ -71,6 +71,15 @@ def write_npz(path, arrays: dict[str, np.ndarray]) -> Path:
     return atomic_write_bytes(path, buf.getvalue())
 
 
+def read_npz(path) -> dict[str, np.ndarray]:
+    """Read an .npz written by :func:`write_npz` into a dict of arrays (scalars as 0-d arrays), no pickle."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"dataset file {path} does not exist")
+    with np.load(path, allow_pickle=False) as f:
+        return {k: f[k] for k in f.files}
+
+
 def write_table(df, stem) -> list[Path]:
     """Write a pandas table as ``<stem>.csv`` and ``<stem>.md`` (a GitHub Markdown table)."""
     stem = Path(stem)

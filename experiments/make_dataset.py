@@ -26,5 +26,5 @@ def task(cfg) -> None:
 
 
 if __name__ == "__main__":
-    register()
+    register(dataset=True)
     run_app("dataset", task, check)

@@ -18,9 +18,8 @@ from pathlib import Path
 import pandas as pd
 from omegaconf import OmegaConf
 
-from experiments.datasets import load_cell
 from experiments.identify import job_params, run_key
-from experiments.io import write_json
+from experiments.io import read_npz, write_json
 from experiments.summary import job_metrics, summarize
 from experiments.tracking import git_commit, log_run
 
@@ -32,7 +31,7 @@ def job_run(grid: str, results_path: Path, commit: str) -> tuple[str, str, bool]
     method_cfg = OmegaConf.to_container(cfg.method, resolve=True)
     if cfg.get("prior") is not None:
         method_cfg["prior_rad_s"] = list(cfg.prior)
-    data = load_cell(cfg.data.dataset)
+    data = read_npz(cfg.data.dataset)
     table = pd.read_csv(results_path)
     params = job_params(method_cfg, float(data["noise_ug"]), int(data["t_s"].size),
                         int(table["replicate"].nunique()), int(data["seed"]))
