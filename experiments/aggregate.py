@@ -113,6 +113,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", required=True, help="grid name (a title for the page)")
     ap.add_argument("--out", required=True, type=Path, help="folder to write into, e.g. results/smoke")
+    ap.add_argument("--experiments", nargs="*", type=Path, default=[],
+                    help="folders of paper reproductions to link from the page")
     ap.add_argument("results", nargs="+", type=Path, help="per-job result tables (CSV)")
     args = ap.parse_args(argv)
     try:
@@ -133,7 +135,8 @@ def main(argv=None) -> int:
                                 fixed_value=noise_ref)
     files += plots.winner_map(summary, figs / "winner_map")
     files += plots.failure_map(summary, figs / "failure_map")
-    atomic_write_text(out / "README.md", page(args.grid, summary, out, files, longest, noise_ref))
+    text = page(args.grid, summary, out, files, longest, noise_ref) + experiments_section(args.experiments, out)
+    atomic_write_text(out / "README.md", text)
     print(f"wrote {out / 'README.md'} and {len(files)} tables/figures")
     return 0
 
@@ -157,6 +160,23 @@ def page(grid, summary, out: Path, files, longest, noise_ref) -> str:
     for p in pngs:
         lines += [f"### {captions.get(Path(p).stem, Path(p).stem)}", "", f"![{Path(p).stem}]({p}) "
                   f"([SVG]({p[:-4]}.svg))", ""]
+    return "\n".join(lines) + "\n"
+
+
+def experiments_section(dirs, out: Path) -> str:
+    """Links to the paper reproductions: their figures shown, their tables linked."""
+    if not dirs:
+        return ""
+    lines = ["## The paper's figures and tables, reproduced", ""]
+    for d in sorted(dirs):
+        lines += [f"### {d.name}", ""]
+        for f in sorted(d.glob("*")):
+            rel = f.relative_to(out).as_posix() if f.is_relative_to(out) else f.as_posix()
+            if f.suffix == ".png":
+                lines += [f"![{f.stem}]({rel})", ""]
+            elif f.suffix in (".md", ".csv"):
+                lines.append(f"- [{f.name}]({rel})")
+        lines.append("")
     return "\n".join(lines) + "\n"
 
 

@@ -10,7 +10,7 @@ rule aggregate:
         "results/{grid}/logs/aggregate.log",
     shell:
         "python -m experiments.aggregate --grid {wildcards.grid} --out results/{wildcards.grid}"
-        " {input.results} > {log} 2>&1"
+        " --experiments {input.experiments} -- {input.results} > {log} 2>&1"
 
 
 rule track:
