@@ -53,11 +53,22 @@ def task(cfg) -> None:
     if cfg.tracking.enabled:
         from experiments.tracking import git_commit, log_run
 
-        params = OmegaConf.to_container(cfg.experiment.params, resolve=True)
+        params = flatten(OmegaConf.to_container(cfg.experiment.params, resolve=True), "param")
         digest = hashlib.sha256(repr(sorted(params.items())).encode()).hexdigest()[:12]
-        log_run(cfg.tracking.experiment, f"{cfg.experiment.name}/{digest}",
-                params={f"param.{k}": v for k, v in params.items()}, artifacts=files,
+        log_run(cfg.tracking.experiment, f"{cfg.experiment.name}/{digest}", params=params, artifacts=files,
                 tags={"git_commit": git_commit(), "kind": "paper"})
+
+
+def flatten(tree: dict, prefix: str) -> dict:
+    """Nested config values as flat MLflow parameters: {"a": {"b": 1}} -> {"prefix.a.b": 1}."""
+    out = {}
+    for key, value in tree.items():
+        name = f"{prefix}.{key}"
+        if isinstance(value, dict):
+            out.update(flatten(value, name))
+        else:
+            out[name] = value
+    return out
 
 
 if __name__ == "__main__":

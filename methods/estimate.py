@@ -33,6 +33,7 @@ class Estimate:
         Why it stopped, or why it failed.
     extra : dict
         Method-specific diagnostics (plain numbers/arrays), e.g. damping estimates or lock indicators.
+        ``extra["converged_per_mode"]`` (bool per prior entry), when present, is what the scorer uses.
     """
 
     frequencies: np.ndarray

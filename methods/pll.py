@@ -1,0 +1,293 @@
+"""Phase-locked-loop bank: one loop per mode (paper §3.4, Fig. 2, eqs. 32–37; §4.4, Table 6).
+
+Each loop, at the data's sample rate (Δt):
+
+    u  = A(z) y                                   Chebyshev I band-pass input filter (optional, §4.4)
+    q  = LP(u · cos θ),  i = LP(u · sin θ)        phase detector (eq. 34) and its in-phase arm,
+                                                  LP = 1/(1 + T_VCO s) (eq. 36), Tustin prewarped at ω_L
+    Â  = AGC(2 √(i² + q²))                        amplitude of the tracked component
+    e  = K_d · q / (Â/2)  ≈ K_d sin φₑ            detector normalised to gain K_d (default 1 rad⁻¹)
+    v  = F(z) e                                   F(s) = K(1 + T₂s)/(T₁s(1 + T₃s)) (eq. 37), Tustin at ω_L
+    ω  = ω₀ + v,  θ ← θ + ω Δt                    VCO; ω is the frequency estimate at that sample
+
+With u = A sin(ωt + φ) the low-frequency part of u·cos θ is (A/2) sin φₑ (eq. 34), that of u·sin θ is
+(A/2) cos φₑ; so 2i/Â ≈ cos φₑ is the lock indicator (≈ 1 in lock, averaging to ≈ 0 while the loop slips).
+
+Why an AGC: the raw detector gain A·B/2 is proportional to the input amplitude, which differs six-fold
+between the modes and decays with damping, while the design rule under eq. (37) puts the crossover at
+ω_L only for a unit detector gain. The AGC divides by an in-phase/quadrature amplitude estimate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.signal
+
+from methods.estimate import Estimate, check_inputs, failed, make_options
+from methods.pll_design import (
+    LoopParameters,
+    discretise_loop,
+    input_filter_sos,
+    rule_parameters,
+)
+
+# Options holding one value per loop (in prior order)
+PER_LOOP_OPTIONS = ("loop_bandwidth_rad_s", "t_vco_s", "t1_s", "t2_s", "t3_s", "gain",
+                    "filter_bandwidth_rad_s")
+
+
+@dataclass
+class Options:
+    """Keyword options of :func:`identify`. Defaults: Table 6 with the §4.4 input filters.
+
+    Fig. 6 of the paper also raises mode 1's K to 5; with a unit-gain detector that loop is unstable
+    (see methods/README_pll.md), so the default keeps Table 6's K = 1.
+    """
+
+    # Table 6, one entry per loop (a single entry is used for every loop)
+    loop_bandwidth_rad_s: list[float] = field(default_factory=lambda: [0.6, 4.0, 4.0, 11.3])   # ω_L
+    t_vco_s: list[float] = field(default_factory=lambda: [0.8, 0.12, 0.12, 0.045])             # eq. (36)
+    t1_s: list[float] = field(default_factory=lambda: [5.7, 0.15, 0.15, 0.02])                 # eq. (37)
+    t2_s: list[float] = field(default_factory=lambda: [3.7, 0.6, 0.6, 0.22])
+    t3_s: list[float] = field(default_factory=lambda: [0.64, 0.10, 0.10, 0.04])
+    gain: list[float] = field(default_factory=lambda: [1.0, 1.0, 1.0, 1.0])   # K (Fig. 6: mode 1 at 5)
+    # "table": the time constants above; "rule": T1–T3 from ω_L and phase_margin_deg (rule under eq. 37)
+    # and T_VCO = 0.5/ω_L (the ratio Table 6 uses)
+    design: str = "table"
+    phase_margin_deg: float = 45.0
+    # Input filters (§4.4): Chebyshev I band-pass, centred on the prior unless filter_centre_rad_s is given
+    input_filter: bool = True
+    filter_bandwidth_rad_s: list[float] = field(default_factory=lambda: [5.0, 9.0, 9.0, 12.0])
+    filter_centre_rad_s: list[float] | None = None
+    filter_order: int = 3
+    filter_ripple_db: float = 0.5        # not given by the paper
+    remove_mean: bool = True             # §4: a bias "is easy to estimate ... and then remove"
+    # Phase-detector normalisation: "agc" (gain detector_gain per rad) or "none" (raw u·cos θ, gain A/2)
+    normalisation: str = "agc"
+    detector_gain: float = 1.0
+    agc_time_factor: float = 2.0         # AGC time constant = agc_time_factor / ω_L
+    # The AGC follows the amplitude down at most this far below its peak; below, the detector gain falls
+    # with the signal and the loop holds its frequency instead of tracking leakage or noise. None: no limit.
+    agc_range_db: float | None = None
+    # Output: mean and spread over the final part of the record
+    output_window_fraction: float = 0.25
+    output_window_s: float | None = None  # overrides output_window_fraction when set
+    # Lock: mean lock indicator over the window ≥ threshold, no cycle slip in it (indicator < 0), the
+    # means of the window's two halves within steady_tolerance × estimate of each other (not still
+    # acquiring), and a record at least min_acquisition_times × 4π/ω_L long (§3.4's acquisition time)
+    lock_threshold: float = 0.8
+    steady_tolerance: float = 0.01
+    min_acquisition_times: float = 1.0
+
+
+def identify(y, dt, prior, **options) -> Estimate:
+    """Identify one frequency per prior entry with one phase-locked loop each.
+
+    Parameters
+    ----------
+    y : array_like, shape (n,)
+        Tip acceleration, m/s².
+    dt : float
+        Sample interval, s. The loops run at this rate.
+    prior : array_like, shape (m,)
+        A-priori frequencies ω₀ (rad/s): the VCO free-running frequencies and the input-filter centres.
+    **options
+        Fields of :class:`Options`.
+
+    Returns
+    -------
+    Estimate
+        ``history`` (n, m): VCO frequency after every sample. ``frequencies``/``std``: mean/standard
+        deviation of the history over the output window. ``converged`` is False when any loop is not
+        locked; ``extra['locked']`` says which. ``extra`` also holds ``lock_indicator`` (window mean of
+        2i/Â), ``lock_history`` (n, m), ``amplitude_m_s2`` (final Â), ``window_s``, ``acquisition_time_s``.
+    """
+    y, dt, prior = check_inputs(y, dt, prior)
+    opts = make_options(Options, options, "pll")
+    loops = _loop_parameters(opts, prior.size)
+    n = y.size
+    if opts.remove_mean:
+        y = y - y.mean()
+    scale = float(np.max(np.abs(y)))
+    if scale == 0.0:
+        return failed(prior, "the record is identically zero: nothing to lock onto", iterations=n)
+
+    window = _window_samples(opts, n, dt)
+    history = np.empty((n, prior.size))
+    lock = np.empty((n, prior.size))
+    amplitude = np.empty(prior.size)
+    clamped = np.zeros(prior.size, dtype=int)
+    centres = prior if opts.filter_centre_rad_s is None else _per_loop(
+        opts.filter_centre_rad_s, prior.size, "filter_centre_rad_s")
+    bandwidths = _per_loop(opts.filter_bandwidth_rad_s, prior.size, "filter_bandwidth_rad_s")
+    for j, p in enumerate(loops):
+        u = y
+        if opts.input_filter:
+            sos = input_filter_sos(centres[j], bandwidths[j], dt, opts.filter_order, opts.filter_ripple_db)
+            u = scipy.signal.sosfilt(sos, y)
+        w_hist, l_hist, amp, n_clamp = _run_loop(u, dt, prior[j], p, opts)
+        history[:, j] = w_hist
+        lock[:, j] = l_hist
+        amplitude[j] = amp
+        clamped[j] = n_clamp
+    return _summarise(history, lock, amplitude, clamped, loops, window, dt, opts, prior)
+
+
+# --------------------------------------------------------------------------------------------------------
+
+def _per_loop(values, m: int, name: str) -> np.ndarray:
+    v = np.asarray(values, dtype=float).reshape(-1)
+    if v.size == 1:
+        v = np.full(m, v[0])
+    if v.size != m:
+        raise ValueError(f"pll option {name} has {v.size} entries; the prior has {m} (give one per loop, "
+                         f"or a single value for all)")
+    if not np.all(np.isfinite(v) & (v > 0)):
+        raise ValueError(f"pll option {name} = {v.tolist()} must hold positive numbers")
+    return v
+
+
+def _loop_parameters(opts: Options, m: int) -> list[LoopParameters]:
+    if opts.design not in ("table", "rule"):
+        raise ValueError(f"pll option design = '{opts.design}' must be 'table' or 'rule'")
+    if opts.normalisation not in ("agc", "none"):
+        raise ValueError(f"pll option normalisation = '{opts.normalisation}' must be 'agc' or 'none'")
+    for name in ("lock_threshold", "output_window_fraction"):
+        if not 0 < getattr(opts, name) <= 1:
+            raise ValueError(f"pll option {name} = {getattr(opts, name)} must be in (0, 1]")
+    for name in ("detector_gain", "agc_time_factor", "steady_tolerance"):
+        if not getattr(opts, name) > 0:
+            raise ValueError(f"pll option {name} = {getattr(opts, name)} must be positive")
+    if opts.agc_range_db is not None and not opts.agc_range_db > 0:
+        raise ValueError(f"pll option agc_range_db = {opts.agc_range_db} dB must be positive (or None)")
+    if opts.output_window_s is not None and not opts.output_window_s > 0:
+        raise ValueError(f"pll option output_window_s = {opts.output_window_s} s must be positive")
+    if not opts.min_acquisition_times >= 0:
+        raise ValueError(f"pll option min_acquisition_times = {opts.min_acquisition_times} must be ≥ 0")
+    tabulated = ("t_vco_s", "t1_s", "t2_s", "t3_s")       # ignored by the rule design
+    v = {name: _per_loop(getattr(opts, name), m, name) for name in PER_LOOP_OPTIONS
+         if opts.design == "table" or name not in tabulated}
+    if opts.design == "rule":
+        return [rule_parameters(v["loop_bandwidth_rad_s"][j], v["gain"][j], opts.phase_margin_deg)
+                for j in range(m)]
+    return [LoopParameters(*(float(v[k][j]) for k in ("loop_bandwidth_rad_s", "t_vco_s", "t1_s", "t2_s",
+                                                       "t3_s", "gain"))) for j in range(m)]
+
+
+def _window_samples(opts: Options, n: int, dt: float) -> int:
+    if opts.output_window_s is not None:
+        return int(min(n, max(1, round(opts.output_window_s / dt))))
+    return int(min(n, max(1, round(opts.output_window_fraction * n))))
+
+
+def _run_loop(u: np.ndarray, dt: float, w0: float, p: LoopParameters, opts: Options):
+    """Run one loop over the record. Returns (frequency history, lock history, final Â, clamp count).
+
+    A plain scalar loop: the recursion is sequential, and Python floats beat numpy scalars here.
+    """
+    d = discretise_loop(p, dt)
+    lb0, lb1 = float(d.lowpass_b[0]), float(d.lowpass_b[1])
+    la1 = float(d.lowpass_a[1])
+    cb0, cb1, cb2 = (float(c) for c in d.control_b)
+    ca1, ca2 = float(d.control_a[1]), float(d.control_a[2])
+    agc = opts.normalisation == "agc"
+    kd = opts.detector_gain
+    # Initial AGC state: √2 × RMS of the (filtered) input over its first AGC time constant (at least two
+    # periods of ω₀), so that the first samples are neither over- nor under-amplified by orders of magnitude.
+    t_agc = opts.agc_time_factor / p.omega_l
+    alpha = 1.0 - math.exp(-dt / t_agc)                                  # AGC: exponential smoothing
+    n0 = max(2, min(u.size, int(round(max(t_agc, 4.0 * math.pi / w0) / dt))))
+    amp = math.sqrt(2.0 * float(np.mean(u[:n0] ** 2)))
+    if not amp > 0:
+        amp = 1e-300
+    floor = 1e-12 * amp                                                  # only a guard against 0/0
+    peak = amp
+    range_ratio = 0.0 if opts.agc_range_db is None else 10.0 ** (-opts.agc_range_db / 20.0)
+    w_lo, w_hi = 1e-3 * w0, 0.99 * math.pi / dt                         # keep the VCO below Nyquist
+    two_pi = 2.0 * math.pi
+    cos, sin, sqrt = math.cos, math.sin, math.sqrt
+    th = 0.0
+    q = i = pq_old = pi_old = 0.0
+    z1 = z2 = 0.0
+    n_clamp = 0
+    w_hist = [0.0] * u.size
+    l_hist = [0.0] * u.size
+    for k, x in enumerate(u.tolist()):
+        c, s = cos(th), sin(th)
+        pq, pi_ = x * c, x * s                                            # eq. (34) and in-phase arm
+        q = lb0 * pq + lb1 * pq_old - la1 * q                             # eq. (36)
+        i = lb0 * pi_ + lb1 * pi_old - la1 * i
+        pq_old, pi_old = pq, pi_
+        if agc:
+            amp += alpha * (2.0 * sqrt(i * i + q * q) - amp)
+            if amp > peak:
+                peak = amp
+            a_lock = 0.5 * amp if amp > floor else 0.5 * floor
+            lowest = range_ratio * peak
+            a_half = a_lock if amp > lowest else 0.5 * lowest
+            e = kd * q / a_half
+        else:
+            e = q
+        v = cb0 * e + z1                                                  # eq. (37), transposed DF II
+        z1 = cb1 * e - ca1 * v + z2
+        z2 = cb2 * e - ca2 * v
+        w = w0 + v
+        if w < w_lo or w > w_hi:
+            w = w_lo if w < w_lo else w_hi
+            n_clamp += 1
+        w_hist[k] = w
+        l_hist[k] = i / a_lock if agc else i / max(sqrt(i * i + q * q), 1e-300)
+        th += w * dt
+        if th > two_pi:
+            th -= two_pi
+    return np.array(w_hist), np.array(l_hist), amp, n_clamp
+
+
+def _summarise(history, lock, amplitude, clamped, loops, window, dt, opts, prior) -> Estimate:
+    n, m = history.shape
+    tail = history[n - window:]
+    freq = tail.mean(axis=0)
+    std = tail.std(axis=0, ddof=1) if window > 1 else np.full(m, np.nan)
+    lock_tail = lock[n - window:]
+    lock_mean = lock_tail.mean(axis=0)
+    slip = lock_tail.min(axis=0) < 0.0
+    half = window // 2          # still acquiring: the two halves of the window disagree
+    drift = (np.abs(tail[half:].mean(axis=0) - tail[:half].mean(axis=0)) if half
+             else np.full(m, np.inf))
+    unsteady = ~(drift <= opts.steady_tolerance * np.abs(freq))
+    acq = np.array([p.acquisition_time_s for p in loops])
+    record_s = n * dt
+    short = record_s < opts.min_acquisition_times * acq
+    locked = (lock_mean >= opts.lock_threshold) & ~slip & ~unsteady & ~short & (clamped == 0)
+    reasons = []
+    for j in range(m):
+        if locked[j]:
+            continue
+        why = []
+        if short[j]:
+            why.append(f"record {record_s:.3g} s shorter than the acquisition time {acq[j]:.3g} s")
+        if lock_mean[j] < opts.lock_threshold:
+            why.append(f"lock indicator {lock_mean[j]:.2f} < {opts.lock_threshold}")
+        if slip[j]:
+            why.append("cycle slip in the output window")
+        if unsteady[j]:
+            why.append(f"estimate drifts by {drift[j]:.3g} rad/s across the output window")
+        if clamped[j]:
+            why.append(f"VCO frequency clamped {clamped[j]} times")
+        reasons.append(f"loop {j + 1} ({prior[j]:g} rad/s) not locked: " + ", ".join(why))
+    message = "; ".join(reasons) if reasons else f"all {m} loops locked"
+    extra = {
+        "locked": locked.tolist(),
+        "converged_per_mode": locked.tolist(),
+        "lock_indicator": lock_mean,
+        "lock_history": lock,
+        "amplitude_m_s2": amplitude,
+        "window_s": window * dt,
+        "acquisition_time_s": acq,
+        "vco_clamped_samples": clamped,
+    }
+    return Estimate(freq, std, history=history, converged=bool(locked.all()), iterations=n,
+                    message=message, extra=extra)
