@@ -42,6 +42,6 @@ def replicate_rows(method: str, noise_ug: float, n_samples: int, replicate: int,
             "identifiable": bool(ident[i]),
             "converged": bool(converged[i] and np.isfinite(est)),
             "iterations": int(estimate.iterations), "runtime_s": float(runtime_s),
-            "message": estimate.message,
+            "message": " ".join(str(estimate.message).split()),     # one line per row in the CSV
         })
     return rows
