@@ -47,7 +47,7 @@ class IdentifyConfig:
 @dataclass
 class ReproduceConfig:
     experiment: Any = MISSING
-    out_dir: str = "results/paper/${experiment.name}"
+    out_dir: str = "results/reproduce/${experiment.name}"
     tracking: TrackingConfig = field(default_factory=lambda: TrackingConfig(experiment="paper"))
 
 
