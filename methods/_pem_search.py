@@ -1,0 +1,209 @@
+"""The search of the prediction-error method: Gauss–Newton (eq. 30) from one start, exact derivatives.
+
+Used by :mod:`methods.pem`; ``opts`` is its ``Options``. Unknowns θ = [ω (m), ζ (m), x₀ (2m), b] as in
+:mod:`methods._pem_predictor`; ``free`` selects the estimated ones, ``bounds`` = (lower, upper) of (ω, ζ).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from methods import _pem_predictor as pp
+
+MAX_HALVINGS = 40               # the paper's rule: μ = 1, 1/2, 1/4, … until the loss decreases
+LM_HALVINGS = 5                 # with Levenberg–Marquardt damping: halvings before λ grows
+IDENTIFIED_REL_STD = 0.01       # a mode is 'determined by the data' when std(ω) ≤ 1 % of ω
+LOCATED_REL_STD = 0.1           # … 'located' when std(ω) ≤ 10 % of ω
+SETTLED_STD = 0.01              # a located mode has 'settled' when it moved less than this many std
+SETTLED_ITERATIONS = 5          # … over this many iterations
+MAX_GROWTH_EXPONENT = 20.0      # no mode may grow by more than e²⁰ over the record
+
+
+def fit_one_start(y, dt, w0, z0, shape, free, opts, bounds) -> dict:
+    """Gauss–Newton from one start; a dict with θ, loss, ε, J, the stopping reason and convergence."""
+    m = w0.size
+    theta = np.concatenate([np.clip(np.r_[w0, z0], *bounds), np.zeros(2 * m), [0.0]])
+    w0, z0 = theta[:m], theta[m:2 * m]
+    with_gain = opts.predictor == "kalman"
+    try:
+        K = (pp.kalman_gain(w0, z0, dt, shape, opts.kalman_qd, opts.kalman_rd) if with_gain
+             else np.zeros(2 * m))
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        return _bad(theta, f"no steady-state Kalman gain at the start ({exc})")
+    ev = pp.Evaluator(y.size, m, free, with_gain, y, K, dt)
+    theta, _, loss = solve_linear(ev, theta, m)              # x₀, b: exact LS at the start's (ω, ζ)
+    if not np.isfinite(loss):
+        return _bad(theta, "the predictor diverges at the start")
+    return gauss_newton(theta, np.flatnonzero(free), ev, dt, opts, bounds)
+
+
+def solve_linear(ev, theta, m):
+    """θ with the linear unknowns c = (x₀, b) set to their least-squares values at θ's (ω, ζ).
+
+    ε(θ) is affine in c, ε = ε₀ + G c, so one linear solve is exact. Returns (θ, ε, loss).
+    """
+    theta = theta.copy()
+    theta[2 * m:2 * m + ev.n_linear] = 0.0                    # a fixed offset stays at its value
+    e0, G = ev.linear_part(theta)
+    if not (np.all(np.isfinite(e0)) and np.all(np.isfinite(G))):
+        return theta, e0, np.inf
+    c = lstsq_step(G, e0)[0]
+    theta[2 * m:2 * m + ev.n_linear] += c
+    e = e0 + G @ c
+    return theta, e, float(e @ e / e.size)
+
+
+def gauss_newton(theta, free_idx, ev, dt, opts, bounds) -> dict:
+    """Eq. (30): θ ← θ + μ d, μ = 1 halved until the loss decreases (the paper's rule).
+
+    ``search="gauss_newton"``: d is the Gauss–Newton step −(JᵀJ)⁻¹Jᵀε on all free unknowns, halved up to
+    40 times. ``search="levenberg_marquardt"``: d = −(JᵀJ + λ·s₀²I)⁻¹Jᵀε in column-scaled unknowns (s₀ the
+    largest singular value); after 5 fruitless halvings λ grows ×10 and the step is recomputed, after a full
+    step it shrinks ÷10, so near the optimum it is plain Gauss–Newton. The damping matters when one mode is
+    poorly determined: its sloppy direction dominates the Gauss–Newton step, the halving then shortens
+    every other unknown's step alike and the search crawls (MATLAB's later ``pem`` adapts the same way).
+
+    With ``separable`` every trial point keeps the step in (ω, ζ) and re-solves the linear unknowns
+    (x₀, b) exactly (variable projection, Golub & Pereyra 1973, with Kaufman's Jacobian — which is what the
+    step is at a point where (x₀, b) are already optimal); without it the whole step is taken, as
+    MATLAB's ``pem`` does.
+    """
+    m = (theta.size - 1) // 4
+    nonlin = free_idx < 2 * m
+    lm = opts.search == "levenberg_marquardt"
+    halvings = LM_HALVINGS if lm else MAX_HALVINGS
+    lam = 0.0
+    e, J = ev.residual_jacobian(theta)
+    n = e.size
+    loss = e @ e / n
+    message, converged, iterations = "iteration limit", False, 0
+    history, step_lengths = [theta[:m].copy()], []
+    while iterations < opts.max_iterations:
+        iterations += 1
+        system = LinearizedSystem(J, e)
+        d = system.step(0.0)
+        blocked = _blocked_by_bounds(theta, free_idx, d, bounds)
+        if blocked.any():                     # active set: a ζ at its bound that the step pushes out stays
+            J_free = J.copy()
+            J_free[:, blocked] = 0.0
+            system = LinearizedSystem(J_free, e)
+            d = system.step(0.0)
+        if not np.all(np.isfinite(d)):
+            message = "singular Jacobian"
+            break
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step_in_std = float(np.nanmax(np.abs(d) / system.std))
+        if step_in_std < opts.tol_step:
+            message, converged = f"step size below {opts.tol_step:g} std", True
+            break
+        found = False
+        while not found:
+            d = system.step(lam)
+            mu = 1.0
+            for _ in range(halvings):
+                cand = theta.copy()
+                if opts.separable:
+                    cand[free_idx[nonlin]] += mu * d[nonlin]
+                else:
+                    cand[free_idx] += mu * d
+                cand[:2 * m] = np.clip(cand[:2 * m], *bounds)
+                if _valid(cand, dt, n):
+                    if opts.separable:
+                        cand, _, loss_new = solve_linear(ev, cand, m)
+                    else:
+                        e_new = ev.residual(cand)
+                        loss_new = e_new @ e_new / n
+                    if np.isfinite(loss_new) and loss_new < loss:
+                        found = True
+                        break
+                mu *= 0.5
+            if not lm or lam > 1e8:
+                break
+            if not found:
+                lam = max(10.0 * lam, 1e-8)
+            elif mu == 1.0:
+                lam = 0.0 if lam <= 1e-8 else lam / 10.0
+        if not found:
+            # No decrease along any damped step: a minimum to rounding.
+            message = f"no loss decrease along the search direction ({step_in_std:.2g} std)"
+            converged = lm or step_in_std < 1.0
+            break
+        improvement = (loss - loss_new) / loss
+        step_lengths.append(mu)
+        theta, loss = cand, loss_new
+        e, J = ev.residual_jacobian(theta)
+        if improvement < opts.tol_loss:
+            message, converged = f"relative loss improvement below {opts.tol_loss:g}", True
+            break
+        history.append(theta[:m].copy())
+    else:
+        # Modes the record does not determine can crawl along a flat, curved valley for hundreds of
+        # iterations; the answer still counts when every mode the data locate (std ≤ 10 % of ω) has
+        # settled over the last iterations.
+        w_std = LinearizedSystem(J, e).std[:m]
+        located = w_std <= LOCATED_REL_STD * theta[:m]
+        drift = np.abs(history[-1] - history[max(len(history) - SETTLED_ITERATIONS, 0)])
+        if located.any() and np.all(drift[located] < SETTLED_STD * w_std[located]):
+            message, converged = (f"iteration limit; the located frequencies settled to "
+                                  f"{SETTLED_STD:g} std ({m - located.sum()} not located)"), True
+    return {"theta": theta, "loss": loss, "e": e, "J": J, "iterations": iterations, "message": message,
+            "converged": converged, "step_lengths": step_lengths}
+
+
+def _blocked_by_bounds(theta, free_idx, d, bounds) -> np.ndarray:
+    """Free columns whose (ω or ζ) entry sits on a bound that the step d would cross."""
+    lo, hi = bounds
+    nonlin = free_idx < lo.size
+    idx = np.where(nonlin, free_idx, 0)
+    v = theta[free_idx]
+    return nonlin & (((v <= lo[idx]) & (d < 0)) | ((v >= hi[idx]) & (d > 0)))
+
+
+def search_bounds(prior: np.ndarray, dt: float, opts):
+    """(lower, upper) of (ω, ζ): ω within prior·(1 + band)^±1 and below Nyquist, ζ within damping_bounds."""
+    band = np.inf if opts.frequency_band is None else opts.frequency_band
+    w_lo = prior / (1.0 + band)
+    w_hi = np.minimum(prior * (1.0 + band), 0.98 * np.pi / dt)
+    m = prior.size
+    return (np.r_[w_lo, np.full(m, opts.damping_bounds[0])], np.r_[w_hi, np.full(m, opts.damping_bounds[1])])
+
+
+class LinearizedSystem:
+    """ε(θ + d) ≈ ε + J d, solved through the SVD of the column-scaled J (scaling fixes the units)."""
+
+    def __init__(self, J: np.ndarray, e: np.ndarray):
+        norms = np.linalg.norm(J, axis=0)
+        norms[norms == 0] = 1.0
+        U, s, vt = np.linalg.svd(J / norms, full_matrices=False)
+        self._norms, self._s, self._vt, self._g = norms, s, vt, U.T @ e
+        self._keep = s > s[0] * 1e-14 if s.size and s[0] > 0 else np.zeros(s.size, bool)
+        s_inv = np.where(self._keep, 1.0 / np.where(self._keep, s, 1.0), 0.0)
+        var = (vt.T ** 2) @ (s_inv ** 2) / norms ** 2              # diag((JᵀJ)⁻¹)
+        sigma2 = e @ e / max(e.size - J.shape[1], 1)
+        self.std = np.where(var > 0, np.sqrt(sigma2 * var), np.inf)
+
+    def step(self, lam: float) -> np.ndarray:
+        """−(JᵀJ + λs₀²I)⁻¹Jᵀε in scaled unknowns; λ = 0 is the (pseudo-inverse) Gauss–Newton step."""
+        s = self._s
+        f = np.where(self._keep, s / np.where(self._keep, s * s + lam * s[0] ** 2, 1.0), 0.0)
+        return -(self._vt.T @ (f * self._g)) / self._norms
+
+
+def lstsq_step(J: np.ndarray, e: np.ndarray):
+    """Gauss–Newton step d = −J⁺ε and the std σ̂√diag((JᵀJ)⁻¹), σ̂² = Σε²/(N − p)."""
+    system = LinearizedSystem(J, e)
+    return system.step(0.0), system.std
+
+
+def _valid(theta, dt, n) -> bool:
+    """Frequencies positive, damped frequency below Nyquist, |ζ| < 0.9, and no mode growing more than
+    e²⁰ over the record (a negative ζ lets a mode the record does not determine mimic a trend)."""
+    m = (theta.size - 1) // 4
+    w, z = theta[:m], theta[m:2 * m]
+    return bool(np.all(w > 0) and np.all(np.abs(z) < 0.9) and np.all(w * np.sqrt(1 - z * z) * dt < np.pi)
+                and np.all(-z * w * dt * n < MAX_GROWTH_EXPONENT))
+
+
+def _bad(theta, message) -> dict:
+    return {"theta": theta, "loss": np.inf, "e": None, "J": None, "iterations": 0, "message": message,
+            "converged": False}

@@ -1,0 +1,106 @@
+"""A data-driven start for the PEM search: damped sinusoids from the matrix-pencil method, matched to a prior.
+
+The record is modelled as y(k) = Σⱼ cⱼ zⱼᵏ + noise (complex poles zⱼ = e^{sⱼΔt}; a damped mode is a conjugate
+pair, a sensor offset is a pole at z = 1). The matrix pencil (Hua & Sarkar, 1990) estimates the poles from
+the shift invariance of the Hankel matrix of the data: with Y = [y(i+j)], i < N−L, j ≤ L, and V the M
+dominant right singular vectors of Y, the poles are the eigenvalues of V₁⁺V₂ (V₁, V₂: V without its last
+or first row). An order M above the number of poles lets the extra poles absorb noise.
+
+No search, no prior: it is the paper's "suboptimal analytical method [...] to generate a set of initial
+conditions" (§3.3). The poles are then *matched* to the prior entries, so that a start is a complete set of
+frequencies in prior order: the m strongest oscillatory poles (energy over the record), sorted by frequency,
+take the prior entries in sorted order; missing ones keep the prior value.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120) -> tuple[np.ndarray, np.ndarray]:
+    """Poles zⱼ and complex amplitudes cⱼ of y(k) ≈ Σ cⱼ zⱼᵏ (k = 0…N−1).
+
+    Parameters
+    ----------
+    y : ndarray, shape (N,)
+    order : int
+        Number of poles M (clipped to what the record supports, about N/2).
+    max_columns : int
+        Pencil parameter L is N/3, at most this (keeps the SVD cheap for long records).
+    """
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    order = int(min(order, (n - 1) // 2))
+    if order < 1:
+        return np.zeros(0, complex), np.zeros(0, complex)
+    cols = int(np.clip(n // 3, order, min(max_columns, n - order - 1)))
+    rows = n - cols
+    Y = np.lib.stride_tricks.sliding_window_view(y, cols + 1)[:rows]
+    _, s, vt = np.linalg.svd(Y, full_matrices=False)
+    order = min(order, int(np.sum(s > s[0] * 1e-13)))
+    if order < 1:
+        return np.zeros(0, complex), np.zeros(0, complex)
+    V = vt[:order].T                                   # (L+1) × M
+    z = np.linalg.eigvals(np.linalg.pinv(V[:-1]) @ V[1:])
+    vander = z[None, :] ** np.arange(n)[:, None]
+    amp = np.linalg.lstsq(vander, y.astype(complex), rcond=None)[0]
+    return z, amp
+
+
+def modes_from_poles(z: np.ndarray, amp: np.ndarray, n_samples: int, dt: float):
+    """Oscillatory modes (upper half plane, below Nyquist) as (ω = |s|, ζ = −Re s/|s|, energy), strongest first."""
+    keep = (z.imag > 1e-12) & (np.abs(z) > 1e-6)
+    z, amp = z[keep], amp[keep]
+    s = np.log(z) / dt
+    omega = np.abs(s)
+    zeta = -s.real / omega
+    # energy over the record of the real mode 2 Re(c zᵏ): ≈ 2|c|² Σ|z|^{2k}
+    r2 = np.abs(z) ** 2
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        geo = np.where(np.abs(r2 - 1) < 1e-12, n_samples, (r2 ** n_samples - 1) / (r2 - 1))
+    energy = 2 * np.abs(amp) ** 2 * geo
+    energy = np.where(np.isfinite(energy), energy, 0.0)
+    order = np.argsort(-energy)
+    return omega[order], zeta[order], energy[order]
+
+
+def match_to_prior(omega: np.ndarray, zeta: np.ndarray, prior: np.ndarray, default_zeta: float,
+                   max_relative_distance: float = 0.6):
+    """Frequencies and damping ratios in prior order from candidate modes (strongest first).
+
+    The m strongest candidates within ``max_relative_distance`` of some prior entry are sorted by frequency
+    and given to the prior entries in sorted order. With fewer candidates than prior entries, each candidate
+    goes to the nearest free prior entry (log distance) in order of strength; the rest keep the prior.
+    """
+    prior = np.asarray(prior, dtype=float)
+    m = prior.size
+    near = np.min(np.abs(np.log(omega[:, None] / prior[None, :])), axis=1) <= np.log1p(max_relative_distance) \
+        if omega.size else np.zeros(0, bool)
+    omega, zeta = omega[near][:m], zeta[near][:m]
+    freq = prior.copy()
+    damp = np.full(m, float(default_zeta))
+    order = np.argsort(prior)
+    if omega.size == m:
+        by_freq = np.argsort(omega)
+        freq[order] = omega[by_freq]
+        damp[order] = zeta[by_freq]
+        return freq, damp
+    taken: set[int] = set()
+    for w, z in zip(omega, zeta, strict=True):
+        dist = np.abs(np.log(w / prior))
+        dist[list(taken)] = np.inf
+        i = int(np.argmin(dist))
+        taken.add(i)
+        freq[i], damp[i] = w, z
+    return freq, damp
+
+
+def pencil_start(y: np.ndarray, dt: float, prior: np.ndarray, *, extra_order: int, default_zeta: float,
+                 max_zeta: float = 0.3):
+    """A start (ω, ζ) in prior order from the matrix pencil of order 2m + 1 + extra_order."""
+    prior = np.asarray(prior, dtype=float)
+    z, amp = matrix_pencil(y, 2 * prior.size + 1 + extra_order)
+    omega, zeta, _ = modes_from_poles(z, amp, y.size, dt)
+    ok = (omega < np.pi / dt) & (zeta > -0.05) & (zeta < max_zeta)
+    freq, damp = match_to_prior(omega[ok], zeta[ok], prior, default_zeta)
+    return freq, np.clip(damp, 0.0, max_zeta)

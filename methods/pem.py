@@ -1,0 +1,276 @@
+"""Prediction-error method with a Gauss–Newton search (paper §3.3, §4.3, eqs. 30–31, Tables 4–5).
+
+The identification model is eq. (8) without the frequency states, with the tip acceleration as output
+(eq. 10), in the innovation form of eq. (31) (:mod:`methods._pem_predictor`). The unknowns are the
+frequencies, the initial state (as MATLAB's ``pem`` estimates it), optionally the damping ratios and a
+sensor offset. The loss V(θ) = (1/N) Σ ε(k)² is minimised by Gauss–Newton, eq. (30),
+
+    θ⁽ⁱ⁺¹⁾ = θ⁽ⁱ⁾ − μ (JᵀJ)⁻¹ Jᵀε,    J = ∂ε/∂θ (exact, from CasADi),
+
+with μ = 1 halved until the loss decreases (the paper's rule), optionally Levenberg–Marquardt damped and
+with the initial state and offset re-solved exactly at every trial point (:mod:`methods._pem_search`).
+The covariance σ̂²(JᵀJ)⁻¹ at the optimum, σ̂² = Σε²/(N − p), gives ``Estimate.std``.
+
+Two predictors: ``"kalman"`` — the paper's, steady-state Kalman gain from the discrete Riccati equation with
+Qd = 0.001, Rd = 0.4 (§4.3); ``"output_error"`` — gain zero, the maximum-likelihood estimator for the
+data's white measurement noise.
+
+Local minima (the paper's first complaint): several starts — a data-driven one (matrix pencil,
+:mod:`methods.damped_sinusoids`, matched to the prior), the prior, seeded perturbations of the prior — the
+lowest loss wins, then modes the record does not determine are restarted from the prior's frequency ratios
+(:func:`_repaired_start`); ``extra["n_agree"]`` says how many starts reached the answer. "Demanding
+calculation" (the second): exact derivatives compiled once per record shape.
+
+The defaults of :class:`Options` are the measured best setting; the paper's is :data:`PAPER_OPTIONS`.
+See methods/README_pem.md for the choices and the measured numbers.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from methods import _pem_search as search
+from methods.damped_sinusoids import pencil_start
+from methods.estimate import Estimate, check_inputs, failed, make_options
+
+PREDICTORS = ("output_error", "kalman")
+SEARCHES = ("levenberg_marquardt", "gauss_newton")
+BIAS_MODES = ("estimate", "subtract_mean", "none")
+
+
+@dataclass
+class Options:
+    """Keyword options of :func:`identify`. Defaults: the best setting (output error = ML); the paper's
+    setting is :data:`PAPER_OPTIONS`."""
+
+    predictor: str = "output_error"      # "output_error" (gain 0, ML) or "kalman" (paper, eq. 31)
+    kalman_qd: float = 0.001             # Qd of the paper's LQE (§4.3), Γ = I; only for "kalman"
+    kalman_rd: float = 0.4               # Rd of the paper's LQE (§4.3); only for "kalman"
+    tip_mode_shape: list[float] = field(default_factory=lambda: [2.0, -2.0, -2.0, 2.0])  # Wₙ(L), eq. (10)
+    estimate_damping: bool = True        # damping ratios unknown (else held at damping_ratio)
+    damping_bounds: list[float] = field(default_factory=lambda: [-0.8, 0.8])  # ζ kept inside (projection)
+    frequency_band: float | None = 0.5   # ω kept within prior·(1 + band)^±1 (§4.1: known to ~30 %); None: free
+    damping_ratio: float = 0.005         # assumed ζ (paper gives none), and the start of the search
+    bias: str = "estimate"               # "estimate" (unknown offset), "subtract_mean" (paper), "none"
+    data_driven_start: bool = True       # a matrix-pencil start matched to the prior
+    pencil_extra_order: int = 6          # poles beyond 2m + 1 to absorb noise in the pencil
+    n_starts: int = 3                    # starts in all: pencil (if on), the prior, then perturbations
+    start_spread: float = 0.1            # 1σ of the log-normal perturbation of the prior
+    seed: int = 0                        # seed of the perturbations (the method stays a pure function)
+    search: str = "levenberg_marquardt"  # or "gauss_newton" (paper: pure GN, μ halved)
+    separable: bool = True               # re-solve x₀, b exactly at every trial point (variable projection)
+    repair_rounds: int = 2               # restarts of undetermined modes from the prior's ratios
+    max_iterations: int = 50             # Gauss–Newton iterations per start
+    tol_loss: float = 1e-10              # stop when the relative loss improvement falls below this
+    tol_step: float = 1e-4               # stop when every step is below this many standard deviations
+
+
+# The paper's setting (§4.3): Kalman predictor with its LQE tuning, damping fixed, mean removed (§4 —
+# "estimate the mean and then remove it"), one run from the Table 4 prior.
+PAPER_OPTIONS = {"predictor": "kalman", "estimate_damping": False, "bias": "subtract_mean",
+                 "data_driven_start": False, "n_starts": 1, "search": "gauss_newton",
+                 "repair_rounds": 0}
+
+
+
+def identify(y, dt, prior, **options) -> Estimate:
+    """Frequencies (rad/s) minimising the prediction-error loss, in prior order, with their 1σ.
+
+    Parameters
+    ----------
+    y : array_like, shape (N,)
+        Tip acceleration in m/s², t_k = k·dt.
+    dt : float
+        Sample interval in s.
+    prior : array_like, shape (m,)
+        A-priori frequencies in rad/s (paper Table 4: 2.65, 16.73, 17.32, 52.91).
+    **options
+        Fields of :class:`Options`.
+
+    Returns
+    -------
+    Estimate
+        ``extra``: damping ratios and their std, offset, loss, per-start losses, ``n_agree``, the winning
+        start, and the stopping reason of every start.
+    """
+    y, dt, prior = check_inputs(y, dt, prior)
+    opts = make_options(Options, options, "pem")
+    _check_options(opts, prior)
+    m, n = prior.size, y.size
+    free = _free_mask(m, opts)
+    n_free = int(sum(free))
+    if n <= n_free:
+        return failed(prior, f"{n} samples cannot determine {n_free} unknowns")
+    if opts.bias == "subtract_mean":
+        y = y - y.mean()
+    shape = np.asarray(opts.tip_mode_shape if len(opts.tip_mode_shape) == m else np.ones(m), float)
+    bounds = search.search_bounds(prior, dt, opts)
+    fits = []
+    for label, w0, z0 in _starts(y, dt, prior, opts):
+        fit = search.fit_one_start(y, dt, w0, z0, shape, free, opts, bounds)
+        fit["start"] = label
+        fits.append(fit)
+    ok = [f for f in fits if np.isfinite(f["loss"])]
+    if not ok:
+        reasons = "; ".join(f"{f['start']}: {f['message']}" for f in fits)
+        return failed(prior, f"every start failed: {reasons}")
+    best = min(ok, key=lambda f: f["loss"])
+    for _ in range(opts.repair_rounds):
+        start = _repaired_start(best, free, prior, opts)
+        if start is None:
+            break
+        fit = search.fit_one_start(y, dt, *start, shape, free, opts, bounds)
+        fit["start"] = f"repair{len(fits)}"
+        fits.append(fit)
+        if not fit["loss"] < best["loss"]:
+            break
+        best = fit
+    return _estimate(best, fits, prior, free)
+
+
+def _repaired_start(best: dict, free, prior: np.ndarray, opts: Options):
+    """A start that puts every mode the data do not determine where the prior says it is *relative to*
+    the nearest determined mode (ω_i = ω_j · prior_i / prior_j), or None if there is nothing to repair.
+
+    A fit can park a mode where it does nothing useful — two close modes merged into one, the spare one
+    above the band — a local minimum whose loss stays well above the noise. The prior's frequency
+    *ratios* are far better known than its absolute values (a 20 % error of stiffness or mass moves all
+    modes alike), so they are the natural place to restart the spare modes from.
+    """
+    m = prior.size
+    w, w_std, z, _ = _mode_table(best, free, m)
+    slot = _label_modes(w, w_std, prior)
+    w, w_std, z = w[slot], w_std[slot], z[slot]
+    determined = w_std <= search.IDENTIFIED_REL_STD * w
+    if determined.all() or not determined.any():
+        return None
+    good = np.flatnonzero(determined)
+    w0, z0 = w.copy(), z.copy()
+    for i in np.flatnonzero(~determined):
+        j = good[np.argmin(np.abs(np.log(prior[good] / prior[i])))]
+        w0[i] = w[j] * prior[i] / prior[j]
+        z0[i] = opts.damping_ratio
+    return w0, z0 if opts.estimate_damping else np.full(m, opts.damping_ratio)
+
+
+def _check_options(opts: Options, prior: np.ndarray) -> None:
+    if opts.predictor not in PREDICTORS:
+        raise ValueError(f"predictor = '{opts.predictor}'; choose one of {PREDICTORS}")
+    if opts.search not in SEARCHES:
+        raise ValueError(f"search = '{opts.search}'; choose one of {SEARCHES}")
+    if opts.bias not in BIAS_MODES:
+        raise ValueError(f"bias = '{opts.bias}'; choose one of {BIAS_MODES}")
+    if opts.predictor == "kalman":
+        if len(opts.tip_mode_shape) != prior.size:
+            raise ValueError(f"tip_mode_shape has {len(opts.tip_mode_shape)} entries, the prior {prior.size}")
+        if not (opts.kalman_qd > 0 and opts.kalman_rd > 0):
+            raise ValueError(f"kalman_qd = {opts.kalman_qd}, kalman_rd = {opts.kalman_rd} must be positive")
+    if not 0 <= opts.damping_ratio < 0.9:
+        raise ValueError(f"damping_ratio = {opts.damping_ratio} must be in [0, 0.9)")
+    if opts.frequency_band is not None and not opts.frequency_band > 0:
+        raise ValueError(f"frequency_band = {opts.frequency_band} must be positive (or None for no band)")
+    lo, hi = opts.damping_bounds if len(opts.damping_bounds) == 2 else (1.0, -1.0)
+    if not -0.9 < lo < hi < 0.9:
+        raise ValueError(f"damping_bounds = {opts.damping_bounds} must be [low, high] inside (−0.9, 0.9)")
+    if opts.n_starts < 1:
+        raise ValueError(f"n_starts = {opts.n_starts} must be at least 1")
+    if opts.max_iterations < 1:
+        raise ValueError(f"max_iterations = {opts.max_iterations} must be at least 1")
+    if not (opts.start_spread >= 0 and opts.tol_loss >= 0 and opts.tol_step >= 0):
+        raise ValueError("start_spread, tol_loss and tol_step must be non-negative")
+    if opts.pencil_extra_order < 0:
+        raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
+
+
+def _free_mask(m: int, opts: Options) -> tuple[bool, ...]:
+    """Which entries of θ = [ω, ζ, x₀, b] the search estimates."""
+    return tuple([True] * m + [opts.estimate_damping] * m + [True] * (2 * m) + [opts.bias == "estimate"])
+
+
+def _starts(y, dt, prior, opts: Options):
+    """(label, ω, ζ) of every start: the pencil start, the prior, then seeded perturbations."""
+    starts = []
+    z_prior = np.full(prior.size, opts.damping_ratio)
+    if opts.data_driven_start:
+        try:
+            w, z = pencil_start(y, dt, prior, extra_order=opts.pencil_extra_order,
+                                default_zeta=opts.damping_ratio)
+            starts.append(("pencil", w, z if opts.estimate_damping else z_prior))
+        except np.linalg.LinAlgError:
+            pass
+    starts.append(("prior", prior.copy(), z_prior))
+    rng = np.random.default_rng(opts.seed)
+    nyquist = np.pi / dt
+    while len(starts) < opts.n_starts:
+        w = prior * np.exp(opts.start_spread * rng.standard_normal(prior.size))
+        starts.append((f"perturbed{len(starts)}", np.minimum(w, 0.95 * nyquist), z_prior))
+    return starts[:opts.n_starts]
+
+
+def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free) -> Estimate:
+    """The winning fit as an Estimate, its modes labelled with the prior entries (:func:`_label_modes`)."""
+    m = prior.size
+    w, w_std, z, z_std = _mode_table(best, free, m)
+    slot = _label_modes(w, w_std, prior)
+    freq, std, damp, damp_std = w[slot], w_std[slot], z[slot], z_std[slot]
+    identified = std <= search.IDENTIFIED_REL_STD * freq
+    agree, agree_converged = 0, False
+    for f in fits:
+        if np.isfinite(f["loss"]):
+            fw, fw_std, _, _ = _mode_table(f, free, m)
+            fw = fw[_label_modes(fw, fw_std, prior)]
+            if np.all(np.abs(fw - freq)[identified] <= 3 * std[identified]):
+                agree += 1
+                agree_converged |= f["converged"]
+    # The answer stands when a search that reached it (within 3 std in every determined mode) stopped on
+    # a tolerance, even if the lowest-loss one ran into the iteration limit.
+    converged = bool(best["converged"] or agree_converged)
+    extra = {
+        "damping": damp, "damping_std": damp_std, "identified": identified,
+        "offset_m_s2": float(best["theta"][-1]), "loss": float(best["loss"]),
+        "n_starts": len(fits), "n_agree": agree, "best_start": best["start"],
+        "start_losses": np.array([f["loss"] for f in fits]),
+        "start_messages": [f"{f['start']}: {f['message']}" for f in fits],
+        "total_iterations": int(sum(f["iterations"] for f in fits)),
+    }
+    message = f"{best['message']} (start '{best['start']}', {agree}/{len(fits)} starts agree)"
+    return Estimate(freq, std, converged=converged, iterations=int(best["iterations"]),
+                    message=message, extra=extra)
+
+
+def _mode_table(fit: dict, free, m: int):
+    """ω, std(ω), ζ, std(ζ) of a fit in θ order; std = σ̂√diag((JᵀJ)⁻¹), NaN for a fixed entry."""
+    std = np.full(fit["theta"].size, np.nan)
+    std[np.flatnonzero(free)] = search.lstsq_step(fit["J"], fit["e"])[1]
+    th = fit["theta"]
+    return th[:m].copy(), std[:m], th[m:2 * m].copy(), std[m:2 * m]
+
+
+def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray) -> np.ndarray:
+    """Which fitted mode answers for each prior entry: ``slot[i]`` is the mode reported for ``prior[i]``.
+
+    Modes the data determine (std ≤ 1 % of ω) keep their frequency order and take the prior entries that
+    fit them best in log distance (an order-preserving choice of entries); the undetermined ones — a model
+    with more modes than the record supports parks them anywhere, e.g. above the highest mode — fill the
+    remaining entries in frequency order. With every mode determined this is plain sorting.
+    """
+    m = prior.size
+    by_prior = np.argsort(prior)
+    good = np.flatnonzero(w_std <= search.IDENTIFIED_REL_STD * w)
+    good = good[np.argsort(w[good])]
+    rest = np.setdiff1d(np.arange(m), good)
+    rest = rest[np.argsort(w[rest])]
+    best_cost, best_slots = np.inf, by_prior[:good.size]
+    for ranks in itertools.combinations(range(m), good.size):      # increasing: order-preserving
+        slots = by_prior[list(ranks)]
+        cost = np.sum(np.abs(np.log(w[good] / prior[slots])))
+        if cost < best_cost:
+            best_cost, best_slots = cost, slots
+    slot = np.empty(m, int)
+    slot[best_slots] = good
+    free_slots = by_prior[~np.isin(by_prior, best_slots)]          # in prior order
+    slot[free_slots] = rest
+    return slot
