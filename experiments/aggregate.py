@@ -104,6 +104,7 @@ def headline(summary: pd.DataFrame) -> str:
         lines.append(f"- mode {mode}: " + "; ".join(parts))
     per_method = (summary[summary["identifiable"]].groupby("method")
                   .agg(median_rmse_over_crlb=("rmse_over_crlb", "median"),
+                       median_rmse_over_crlb_offset=("rmse_over_crlb_offset", "median"),
                        mean_failure_rate=("failure_rate", "mean"),
                        median_runtime_s=("median_runtime_s", "median")).reset_index())
     return "\n".join(lines) + "\n\nOver identifiable (mode, cell) pairs:\n\n" + markdown_table(per_method)

@@ -11,7 +11,8 @@ File schema (every entry a plain numpy array; ``numpy.load(path)`` reads it, no 
 | ``truth_freq_rad_s``, ``truth_damping`` | (4,) | eigenfrequencies and damping of the generating model |
 | ``truth_amplitude_m_s2``, ``truth_phase_rad`` | (4,) | modal amplitudes/phases of the tip signal |
 | ``cantilever_freq_rad_s`` | (4,) | the beam stiffness frequencies used (after calibration) |
-| ``crlb_std_rad_s`` | (4,) | Cramér–Rao bound of each frequency for this cell |
+| ``crlb_std_rad_s`` | (4,) | Cramér–Rao bound of each frequency for this cell (16 unknowns) |
+| ``crlb_offset_std_rad_s`` | (4,) | the same with the sensor offset unknown too (17 unknowns) |
 | ``provenance_json`` | () str | the config, seed scheme, package versions |
 
 Replicate r of a cell draws its noise from ``numpy.random.default_rng([seed, noise_ng, N, r])`` with
@@ -82,8 +83,9 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
         rng = replicate_rng(cfg.seed, cfg.noise_ug, cfg.n_samples, r)
         noisy[r] = clean + cfg.bias_m_s2 + sigma * rng.standard_normal(cfg.n_samples)
     truth = plant.truth()
-    bound = crlb_std(truth["freq_rad_s"], truth["damping"], truth["amplitude_m_s2"], truth["phase_rad"],
-                     cfg.n_samples, cfg.dt_s, sigma, offset=cfg.bias_m_s2 != 0)
+    modal = (truth["freq_rad_s"], truth["damping"], truth["amplitude_m_s2"], truth["phase_rad"])
+    bound = crlb_std(*modal, cfg.n_samples, cfg.dt_s, sigma)
+    bound_offset = crlb_std(*modal, cfg.n_samples, cfg.dt_s, sigma, offset=True)
     provenance = {
         "config": {k: v for k, v in _plain(asdict(cfg)).items() if k != "out"},
         "noise_scheme": "numpy.random.default_rng([seed, round(noise_ug*1000), n_samples, replicate])",
@@ -104,6 +106,7 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
         "truth_phase_rad": truth["phase_rad"],
         "cantilever_freq_rad_s": truth["cantilever_freq_rad_s"],
         "crlb_std_rad_s": bound,
+        "crlb_offset_std_rad_s": bound_offset,
         "provenance_json": np.array(json.dumps(provenance, sort_keys=True)),
     }
 

@@ -103,7 +103,8 @@ def task(cfg) -> None:
     rows = []
     for r, (est, runtime) in enumerate(results):
         rows += replicate_rows(name, float(cell["noise_ug"]), int(cell["t_s"].size), r, prior,
-                               cell["truth_freq_rad_s"], cell["crlb_std_rad_s"], est, runtime)
+                               cell["truth_freq_rad_s"], cell["crlb_std_rad_s"],
+                               cell["crlb_offset_std_rad_s"], est, runtime)
     out = Path(cfg.out) if cfg.out else run_dir / "results.csv"
     atomic_write_text(out, rows_to_csv(rows))
     print(f"wrote {out}")

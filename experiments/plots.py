@@ -42,6 +42,7 @@ def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed
             ax.plot(g.loc[ok, x], g.loc[ok, "rmse_rad_s"], marker=marker, color=color, label=method, lw=1.4)
         crlb = sm.drop_duplicates(x)
         ax.plot(crlb[x], crlb["crlb_std_rad_s"], "k--", lw=1.2, label="CRLB")
+        ax.plot(crlb[x], crlb["crlb_offset_std_rad_s"], "k:", lw=1.2, label="CRLB, offset unknown")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_title(f"mode {mode} ({sm['true_rad_s'].iloc[0]:.2f} rad/s)")

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 COLUMNS = ["method", "noise_ug", "n_samples", "replicate", "mode", "prior_rad_s", "true_rad_s",
-           "estimate_rad_s", "std_rad_s", "error_rad_s", "crlb_std_rad_s", "identifiable", "converged",
-           "iterations", "runtime_s", "message"]
+           "estimate_rad_s", "std_rad_s", "error_rad_s", "crlb_std_rad_s", "crlb_offset_std_rad_s", "identifiable",
+           "converged", "iterations", "runtime_s", "message"]
 
 
 def identifiable(true_rad_s: np.ndarray, crlb_std_rad_s: np.ndarray) -> np.ndarray:
@@ -23,7 +23,7 @@ def identifiable(true_rad_s: np.ndarray, crlb_std_rad_s: np.ndarray) -> np.ndarr
 
 
 def replicate_rows(method: str, noise_ug: float, n_samples: int, replicate: int, prior, truth_freq,
-                   crlb, estimate, runtime_s: float) -> list[dict]:
+                   crlb, crlb_offset, estimate, runtime_s: float) -> list[dict]:
     """Rows for one replicate. The i-th prior is scored against the i-th true mode (modes sorted by
     frequency); a method that returned NaN, or said it did not converge, counts as a failure."""
     ident = identifiable(truth_freq, crlb)
@@ -39,6 +39,7 @@ def replicate_rows(method: str, noise_ug: float, n_samples: int, replicate: int,
             "replicate": int(replicate), "mode": i + 1, "prior_rad_s": float(prior[i]),
             "true_rad_s": float(truth_freq[i]), "estimate_rad_s": est, "std_rad_s": float(estimate.std[i]),
             "error_rad_s": est - float(truth_freq[i]), "crlb_std_rad_s": float(crlb[i]),
+            "crlb_offset_std_rad_s": float(crlb_offset[i]),
             "identifiable": bool(ident[i]),
             "converged": bool(converged[i] and np.isfinite(est)),
             "iterations": int(estimate.iterations), "runtime_s": float(runtime_s),

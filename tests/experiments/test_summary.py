@@ -11,7 +11,8 @@ def table(errors, converged, crlb=0.5, true=10.0, runtimes=None):
     for r, (e, c) in enumerate(zip(errors, converged, strict=True)):
         rows.append(dict(method="m", noise_ug=1.0, n_samples=64, replicate=r, mode=1, prior_rad_s=9.0,
                          true_rad_s=true, estimate_rad_s=true + e if c else np.nan, std_rad_s=np.nan,
-                         error_rad_s=e if c else np.nan, crlb_std_rad_s=crlb, identifiable=True, converged=c,
+                         error_rad_s=e if c else np.nan, crlb_std_rad_s=crlb, crlb_offset_std_rad_s=2 * crlb,
+                         identifiable=True, converged=c,
                          iterations=1, runtime_s=(runtimes or [0.1] * len(errors))[r], message=""))
     return pd.DataFrame(rows, columns=COLUMNS)
 
@@ -24,6 +25,7 @@ def test_summary_statistics_on_known_errors():
     assert s["std_rad_s"] == pytest.approx(2.0)                   # std of (1, -1, 3) with ddof=1
     assert s["rmse_rad_s"] == pytest.approx(np.sqrt(11 / 3))
     assert s["rmse_over_crlb"] == pytest.approx(np.sqrt(11 / 3) / 0.5)
+    assert s["rmse_over_crlb_offset"] == pytest.approx(np.sqrt(11 / 3) / 1.0)
     assert s["median_runtime_s"] == pytest.approx(2.5)
 
 
