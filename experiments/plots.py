@@ -53,19 +53,21 @@ def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed
             ax.get_xaxis().set_major_formatter(matplotlib.ticker.ScalarFormatter())
             ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     axes[0][0].set_ylabel("RMSE of frequency (rad/s)")
-    axes[0][-1].legend(fontsize=8, loc="best")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="center right", fontsize=8)
     what = f"{fixed_value:g} µg" if fixed == "noise_ug" else f"{fixed_value} samples"
     fig.suptitle(f"RMSE against {'noise' if x == 'noise_ug' else 'record length'} at {what} "
                  f"(methods failing > {MAX_FAILURE_RATE:.0%} of replicates not drawn)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 0.9, 1))
     return _save(fig, stem)
 
 
-def _cell_axes(ax, noises, lengths):
+def _cell_axes(ax, noises, lengths, *, ylabel: bool = True):
     ax.set_xticks(range(len(lengths)), [str(n) for n in lengths])
-    ax.set_yticks(range(len(noises)), [f"{v:g}" for v in noises])
+    ax.set_yticks(range(len(noises)), [f"{v:g}" for v in noises] if ylabel else [])
     ax.set_xlabel("record length (samples)")
-    ax.set_ylabel("noise 1σ (µg)")
+    if ylabel:
+        ax.set_ylabel("noise 1σ (µg)")
 
 
 def winner_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
@@ -93,14 +95,17 @@ def winner_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
                 label = f"{ratio:.1f}" if ratio < 100 else f"{ratio:.0e}".replace("e+0", "e")
                 ax.text(j, i, label if best["identifiable"] else f"({label})", ha="center", va="center",
                         fontsize=7)
+                if not best["identifiable"]:      # a "win" where the bound says nothing can be identified
+                    ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, fc="white", alpha=0.6, ec="none"))
         ax.imshow(grid, cmap=cmap, norm=norm, aspect="auto", origin="lower")
-        _cell_axes(ax, noises, lengths)
+        _cell_axes(ax, noises, lengths, ylabel=ax is axes[0][0])
         ax.set_title(f"mode {mode}")
     handles = [plt.Rectangle((0, 0), 1, 1, color=_style(m)[0]) for m in methods]
     fig.legend(handles + [plt.Rectangle((0, 0), 1, 1, fc="white", ec="k")], methods + ["none ≤ 10 % fail"],
                loc="lower center", ncol=len(methods) + 1, fontsize=8)
-    fig.suptitle("Best method per cell (lowest RMSE among methods failing ≤ 10 %); number = its RMSE/CRLB, "
-                 "in brackets where the mode is not identifiable", fontsize=9)
+    fig.suptitle("Best method per cell (lowest RMSE among methods failing ≤ 10 %); number = its RMSE/CRLB; "
+                 "pale, in brackets: the mode is not identifiable there (CRLB > 1 % of ω or > 10 % of the spacing)",
+                 fontsize=9)
     fig.tight_layout(rect=(0, 0.08, 1, 0.95))
     return _save(fig, stem)
 
@@ -120,9 +125,10 @@ def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
             for j, n in enumerate(lengths):
                 if (method, noise, n) in worst.index:
                     grid[i, j] = 100 * worst[(method, noise, n)]
-                    ax.text(j, i, f"{grid[i, j]:.0f}", ha="center", va="center", fontsize=7)
+                    ax.text(j, i, f"{grid[i, j]:.0f}", ha="center", va="center", fontsize=7,
+                            color="white" if grid[i, j] > 60 else "black")
         im = ax.imshow(grid, cmap="Reds", vmin=0, vmax=100, aspect="auto", origin="lower")
-        _cell_axes(ax, noises, lengths)
+        _cell_axes(ax, noises, lengths, ylabel=ax is axes[0][0])
         ax.set_title(method)
     fig.colorbar(im, ax=axes[0].tolist(), label="failure rate, worst mode (%)", shrink=0.8)
     fig.suptitle("Failure rate (not converged / no estimate), percent of replicates")
