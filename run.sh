@@ -20,10 +20,18 @@ fi
 export PATH="$PWD/.venv/bin:$PATH"
 CORES=${CORES:-$(nproc 2>/dev/null || echo 2)}
 
+# A workflow killed with SIGKILL leaves Snakemake's lock behind; clear it when no Snakemake is running.
+# (Outputs are written atomically and profiles/default reruns incomplete jobs, so the rerun completes.)
+unlock_if_stale() {
+  if [ -n "$(ls -A .snakemake/locks 2>/dev/null)" ] && ! pgrep -f "bin/snakemake" >/dev/null; then
+    snakemake --unlock --cores 1 >/dev/null 2>&1 || true
+  fi
+}
+
 case "${1:-}" in
-  reproduce|paper) shift; exec snakemake --cores "$CORES" paper "$@" ;;
-  smoke)           shift; exec snakemake --cores "$CORES" smoke "$@" ;;
-  full)            shift; exec snakemake --cores "$CORES" full "$@" ;;
+  reproduce|paper) shift; unlock_if_stale; exec snakemake --cores "$CORES" paper "$@" ;;
+  smoke)           shift; unlock_if_stale; exec snakemake --cores "$CORES" smoke "$@" ;;
+  full)            shift; unlock_if_stale; exec snakemake --cores "$CORES" full "$@" ;;
   test)
     shift
     ruff check .
