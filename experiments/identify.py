@@ -158,6 +158,7 @@ def log_job(cfg, table, results_path: Path) -> None:
     params = job_params(method_cfg, float(cell["noise_ug"]), int(cell["t_s"].size),
                         int(table["replicate"].nunique()), int(cell["seed"]))
     key = run_key(cfg.grid_name, cfg.method.name, params["noise_ug"], params["n_samples"], params)
+    params["git_commit"] = git_commit()
     log_run(cfg.tracking.experiment, key, params=params, metrics=job_metrics(summarize(table)),
             artifacts=[results_path], tags={"git_commit": git_commit(), "grid": cfg.grid_name})
 

@@ -36,6 +36,7 @@ def job_run(grid: str, results_path: Path, commit: str) -> tuple[str, str, bool]
     params = job_params(method_cfg, float(data["noise_ug"]), int(data["t_s"].size),
                         int(table["replicate"].nunique()), int(data["seed"]))
     key = run_key(grid, method, params["noise_ug"], params["n_samples"], params)
+    params["git_commit"] = commit          # logged, but not part of the key: a new commit is not a new result
     rid, created = log_run(f"grid-{grid}", key, params=params, metrics=job_metrics(summarize(table)),
                            artifacts=[results_path], tags={"git_commit": commit, "grid": grid,
                                                            "kind": "job"})
