@@ -74,7 +74,8 @@ def main(argv=None) -> int:
         busy = args.wall_s * args.cores
         idle = busy - job
         print(f"workflow wall {args.wall_s:.0f} s x {args.cores} cores = {busy:.0f} core-s: "
-              f"numerical {100 * num / busy:.1f} %, imports {100 * imp / busy:.1f} %, pipeline in jobs {100 * pipe / busy:.1f} %, "
+              f"numerical {100 * num / busy:.1f} %, imports {100 * imp / busy:.1f} %, "
+              f"pipeline in jobs {100 * pipe / busy:.1f} %, "
               f"scheduling and idle cores {100 * idle / busy:.1f} %")
     return 0
 
