@@ -1,13 +1,14 @@
 """Augmented (extended) Kalman filter for the modal frequencies (paper §3.1, §4.1, eqs. 8–24).
 
-The four modal oscillators of eq. (8) and four random-walk frequency states (eq. 21) form one state
-vector; the filter is linearised about the current estimate (eq. 24). The model and the filter loop are
-in :mod:`methods._modal_filter`; this module is the method's face and its options.
+The modal oscillators of eq. (8) (four in the paper; one per prior frequency here) and as many
+random-walk frequency states (eq. 21) form one state vector; the filter is linearised about the current
+estimate (eq. 24). The model and the filter loop are in :mod:`methods._modal_filter`; this module is the
+method's face and its options.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from methods._modal_filter import run_filter, settings_from
 from methods.estimate import Estimate, check_inputs, make_options
@@ -15,7 +16,8 @@ from methods.estimate import Estimate, check_inputs, make_options
 
 @dataclass
 class Options:
-    """Options of the augmented Kalman filter; defaults are the paper's §4.1 tuning.
+    """Options of the augmented Kalman filter; defaults are the paper's §4.1 tuning, generalised to any
+    number of modes (the per-mode P0 of the frequencies is derived from the prior).
 
     Attributes
     ----------
@@ -34,9 +36,11 @@ class Options:
     rd : float
         Rd, variance of the measurement fed to the filter: m² (position) or (m/s²)² (acceleration)
         (§4.1: Rd = 1e-2).
-    p0_frequency_var : list[float]
-        Initial variance of the frequency states, (rad/s)², one per mode or one for all
-        (§4.1: P = diag(0,…,0, 1, 20, 40, 200)).
+    p0_frequency_var : list[float] or None
+        Initial variance of the frequency states, (rad/s)², one per mode or one for all. None (default):
+        derived from the prior, (0.27·ω̄_n)² for each prior frequency ω̄_n — §4.1's "uncertainty of
+        approximately 30 %", fitted to its P = diag(0,…,0, 1, 20, 40, 200) for the Table 3 priors, which it
+        gives as 1.05, 18.7, 49.3, 154. The paper's explicit list is in ``configs/method/akf.yaml``.
     p0_modal_scale : float
         The modal states start at zero with standard deviation ``p0_modal_scale`` × the largest
         magnitude of the measurement (× ω_prior for the rates; ÷ ω_prior² for acceleration): any mode could
@@ -52,7 +56,7 @@ class Options:
     qd_modal: float = 1e-4
     qd_frequency: float = 1e-4
     rd: float = 1e-2
-    p0_frequency_var: list[float] = field(default_factory=lambda: [1.0, 20.0, 40.0, 200.0])
+    p0_frequency_var: list[float] | None = None
     p0_modal_scale: float = 1.0
     estimate_bias: bool = True
     max_variance_growth: float = 1e8

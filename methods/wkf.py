@@ -22,8 +22,9 @@ from methods.estimate import Estimate, check_inputs, make_options
 @dataclass
 class Options(akf.Options):
     """Options of the frequency-weighted Kalman filter: those of :class:`methods.akf.Options` (same
-    meaning, same paper defaults, §4.2 "The initial conditions are as for the augmented Kalman filter")
-    plus the weighting filter of eq. (38) and R_f of eq. (29).
+    meaning, same defaults — including P0 of the frequencies derived from the prior, (0.27·ω̄_n)² —, §4.2
+    "The initial conditions are as for the augmented Kalman filter") plus the weighting filter of
+    eq. (38) and R_f of eq. (29).
 
     Attributes
     ----------
