@@ -21,46 +21,58 @@ between the modes and decays with damping, while the design rule under eq. (37) 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.signal
 
 from methods.estimate import Estimate, check_inputs, failed, make_options
 from methods.pll_design import (
+    VCO_LOWPASS_TIMES_OMEGA_L,
     LoopParameters,
+    default_filter_bandwidth,
+    default_loop_bandwidth,
     discretise_loop,
     input_filter_sos,
+    loop_time_constants,
     rule_parameters,
 )
 
-# Options holding one value per loop (in prior order)
+# Options holding one value per loop (in prior order); None = derived from the prior (see Options)
 PER_LOOP_OPTIONS = ("loop_bandwidth_rad_s", "t_vco_s", "t1_s", "t2_s", "t3_s", "gain",
                     "filter_bandwidth_rad_s")
 
 
 @dataclass
 class Options:
-    """Keyword options of :func:`identify`. Defaults: Table 6 with the §4.4 input filters.
+    """Keyword options of :func:`identify`.
 
+    The per-loop options (one entry per prior, or a single entry for every loop) default to None, i.e.
+    derived from the prior ω₀ and Δt (methods/pll_design.py, README_pll.md), so that any number of modes at
+    any frequencies works: ω_L = 0.22 min(ω₀, π/Δt − ω₀) with ω_LΔt ≤ 0.25 (Table 6: ω_L/ω₀ ≈ 0.21–0.25);
+    T₁, T₂, T₃ by the rule under eq. (37) at phase_margin_deg; T_VCO = 0.5/ω_L (Table 6's ratio); K = 1;
+    input-filter bandwidth 0.5 ω₀, capped so that neighbouring pass bands do not overlap. The paper's own
+    Table 6 values (for its prior 2.8, 16, 18, 52 rad/s) are written out in configs/method/pll.yaml.
     Fig. 6 of the paper also raises mode 1's K to 5; with a unit-gain detector that loop is unstable
-    (see methods/README_pll.md), so the default keeps Table 6's K = 1.
+    (see methods/README_pll.md).
     """
 
-    # Table 6, one entry per loop (a single entry is used for every loop)
-    loop_bandwidth_rad_s: list[float] = field(default_factory=lambda: [0.6, 4.0, 4.0, 11.3])   # ω_L
-    t_vco_s: list[float] = field(default_factory=lambda: [0.8, 0.12, 0.12, 0.045])             # eq. (36)
-    t1_s: list[float] = field(default_factory=lambda: [5.7, 0.15, 0.15, 0.02])                 # eq. (37)
-    t2_s: list[float] = field(default_factory=lambda: [3.7, 0.6, 0.6, 0.22])
-    t3_s: list[float] = field(default_factory=lambda: [0.64, 0.10, 0.10, 0.04])
-    gain: list[float] = field(default_factory=lambda: [1.0, 1.0, 1.0, 1.0])   # K (Fig. 6: mode 1 at 5)
-    # "table": the time constants above; "rule": T1–T3 from ω_L and phase_margin_deg (rule under eq. 37)
-    # and T_VCO = 0.5/ω_L (the ratio Table 6 uses)
+    # Table 6 columns, one entry per loop (a single entry is used for every loop); None: from the prior
+    loop_bandwidth_rad_s: list[float] | None = None   # ω_L
+    t_vco_s: list[float] | None = None                # eq. (36); None: 0.5/ω_L
+    t1_s: list[float] | None = None                   # eq. (37); None: the rule under eq. (37) at ω_L
+    t2_s: list[float] | None = None
+    t3_s: list[float] | None = None
+    gain: list[float] | None = None                   # K; None: 1 (Table 6; Fig. 6: mode 1 at 5)
+    # "table": the time constants given above (None entries from the rule); "rule": T1–T3 from ω_L and
+    # phase_margin_deg (rule under eq. 37) and T_VCO = 0.5/ω_L even where time constants are given
     design: str = "table"
     phase_margin_deg: float = 45.0
-    # Input filters (§4.4): Chebyshev I band-pass, centred on the prior unless filter_centre_rad_s is given
+    # Input filters (§4.4): Chebyshev I band-pass, centred on the prior unless filter_centre_rad_s is given.
+    # Bandwidth None: 0.5 × centre, capped at the geometric midpoints to the neighbouring centres
+    # (pll_design.default_filter_bandwidth); Table 6 / §4.4: 5, 9, 9, 12 rad/s
     input_filter: bool = True
-    filter_bandwidth_rad_s: list[float] = field(default_factory=lambda: [5.0, 9.0, 9.0, 12.0])
+    filter_bandwidth_rad_s: list[float] | None = None
     filter_centre_rad_s: list[float] | None = None
     filter_order: int = 3
     filter_ripple_db: float = 0.5        # not given by the paper
@@ -107,7 +119,15 @@ def identify(y, dt, prior, **options) -> Estimate:
     """
     y, dt, prior = check_inputs(y, dt, prior)
     opts = make_options(Options, options, "pll")
-    loops = _loop_parameters(opts, prior.size)
+    loops = _loop_parameters(opts, prior, dt)
+    centres = prior if opts.filter_centre_rad_s is None else _per_loop(
+        opts.filter_centre_rad_s, prior.size, "filter_centre_rad_s")
+    if opts.filter_bandwidth_rad_s is not None:
+        bandwidths = _per_loop(opts.filter_bandwidth_rad_s, prior.size, "filter_bandwidth_rad_s")
+    elif opts.input_filter:
+        bandwidths = default_filter_bandwidth(centres, dt)
+    else:
+        bandwidths = np.full(prior.size, np.nan)
     n = y.size
     if opts.remove_mean:
         y = y - y.mean()
@@ -120,9 +140,6 @@ def identify(y, dt, prior, **options) -> Estimate:
     lock = np.empty((n, prior.size))
     amplitude = np.empty(prior.size)
     clamped = np.zeros(prior.size, dtype=int)
-    centres = prior if opts.filter_centre_rad_s is None else _per_loop(
-        opts.filter_centre_rad_s, prior.size, "filter_centre_rad_s")
-    bandwidths = _per_loop(opts.filter_bandwidth_rad_s, prior.size, "filter_bandwidth_rad_s")
     for j, p in enumerate(loops):
         u = y
         if opts.input_filter:
@@ -133,7 +150,10 @@ def identify(y, dt, prior, **options) -> Estimate:
         lock[:, j] = l_hist
         amplitude[j] = amp
         clamped[j] = n_clamp
-    return _summarise(history, lock, amplitude, clamped, loops, window, dt, opts, prior)
+    est = _summarise(history, lock, amplitude, clamped, loops, window, dt, opts, prior)
+    est.extra["loop_bandwidth_rad_s"] = np.array([p.omega_l for p in loops])
+    est.extra["filter_bandwidth_rad_s"] = bandwidths if opts.input_filter else np.full(prior.size, np.nan)
+    return est
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -150,7 +170,9 @@ def _per_loop(values, m: int, name: str) -> np.ndarray:
     return v
 
 
-def _loop_parameters(opts: Options, m: int) -> list[LoopParameters]:
+def _loop_parameters(opts: Options, prior: np.ndarray, dt: float) -> list[LoopParameters]:
+    """Each loop's parameters: the options where given, else derived from the prior (Options docstring)."""
+    m = prior.size
     if opts.design not in ("table", "rule"):
         raise ValueError(f"pll option design = '{opts.design}' must be 'table' or 'rule'")
     if opts.normalisation not in ("agc", "none"):
@@ -167,14 +189,27 @@ def _loop_parameters(opts: Options, m: int) -> list[LoopParameters]:
         raise ValueError(f"pll option output_window_s = {opts.output_window_s} s must be positive")
     if not opts.min_acquisition_times >= 0:
         raise ValueError(f"pll option min_acquisition_times = {opts.min_acquisition_times} must be ≥ 0")
-    tabulated = ("t_vco_s", "t1_s", "t2_s", "t3_s")       # ignored by the rule design
-    v = {name: _per_loop(getattr(opts, name), m, name) for name in PER_LOOP_OPTIONS
-         if opts.design == "table" or name not in tabulated}
-    if opts.design == "rule":
-        return [rule_parameters(v["loop_bandwidth_rad_s"][j], v["gain"][j], opts.phase_margin_deg)
-                for j in range(m)]
-    return [LoopParameters(*(float(v[k][j]) for k in ("loop_bandwidth_rad_s", "t_vco_s", "t1_s", "t2_s",
-                                                       "t3_s", "gain"))) for j in range(m)]
+    if not 0 < opts.phase_margin_deg < 90:
+        raise ValueError(f"pll option phase_margin_deg = {opts.phase_margin_deg} must be in (0, 90)")
+    # Explicit lists are checked whatever the design (a wrong length is an error, not silently unused)
+    given = {name: _per_loop(getattr(opts, name), m, name) for name in PER_LOOP_OPTIONS
+             if getattr(opts, name) is not None}
+    omega_l = given.get("loop_bandwidth_rad_s")
+    if omega_l is None:
+        omega_l = default_loop_bandwidth(prior, dt)
+    gain = given.get("gain", np.ones(m))
+    loops = []
+    for j in range(m):
+        wl = float(omega_l[j])
+        if opts.design == "rule":
+            loops.append(rule_parameters(wl, float(gain[j]), opts.phase_margin_deg))
+            continue
+        rule = dict(zip(("t1_s", "t2_s", "t3_s"), loop_time_constants(wl, opts.phase_margin_deg),
+                        strict=True))
+        rule["t_vco_s"] = VCO_LOWPASS_TIMES_OMEGA_L / wl
+        t = {k: float(given[k][j]) if k in given else rule[k] for k in ("t_vco_s", "t1_s", "t2_s", "t3_s")}
+        loops.append(LoopParameters(wl, t["t_vco_s"], t["t1_s"], t["t2_s"], t["t3_s"], float(gain[j])))
+    return loops
 
 
 def _window_samples(opts: Options, n: int, dt: float) -> int:

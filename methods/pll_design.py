@@ -95,6 +95,88 @@ def rule_parameters(omega_l: float, gain: float = 1.0, phase_margin_deg: float =
 
 
 # --------------------------------------------------------------------------------------------------------
+# Defaults derived from the prior (the per-loop options of methods/pll.py left at None)
+# --------------------------------------------------------------------------------------------------------
+
+# Table 6 has ω_L/ω₀ = 0.6/2.8, 4/16, 4/18, 11.3/52 = 0.214, 0.250, 0.222, 0.217.
+OMEGA_L_PER_PRIOR = 0.22
+# Table 6's largest ω_L·Δt is 0.226 (loop 4 at Δt = 0.02 s). The VCO's one-sample delay costs phase margin
+# (rule loop, K = 1: 20.1° continuous, 14.0° at ω_LΔt = 0.226, 13.4° at 0.25, 9.3° at 0.4); cap at 0.25.
+MAX_OMEGA_L_DT = 0.25
+# Input filter: bandwidth 0.5 ω₀, a pass band of about ω₀ ± 25 % — §4.4's "at least 7–8 rad/s" for priors
+# 16 and 18 rad/s that are 21–27 % below the truth (Table 6 itself: 5, 9, 9, 12 rad/s; see README_pll.md).
+FILTER_BANDWIDTH_PER_PRIOR = 0.5
+# Never narrower than 0.1 ω₀ (priors too close to give each loop its own band)
+MIN_FILTER_BANDWIDTH_PER_PRIOR = 0.1
+# The upper band edge stays below ω₀ + 0.9 (π/Δt − ω₀)
+FILTER_EDGE_NYQUIST_FRACTION = 0.9
+
+
+def default_loop_bandwidth(prior, dt: float) -> np.ndarray:
+    """ω_L (rad/s) of each loop from its prior ω₀: 0.22 min(ω₀, π/Δt − ω₀), and ω_L Δt ≤ 0.25.
+
+    0.22 ω₀ is Table 6's ratio. It puts the detector's 2ω₀ ripple at 9 ω_L; near the Nyquist frequency that
+    ripple aliases to 2π/Δt − 2ω₀, hence the min. The ω_LΔt cap keeps ≥ 13° of phase margin at K = 1.
+    """
+    prior = np.asarray(prior, dtype=float).reshape(-1)
+    nyquist = math.pi / dt
+    if not np.all((prior > 0) & (prior < nyquist)):
+        raise ValueError(f"priors {prior.tolist()} rad/s must lie between 0 and the Nyquist frequency "
+                         f"{nyquist:.4g} rad/s")
+    return np.minimum(OMEGA_L_PER_PRIOR * np.minimum(prior, nyquist - prior), MAX_OMEGA_L_DT / dt)
+
+
+def _warp(omega, dt: float):
+    return np.tan(np.asarray(omega, dtype=float) * dt / 2.0)
+
+
+def _unwarp(tau, dt: float):
+    return 2.0 * np.arctan(tau) / dt
+
+
+def bandwidth_for_upper_edge(centre: float, upper: float, dt: float) -> float:
+    """The bandwidth (rad/s) of the :func:`band_edges` band centred on ``centre`` whose upper edge is ``upper``."""
+    lower = _unwarp(_warp(centre, dt) ** 2 / _warp(upper, dt), dt)
+    return float(upper - lower)
+
+
+def bandwidth_for_lower_edge(centre: float, lower: float, dt: float) -> float:
+    """The bandwidth (rad/s) of the :func:`band_edges` band centred on ``centre`` whose lower edge is ``lower``."""
+    upper = _unwarp(_warp(centre, dt) ** 2 / _warp(lower, dt), dt)
+    return float(upper - lower)
+
+
+def default_filter_bandwidth(centres, dt: float) -> np.ndarray:
+    """Input-filter bandwidths (rad/s) from the filter centres (the priors), for :func:`input_filter_sos`.
+
+    B = 0.5 ω₀, then capped so that a band does not reach past the (prewarped) geometric midpoint
+    2/Δt·atan(√(tan(ω₀Δt/2) tan(ω₁Δt/2))) between its centre ω₀ and a neighbouring centre ω₁: neighbouring
+    pass bands then at most touch, and each filter attenuates its neighbours' centres by ≥ 19 dB
+    (order 3, 0.5 dB ripple). Not below 0.1 ω₀ (if priors are that close the bands must overlap). The
+    upper edge stays below ω₀ + 0.9 (π/Δt − ω₀). Equal centres are not neighbours.
+    """
+    centres = np.asarray(centres, dtype=float).reshape(-1)
+    nyquist = math.pi / dt
+    if not np.all((centres > 0) & (centres < nyquist)):
+        raise ValueError(f"filter centres {centres.tolist()} rad/s must lie between 0 and the Nyquist "
+                         f"frequency {nyquist:.4g} rad/s")
+    out = np.empty(centres.size)
+    for j, c in enumerate(centres):
+        b = FILTER_BANDWIDTH_PER_PRIOR * c
+        above, below = centres[centres > c], centres[centres < c]
+        if above.size:
+            mid = float(_unwarp(np.sqrt(_warp(c, dt) * _warp(above.min(), dt)), dt))
+            b = min(b, bandwidth_for_upper_edge(c, mid, dt))
+        if below.size:
+            mid = float(_unwarp(np.sqrt(_warp(c, dt) * _warp(below.max(), dt)), dt))
+            b = min(b, bandwidth_for_lower_edge(c, mid, dt))
+        b = max(b, MIN_FILTER_BANDWIDTH_PER_PRIOR * c)
+        top = c + FILTER_EDGE_NYQUIST_FRACTION * (nyquist - c)
+        out[j] = min(b, bandwidth_for_upper_edge(c, top, dt))
+    return out
+
+
+# --------------------------------------------------------------------------------------------------------
 # Discretisation of the loop filters
 # --------------------------------------------------------------------------------------------------------
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,17 +13,24 @@ from methods import pll
 from methods.pll_design import (
     LoopParameters,
     band_edges,
+    default_filter_bandwidth,
+    default_loop_bandwidth,
     input_filter_sos,
     loop_time_constants,
     omega_l_from_time_constants,
     open_loop_response,
+    rule_parameters,
     stability_margins,
 )
 
 DT = 0.02
 TRUE = [3.23, 20.24, 22.00, 56.67]                 # Table 6 "True frequency"
 PRIOR = [2.80, 16.00, 18.00, 52.00]                # Table 6 "A priori frequency"
-TABLE6 = pll.Options()                             # the defaults are Table 6
+TABLE6 = pll.Options(                              # Table 6 and §4.4 (configs/method/pll.yaml)
+    loop_bandwidth_rad_s=[0.6, 4.0, 4.0, 11.3], t_vco_s=[0.8, 0.12, 0.12, 0.045],
+    t1_s=[5.7, 0.15, 0.15, 0.02], t2_s=[3.7, 0.6, 0.6, 0.22], t3_s=[0.64, 0.10, 0.10, 0.04],
+    gain=[1.0, 1.0, 1.0, 1.0], filter_bandwidth_rad_s=[5.0, 9.0, 9.0, 12.0])
+TABLE6_OPTIONS = {k: getattr(TABLE6, k) for k in pll.PER_LOOP_OPTIONS}
 AMPLITUDE = [1.06, 3.90, 5.12, 6.47]               # PHYSICS.md §3, coupled model, m/s²
 
 
@@ -103,7 +111,7 @@ def test_without_normalisation_a_small_input_slows_acquisition():
 
 def test_bank_on_a_tip_like_signal_locks_the_well_separated_modes():
     """Four damped modes, 41 s, input filters: modes 1 and 4 locked within 0.5 %; 2 and 3 interfere."""
-    est = pll.identify(tip_like(2048), DT, PRIOR, output_window_s=10.0)
+    est = pll.identify(tip_like(2048), DT, PRIOR, output_window_s=10.0, **TABLE6_OPTIONS)
     assert est.history.shape == (2048, 4)
     assert est.extra["locked"][0]
     for j in (0, 3):
@@ -116,7 +124,7 @@ def test_bank_on_a_tip_like_signal_locks_the_well_separated_modes():
 @pytest.mark.parametrize("n", [20, 32, 64, 128, 256])
 def test_short_records_are_reported_not_converged_without_exception(n):
     """0.4–5 s: shorter than (or barely as long as) the acquisition times 21, 3.1, 3.1, 1.1 s."""
-    est = pll.identify(tip_like(n, np.random.default_rng(1), 1e-2), DT, PRIOR)
+    est = pll.identify(tip_like(n, np.random.default_rng(1), 1e-2), DT, PRIOR, **TABLE6_OPTIONS)
     assert not est.converged
     assert est.history.shape == (n, 4)
     assert np.all(np.isfinite(est.frequencies))
@@ -125,7 +133,7 @@ def test_short_records_are_reported_not_converged_without_exception(n):
 
 
 def test_pure_noise_is_not_reported_as_locked():
-    est = pll.identify(np.random.default_rng(2).standard_normal(2048), DT, PRIOR)
+    est = pll.identify(np.random.default_rng(2).standard_normal(2048), DT, PRIOR, **TABLE6_OPTIONS)
     assert not est.converged
     assert not any(est.extra["locked"])
 
@@ -137,7 +145,7 @@ def test_identically_zero_record_fails_cleanly():
 
 
 def test_huge_noise_does_not_raise():
-    est = pll.identify(tip_like(512, np.random.default_rng(3), 1e3), DT, PRIOR)
+    est = pll.identify(tip_like(512, np.random.default_rng(3), 1e3), DT, PRIOR, **TABLE6_OPTIONS)
     assert est.history.shape == (512, 4)
     assert np.all((est.history > 0) & (est.history < math.pi / DT))
 
@@ -236,7 +244,7 @@ def test_mode4_filter_rejects_the_mode2_and_mode3_frequencies():
 
 def test_a_loop_still_ringing_at_the_end_of_a_short_record_is_not_reported_locked():
     """1.28 s of data: loop 4 (acquisition time 1.1 s) has a high lock indicator but still swings."""
-    est = pll.identify(tip_like(64), DT, PRIOR)
+    est = pll.identify(tip_like(64), DT, PRIOR, **TABLE6_OPTIONS)
     assert np.ptp(est.history[-16:, 3]) > 0.05 * TRUE[3]           # the final quarter is a transient
     assert est.extra["lock_indicator"][3] > 0.8
     assert not est.extra["locked"][3]
@@ -255,3 +263,192 @@ def test_agc_range_limit_makes_a_decayed_mode_hold_its_frequency():
     assert abs(held.frequencies[0] - TRUE[3]) < 0.02 * TRUE[3]
     assert abs(free.frequencies[0] - TRUE[3]) > 3 * abs(held.frequencies[0] - TRUE[3])
     assert held.std[0] < free.std[0]
+
+
+# --- defaults derived from the prior: any number of modes, frequencies, damping, Δt -----------------------
+
+def modes(w, a, zeta, dt, n, rng, noise_m_s2=0.0, bias_m_s2=0.0) -> np.ndarray:
+    """Sum of damped sinusoids a exp(−ζωt) cos(ω√(1−ζ²) t + φ), random phases, plus bias and white noise."""
+    t = np.arange(n) * dt
+    phase = rng.uniform(0, 2 * math.pi, len(w))
+    y = sum(ai * np.exp(-zeta * wi * t) * np.cos(wi * math.sqrt(1 - zeta**2) * t + p)
+            for ai, wi, p in zip(a, w, phase, strict=True))
+    return y + bias_m_s2 + noise_m_s2 * rng.standard_normal(n)
+
+
+@pytest.mark.parametrize("zeta", [0.0, 0.01])
+@pytest.mark.parametrize("m", [1, 2, 3, 5])
+def test_default_options_accept_any_number_of_priors(m, zeta):
+    """No per-loop option given: 1, 2, 3 or 5 loops are set up from the prior alone; shapes follow m."""
+    w = np.array([3.0, 9.0, 25.0, 50.0, 100.0])[:m]
+    dt, n = 0.01, 1500
+    est = pll.identify(modes(w, np.ones(m), zeta, dt, n, np.random.default_rng(m), 1e-2), dt, 1.1 * w)
+    assert est.frequencies.shape == est.std.shape == (m,)
+    assert est.history.shape == est.extra["lock_history"].shape == (n, m)
+    assert len(est.extra["locked"]) == len(est.extra["converged_per_mode"]) == m
+    for key in ("loop_bandwidth_rad_s", "filter_bandwidth_rad_s", "acquisition_time_s", "lock_indicator"):
+        assert np.shape(est.extra[key]) == (m,)
+    assert np.all(np.isfinite(est.frequencies))
+    assert np.all((est.history > 0) & (est.history < math.pi / dt))
+
+
+def test_a_three_entry_prior_with_default_options_runs_through_the_registry():
+    """The call that used to raise "loop_bandwidth_rad_s has 4 entries; the prior has 3"."""
+    import methods
+    est = methods.get("pll")(tip_like(512), DT, [4.3, 13.5, 26.0])
+    assert est.frequencies.shape == (3,) and est.history.shape == (512, 3)
+
+
+def test_an_explicit_list_of_the_wrong_length_still_raises():
+    with pytest.raises(ValueError, match="loop_bandwidth_rad_s has 4 entries; the prior has 3"):
+        pll.identify(tip_like(512), DT, [4.3, 13.5, 26.0], **TABLE6_OPTIONS)
+    with pytest.raises(ValueError, match="filter_bandwidth_rad_s has 2 entries; the prior has 3"):
+        pll.identify(tip_like(512), DT, [4.3, 13.5, 26.0], filter_bandwidth_rad_s=[5.0, 9.0])
+
+
+@pytest.mark.parametrize("prior", [6.3, 7.7])
+def test_default_options_lock_a_clean_sinusoid_from_a_10_percent_prior_error(prior):
+    """7 rad/s, prior 10 % off (ω_L = 0.22 ω₀ → pull-in ≈ ±33 %), 40 s ≈ 4–5 acquisition times."""
+    n = 2000
+    est = pll.identify(np.sin(7.0 * np.arange(n) * DT + 0.3), DT, [prior])
+    assert n * DT > 4 * est.extra["acquisition_time_s"][0]
+    assert est.converged, est.message
+    assert abs(est.frequencies[0] - 7.0) < 0.005 * 7.0              # measured: ≤ 0.012 %
+
+
+@pytest.mark.parametrize("seed", [2, 3])
+def test_default_options_lock_four_separated_modes_at_other_frequencies(seed):
+    """5, 12, 30, 80 rad/s (not the paper's), priors ±10 % off, undamped, 50 s: all four locked."""
+    w = np.array([5.0, 12.0, 30.0, 80.0])
+    prior = w * np.array([1.1, 0.9, 1.1, 0.9])
+    est = pll.identify(modes(w, [1, 2, 3, 4], 0.0, DT, 2500, np.random.default_rng(seed)), DT, prior)
+    assert est.converged, est.message
+    np.testing.assert_array_less(np.abs(est.frequencies - w), 0.005 * w)   # measured: ≤ 0.005 %
+
+
+def test_default_options_lock_six_octave_spaced_modes():
+    """1.5 … 48 rad/s, priors 5–10 % off, 120 s (≈ 3.4 acquisition times of the slowest loop)."""
+    w = np.array([1.5, 3.0, 6.0, 12.0, 24.0, 48.0])
+    prior = w * np.array([1.08, 0.92, 1.1, 0.9, 1.05, 0.95])
+    est = pll.identify(modes(w, [1, 1, 2, 2, 3, 3], 0.0, DT, 6000, np.random.default_rng(4)), DT, prior)
+    assert est.converged, est.message
+    np.testing.assert_array_less(np.abs(est.frequencies - w), 0.005 * w)   # measured: ≤ 0.03 %
+
+
+def test_lightly_damped_modes_lock_and_a_mode_that_has_decayed_is_reported_unlocked():
+    """ζ = 0.002: modes 1–3 stay locked through 50 s. ζ = 0.005: mode 4 (80 rad/s) decays by e⁻²⁰ and its
+    loop runs off; it must say so rather than return a wrong 'locked' frequency."""
+    w = np.array([5.0, 12.0, 30.0, 80.0])
+    prior = w * np.array([1.1, 0.9, 1.1, 0.9])
+    for zeta in (0.002, 0.005):
+        wd = w * math.sqrt(1 - zeta**2)
+        est = pll.identify(modes(w, [1, 2, 3, 4], zeta, DT, 2500, np.random.default_rng(5)), DT, prior)
+        assert all(est.extra["locked"][:3]), est.message
+        np.testing.assert_array_less(np.abs(est.frequencies[:3] - wd[:3]), 0.005 * wd[:3])
+    assert not est.extra["locked"][3]
+    assert abs(est.frequencies[3] - wd[3]) > 0.05 * wd[3]
+
+
+@pytest.mark.parametrize("remove_mean", [True, False])
+def test_sensor_bias_and_a_0_01_s_sample_interval(remove_mean):
+    """4, 11, 35 rad/s, ζ = 0.002, priors ±10 % off, 0.5 m/s² bias, 0.01 m/s² noise, Δt = 0.01 s, 60 s.
+    The band-pass input filters reject the bias even without mean removal."""
+    dt = 0.01
+    w = np.array([4.0, 11.0, 35.0])
+    wd = w * math.sqrt(1 - 0.002**2)
+    y = modes(w, [1, 2, 3], 0.002, dt, 6000, np.random.default_rng(6), noise_m_s2=1e-2, bias_m_s2=0.5)
+    est = pll.identify(y, dt, w * np.array([0.9, 1.1, 1.08]), remove_mean=remove_mean)
+    assert est.converged, est.message
+    np.testing.assert_array_less(np.abs(est.frequencies - wd), 0.005 * wd)  # measured: ≤ 0.015 %
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_capped_input_filters_separate_two_modes_20_percent_apart(seed):
+    """20 and 24 rad/s, priors 21 and 23: uncapped 0.5 ω₀ bands (10.5, 11.5 rad/s) both pass both modes and
+    neither loop locks; capped at the geometric midpoint (2.1, 2.3 rad/s) each loop locks on its mode."""
+    w, prior = np.array([20.0, 24.0]), np.array([21.0, 23.0])
+    y = modes(w, [1, 1], 0.0, DT, 2000, np.random.default_rng(seed))
+    capped = pll.identify(y, DT, prior)
+    uncapped = pll.identify(y, DT, prior, filter_bandwidth_rad_s=list(0.5 * prior))
+    assert capped.converged, capped.message
+    np.testing.assert_array_less(np.abs(capped.frequencies - w), 0.005 * w)  # measured: ≤ 0.12 %
+    assert not any(uncapped.extra["locked"])
+
+
+def test_default_options_on_hostile_data_do_not_raise_or_claim_lock():
+    noise = pll.identify(np.random.default_rng(7).standard_normal(2048), DT, [3.0, 20.0, 60.0])
+    assert not any(noise.extra["locked"])
+    short = pll.identify(np.random.default_rng(8).standard_normal(20), DT, [3.0, 20.0, 60.0])
+    assert not short.converged and short.history.shape == (20, 3)
+
+
+# --- the derivation rules, against Table 6 --------------------------------------------------------------
+
+def test_derived_loop_bandwidth_is_0_22_prior_close_to_table6():
+    """0.616, 3.52, 3.96, 11.44 rad/s vs Table 6's 0.6, 4.0, 4.0, 11.3: within 3 % except loop 2 (−12 %)."""
+    wl = default_loop_bandwidth(PRIOR, DT)
+    np.testing.assert_allclose(wl, 0.22 * np.array(PRIOR), rtol=1e-12)
+    rel = wl / np.array(TABLE6.loop_bandwidth_rad_s) - 1
+    assert np.all(np.abs(rel[[0, 2, 3]]) < 0.03) and -0.13 < rel[1] < -0.11
+    t_vco = 0.5 / wl                                     # Table 6: 0.8, 0.12, 0.12, 0.045 s
+    np.testing.assert_allclose(t_vco, TABLE6.t_vco_s, rtol=0.19)
+
+
+def test_derived_loop_bandwidth_respects_the_sampling_limits():
+    """ω_L Δt ≤ 0.25 (phase margin ≥ 13° with the VCO delay); near Nyquist 0.22 (π/Δt − ω₀) (aliased 2ω₀)."""
+    nyq = math.pi / DT
+    wl = default_loop_bandwidth([40.0, 80.0, nyq - 10.0], DT)
+    np.testing.assert_allclose(wl, [8.8, 0.25 / DT, 2.2])
+    for w in wl:
+        margins = stability_margins(rule_parameters(w), DT)
+        assert margins["phase_margin_deg"] > 13 and margins["gain_margin_db"] > 4.5
+
+
+def test_an_explicit_loop_bandwidth_alone_gets_the_rule_time_constants():
+    """ω_L given, T₁–T₃ and T_VCO left at None: the same loop as design='rule'."""
+    y = np.sin(9.0 * np.arange(600) * DT)
+    a = pll.identify(y, DT, [8.0], loop_bandwidth_rad_s=[2.0])
+    b = pll.identify(y, DT, [8.0], loop_bandwidth_rad_s=[2.0], design="rule",
+                     t1_s=[9.9], t2_s=[9.9], t3_s=[9.9], t_vco_s=[9.9])
+    np.testing.assert_array_equal(a.history, b.history)
+
+
+def test_derived_filter_bandwidth_is_half_the_prior_unless_a_neighbour_is_closer():
+    """Isolated: 0.5 ω₀ (pass band ≈ ω₀ ± 25 %). Neighbours: bands meet at the prewarped geometric midpoint
+    and each filter attenuates the neighbouring centre by ≥ 19 dB."""
+    np.testing.assert_allclose(default_filter_bandwidth([7.0], DT), [3.5])
+    np.testing.assert_allclose(default_filter_bandwidth([1.0, 2.0, 4.0, 8.0], DT), [0.5, 1.0, 2.0, 4.0])
+    centres = [12.0, 14.0, 30.0]
+    b = default_filter_bandwidth(centres, DT)
+    edges = [band_edges(c, bw, DT) for c, bw in zip(centres, b, strict=True)]
+    assert abs(edges[0][1] - edges[1][0]) < 1e-9                   # 12 and 14 meet, ...
+    assert edges[1][1] < edges[2][0]                               # 14 and 30 do not need to
+    mid = 2 / DT * math.atan(math.sqrt(math.tan(12 * DT / 2) * math.tan(14 * DT / 2)))
+    assert abs(edges[0][1] - mid) < 1e-9
+    for j, k in [(0, 1), (1, 0)]:
+        _, h = scipy.signal.sosfreqz(input_filter_sos(centres[j], b[j], DT), worN=[centres[k] * DT])
+        assert 20 * np.log10(abs(h[0])) < -19
+
+
+def test_derived_filter_bandwidths_for_the_papers_prior_differ_from_table6():
+    """Paper prior 2.8, 16, 18, 52: 1.4, 1.89, 2.12, 26 rad/s (Table 6: 5, 9, 9, 12). 16 and 18 are too close
+    for 0.5 ω₀ bands; Table 6's overlapping 9 rad/s bands are what the paper blames for loops 2–3."""
+    np.testing.assert_allclose(default_filter_bandwidth(PRIOR, DT), [1.4, 1.890, 2.116, 26.0], atol=2e-3)
+
+
+def test_derived_filter_fits_below_nyquist_and_floors_at_a_tenth_of_the_prior():
+    nyq = math.pi / DT
+    b = default_filter_bandwidth([nyq - 5.0], DT)[0]
+    assert band_edges(nyq - 5.0, b, DT)[1] < nyq - 0.5 + 1e-9     # upper edge ≤ ω₀ + 0.9 (π/Δt − ω₀)
+    est = pll.identify(np.sin((nyq - 6.0) * np.arange(500) * DT), DT, [nyq - 5.0])   # designable, runs
+    assert np.all(np.isfinite(est.frequencies))
+    np.testing.assert_allclose(default_filter_bandwidth([10.0, 10.01], DT), [1.0, 1.001])
+
+
+def test_method_config_keeps_the_table6_values_for_the_papers_prior():
+    from omegaconf import OmegaConf
+    cfg = OmegaConf.load(Path(__file__).parents[2] / "configs" / "method" / "pll.yaml")
+    assert list(cfg.prior_rad_s) == PRIOR
+    for key, value in TABLE6_OPTIONS.items():
+        assert list(cfg.options[key]) == value, key
+    assert cfg.options.design == "table"
