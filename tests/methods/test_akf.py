@@ -5,39 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.linalg
+from _signals import DT, damped_modes
 
 from methods import akf
 from methods._modal_filter import double_integrate, modal_transition, run_filter, settings_from
-
-DT = 0.02
-UG = 9.80665e-6
-
-
-def damped_modes(freq, amp, n, *, zeta=0.005, noise_ug=0.0, seed=1, phase=None, dt=DT, bias=0.0):
-    """Sum of damped cosines (the shape of the tip signal) plus a constant bias and white noise of
-    noise_ug (1σ)."""
-    t = np.arange(n) * dt
-    phase = np.zeros(len(freq)) if phase is None else phase
-    y = sum(a * np.exp(-zeta * w * t) * np.cos(w * np.sqrt(1 - zeta**2) * t + p)
-            for w, a, p in zip(freq, amp, phase, strict=True))
-    return y + bias + noise_ug * UG * np.random.default_rng(seed).standard_normal(n)
-
-
-# Plants the paper never saw: 1, 2, 3 and 5 modes (frequencies rad/s, amplitudes m/s², phases drawn once).
-# With the default position measurement the lowest mode is the well-excited one: after two integrations
-# its amplitude a/ω² = 0.08–0.16 m is of the order of √Rd = 0.1 m; the higher modes' are 0.002–0.03 m.
-OTHER_PLANTS = {
-    1: ([5.0], [2.0]),
-    2: ([2.5, 12.0], [1.0, 3.0]),
-    3: ([4.0, 15.0, 35.0], [1.5, 3.0, 5.0]),
-    5: ([3.0, 9.0, 20.0, 33.0, 50.0], [1.0, 2.0, 3.0, 4.0, 5.0]),
-}
-
-
-def other_plant(m, n, *, dt=DT, **kwargs):
-    freq, amp = OTHER_PLANTS[m]
-    phase = np.random.default_rng(10 + m).uniform(-np.pi, np.pi, m)
-    return np.array(freq), damped_modes(freq, amp, n, phase=phase, dt=dt, **kwargs)
 
 
 def oscillator(w, zeta):
@@ -197,46 +168,3 @@ def test_default_frequency_p0_is_derived_from_the_prior_close_to_table_3():
 def test_an_explicit_p0_list_of_the_wrong_length_is_a_clear_error():
     with pytest.raises(ValueError, match=r"p0_frequency_var = \[1.0, 20.0, 40.0, 200.0\] must be one"):
         akf.identify(np.ones(64), DT, [4.3, 13.5, 26.0], p0_frequency_var=[1.0, 20.0, 40.0, 200.0])
-
-
-@pytest.mark.parametrize("m", [1, 2, 3, 5])
-@pytest.mark.parametrize("prior_factor", [0.9, 1.1])
-def test_default_options_take_any_number_of_modes_and_find_the_well_excited_one(m, prior_factor):
-    # 10 % prior error, 1 µg, 30 s. Measured: the lowest mode ends 0.00–0.22 % off; the higher modes
-    # are barely learned through the position measurement (0.6–9.8 % off, i.e. near their priors).
-    freq, y = other_plant(m, 1500, noise_ug=1.0, seed=m)
-    est = akf.identify(y, DT, prior_factor * freq)
-    assert est.converged, est.message
-    assert est.frequencies.shape == est.std.shape == (m,)
-    assert est.history.shape == (1500, m)
-    assert np.all(np.isfinite(est.std)) and np.all(est.std > 0)
-    rel = np.abs(est.frequencies - freq) / freq
-    assert rel[0] < 0.01
-    assert np.all(rel < 0.15)            # no mode wanders off or swaps with a neighbour
-
-
-@pytest.mark.parametrize("dt", [0.01, 0.05])
-def test_other_sample_intervals_find_the_well_excited_mode(dt):
-    # three modes, 30 s, 10 % low prior. Measured: lowest mode 0.32 % (Δt = 0.01 s), 0.11 % (0.05 s) off
-    n = int(round(30.0 / dt))
-    freq, y = other_plant(3, n, dt=dt, noise_ug=1.0, seed=2)
-    est = akf.identify(y, dt, 0.9 * freq)
-    assert est.converged, est.message
-    assert est.history.shape == (n, 3)
-    assert abs(est.frequencies[0] - freq[0]) < 0.01 * freq[0]
-    assert np.all(np.abs(est.frequencies - freq) < 0.15 * freq)
-
-
-@pytest.mark.parametrize("m", [3, 5])
-@pytest.mark.parametrize("bias", [-0.3, 0.05])
-def test_a_sensor_bias_and_four_times_the_assumed_damping_leave_the_estimate_finite(m, bias):
-    # truth ζ = 0.02, the filter keeps its assumed 0.005; a constant accelerometer bias (m/s²), 10 µg.
-    freq, y = other_plant(m, 1500, zeta=0.02, bias=bias, noise_ug=10.0, seed=3)
-    est = akf.identify(y, DT, 0.9 * freq)
-    assert est.converged, est.message
-    assert est.frequencies.shape == (m,)
-    assert np.all(np.isfinite(est.frequencies)) and np.all(est.frequencies > 0)
-    # the damping mismatch costs accuracy (measured: lowest mode 0.7–1.4 % off), the bias does not
-    # spoil it: the bias state of the drift model [c, v, b] recovers b (measured within 1e-5 m/s²)
-    assert abs(est.frequencies[0] - freq[0]) < 0.05 * freq[0]
-    assert est.extra["final_state"][3 * m + 2] == pytest.approx(bias, abs=1e-3)

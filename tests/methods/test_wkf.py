@@ -8,37 +8,12 @@ import dataclasses
 import numpy as np
 import pytest
 import scipy.signal
+from _signals import DT, damped_modes
 
 from methods import akf, wkf
 from methods._modal_filter import run_filter, settings_from
 
-DT = 0.02
-UG = 9.80665e-6
 K, W0, XI = 10.0, 3.0, 0.2          # eq. (38), §4.2
-
-
-def damped_modes(freq, amp, n, *, zeta=0.005, noise_ug=0.0, seed=1, phase=None, dt=DT, bias=0.0):
-    t = np.arange(n) * dt
-    phase = np.zeros(len(freq)) if phase is None else phase
-    y = sum(a * np.exp(-zeta * w * t) * np.cos(w * np.sqrt(1 - zeta**2) * t + p)
-            for w, a, p in zip(freq, amp, phase, strict=True))
-    return y + bias + noise_ug * UG * np.random.default_rng(seed).standard_normal(n)
-
-
-# Plants the paper never saw (as in test_akf): 1, 2, 3 and 5 modes; with the default position measurement
-# the lowest mode is the well-excited one (a/ω² = 0.08–0.16 m after two integrations, √Rd = 0.1 m).
-OTHER_PLANTS = {
-    1: ([5.0], [2.0]),
-    2: ([2.5, 12.0], [1.0, 3.0]),
-    3: ([4.0, 15.0, 35.0], [1.5, 3.0, 5.0]),
-    5: ([3.0, 9.0, 20.0, 33.0, 50.0], [1.0, 2.0, 3.0, 4.0, 5.0]),
-}
-
-
-def other_plant(m, n, *, dt=DT, **kwargs):
-    freq, amp = OTHER_PLANTS[m]
-    phase = np.random.default_rng(10 + m).uniform(-np.pi, np.pi, m)
-    return np.array(freq), damped_modes(freq, amp, n, phase=phase, dt=dt, **kwargs)
 
 
 def discrete_gain(wf, omega):
@@ -163,46 +138,3 @@ def test_default_frequency_p0_is_the_augmented_filters_rule_for_any_number_of_mo
         np.testing.assert_allclose(p0, (0.27 * prior) ** 2, rtol=1e-12)
     with pytest.raises(ValueError, match=r"p0_frequency_var = \[1.0, 20.0, 40.0, 200.0\] must be one"):
         wkf.identify(np.ones(64), DT, [4.3, 13.5, 26.0], p0_frequency_var=[1.0, 20.0, 40.0, 200.0])
-
-
-@pytest.mark.parametrize("m", [1, 2, 3, 5])
-@pytest.mark.parametrize("prior_factor", [0.9, 1.1])
-def test_default_options_take_any_number_of_modes_and_find_the_well_excited_one(m, prior_factor):
-    # 10 % prior error, 1 µg, 30 s. Measured: the lowest mode ends 0.01–0.17 % off; the higher modes are
-    # barely learned through the position measurement and the ω0 = 3 rad/s weighting (0.6–10.2 % off).
-    freq, y = other_plant(m, 1500, noise_ug=1.0, seed=m)
-    est = wkf.identify(y, DT, prior_factor * freq)
-    assert est.converged, est.message
-    assert est.frequencies.shape == est.std.shape == (m,)
-    assert est.history.shape == (1500, m)
-    assert np.all(np.isfinite(est.std)) and np.all(est.std > 0)
-    rel = np.abs(est.frequencies - freq) / freq
-    assert rel[0] < 0.01
-    assert np.all(rel < 0.15)            # no mode wanders off or swaps with a neighbour
-
-
-@pytest.mark.parametrize("dt", [0.01, 0.05])
-def test_other_sample_intervals_find_the_well_excited_mode(dt):
-    # the weighting filter is re-discretised for Δt. Measured: lowest mode 0.26 % (0.01 s), 0.09 % (0.05 s)
-    n = int(round(30.0 / dt))
-    freq, y = other_plant(3, n, dt=dt, noise_ug=1.0, seed=2)
-    est = wkf.identify(y, dt, 0.9 * freq)
-    assert est.converged, est.message
-    assert est.history.shape == (n, 3)
-    assert abs(est.frequencies[0] - freq[0]) < 0.01 * freq[0]
-    assert np.all(np.abs(est.frequencies - freq) < 0.15 * freq)
-
-
-@pytest.mark.parametrize("m", [3, 5])
-@pytest.mark.parametrize("bias", [-0.3, 0.05])
-def test_a_sensor_bias_and_four_times_the_assumed_damping_leave_the_estimate_finite(m, bias):
-    # truth ζ = 0.02, the filter keeps its assumed 0.005; a constant accelerometer bias (m/s²), 10 µg.
-    freq, y = other_plant(m, 1500, zeta=0.02, bias=bias, noise_ug=10.0, seed=3)
-    est = wkf.identify(y, DT, 0.9 * freq)
-    assert est.converged, est.message
-    assert est.frequencies.shape == (m,)
-    assert np.all(np.isfinite(est.frequencies)) and np.all(est.frequencies > 0)
-    # measured: lowest mode 0.5–1.6 % off (the damping mismatch); the drift model's bias state b
-    # (after q, q̇, ω, c, v) recovers the bias within 2e-5 m/s²
-    assert abs(est.frequencies[0] - freq[0]) < 0.05 * freq[0]
-    assert est.extra["final_state"][3 * m + 2] == pytest.approx(bias, abs=1e-3)
