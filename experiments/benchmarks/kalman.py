@@ -19,11 +19,11 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # before numpy loads OpenBLAS; see the docstring
 
 import argparse  # noqa: E402
-import statistics  # noqa: E402
-import time  # noqa: E402
+from functools import partial  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from experiments.benchmarks import median_seconds  # noqa: E402
 from experiments.datasets import UG  # noqa: E402
 from experiments.plant import build_plant  # noqa: E402
 from methods import akf, wkf  # noqa: E402
@@ -31,15 +31,6 @@ from methods import akf, wkf  # noqa: E402
 PRIOR = [3.80, 16.00, 26.00, 46.00]     # Table 3
 DT_S = 0.02
 TARGET_S = 0.020                         # per 256-sample record and filter
-
-
-def median_time(identify, y: np.ndarray, repeats: int, **options) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        identify(y, DT_S, PRIOR, **options)
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def main(argv=None) -> None:
@@ -57,8 +48,8 @@ def main(argv=None) -> None:
         y = plant.tip_acceleration(n, DT_S) + 10 * UG * rng.standard_normal(n)
         for measurement in ("position", "acceleration"):
             akf.identify(y, DT_S, PRIOR, measurement=measurement)       # warm-up (imports, caches)
-            ta = median_time(akf.identify, y, args.repeats, measurement=measurement)
-            tw = median_time(wkf.identify, y, args.repeats, measurement=measurement)
+            ta = median_seconds(partial(akf.identify, y, DT_S, PRIOR, measurement=measurement), args.repeats)
+            tw = median_seconds(partial(wkf.identify, y, DT_S, PRIOR, measurement=measurement), args.repeats)
             ran = [mod.identify(y, DT_S, PRIOR, measurement=measurement).iterations for mod in (akf, wkf)]
             note = "" if min(ran) == n else f"  (filtered {ran[0]} / {ran[1]} samples before divergence)"
             print(f"{n:>8} {measurement:>13} {1e3 * ta:>8.2f} {1e3 * tw:>8.2f} {tw / ta:>8.2f} "

@@ -10,13 +10,13 @@ filters (scipy.signal.sosfilt, outside the per-sample loop) cost. Target: ≲ 50
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
+from functools import partial
 
 import numpy as np
 from omegaconf import OmegaConf
 
 from experiments.app import CONFIG_DIR
+from experiments.benchmarks import median_seconds
 from experiments.datasets import UG
 from experiments.plant import build_plant
 from methods import pll
@@ -26,15 +26,6 @@ PRIOR = list(_CONFIG.prior_rad_s)                     # Table 6
 PAPER_OPTIONS = OmegaConf.to_container(_CONFIG.options)
 DT_S = 0.02
 TARGET_S = 0.050                         # per 2048-sample record, for the 100-replicate grid on 2 cores
-
-
-def median_time(y: np.ndarray, repeats: int, **options) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        pll.identify(y, DT_S, PRIOR, **options)
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def main(argv=None) -> None:
@@ -49,7 +40,8 @@ def main(argv=None) -> None:
         y = plant.tip_acceleration(n, DT_S) + 1000 * UG * rng.standard_normal(n)
         pll.identify(y, DT_S, PRIOR, **PAPER_OPTIONS)       # warm-up (imports, caches)
         for filters in (True, False):
-            t = median_time(y, args.repeats, **(PAPER_OPTIONS | {"input_filter": filters}))
+            t = median_seconds(partial(pll.identify, y, DT_S, PRIOR, **(PAPER_OPTIONS | {"input_filter": filters})),
+                               args.repeats)
             print(f"{n:>8} {str(filters):>8} {1e3 * t:>10.2f} {1e6 * t / n:>10.2f} "
                   f"{1e6 * t / n / len(PRIOR):>15.2f}")
             if n == 2048 and filters:
