@@ -47,7 +47,8 @@ def main(argv=None) -> None:
     for n in (256, 2048):
         y = plant.tip_acceleration(n, DT_S) + 10 * UG * rng.standard_normal(n)
         for measurement in ("position", "acceleration"):
-            akf.identify(y, DT_S, PRIOR, measurement=measurement)       # warm-up (imports, caches)
+            for _ in range(3):                                              # warm-up (imports, caches)
+                akf.identify(y, DT_S, PRIOR, measurement=measurement)
             ta = median_seconds(partial(akf.identify, y, DT_S, PRIOR, measurement=measurement), args.repeats)
             tw = median_seconds(partial(wkf.identify, y, DT_S, PRIOR, measurement=measurement), args.repeats)
             ran = [mod.identify(y, DT_S, PRIOR, measurement=measurement).iterations for mod in (akf, wkf)]
