@@ -100,12 +100,7 @@ def register(*, dataset: bool = False, with_methods: list[str] | None = None,
     for name in with_methods or []:
         if name not in methods.names():
             continue            # reported by Hydra as an unknown option of the group, with the known names
-        try:
-            node = method_schema(name)
-        except ModuleNotFoundError as exc:   # a registered method whose module is not written yet
-            if exc.name != f"methods.{name}":
-                raise
-            continue
+        node = method_schema(name)
         cs.store(group="method", name=f"{name}_schema", node=node)
     for name, module in (experiments or {}).items():
         cs.store(group="experiment", name=f"{name}_schema", node=experiment_schema(name, module))

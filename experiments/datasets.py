@@ -15,6 +15,7 @@ File schema (every entry a plain numpy array; ``numpy.load(path)`` reads it, no 
 | ``crlb_offset_std_rad_s`` | (4,) | the same with the sensor offset unknown too (17 unknowns) |
 | ``provenance_json`` | () str | the config, seed scheme, package versions |
 
+Read a cell with ``experiments.io.read_npz`` (or ``numpy.load``).
 Replicate r of a cell draws its noise from ``numpy.random.default_rng([seed, noise_ng, N, r])`` with
 ``noise_ng`` the noise level in nano-g: the same config gives the same bytes, and a cell with R = 20 holds
 the first 20 replicates of the same cell with R = 100.
@@ -29,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.io import read_npz, write_npz
+from experiments.io import write_npz
 from experiments.plant import PlantConfig
 
 G0 = 9.80665                 # standard gravity, m/s²
@@ -87,7 +88,7 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
     bound = crlb_std(*modal, cfg.n_samples, cfg.dt_s, sigma)
     bound_offset = crlb_std(*modal, cfg.n_samples, cfg.dt_s, sigma, offset=True)
     provenance = {
-        "config": {k: v for k, v in _plain(asdict(cfg)).items() if k != "out"},
+        "config": {k: v for k, v in asdict(cfg).items() if k != "out"},
         "noise_scheme": "numpy.random.default_rng([seed, round(noise_ug*1000), n_samples, replicate])",
         "versions": _versions(),
     }
@@ -113,19 +114,6 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
 
 def write_cell(cfg: DatasetConfig) -> Path:
     return write_npz(cfg.out, make_cell(cfg))
-
-
-def load_cell(path) -> dict[str, np.ndarray]:
-    """Read a cell file into a dict of arrays (scalars as 0-d arrays)."""
-    return read_npz(path)
-
-
-def _plain(obj):
-    if isinstance(obj, dict):
-        return {k: _plain(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_plain(v) for v in obj]
-    return obj
 
 
 def _versions() -> dict[str, str]:

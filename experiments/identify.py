@@ -111,7 +111,7 @@ def task(cfg) -> None:
     if cfg.tracking.enabled:
         import pandas as pd
 
-        log_job(cfg, pd.read_csv(out), out)
+        log_job(cfg, cell, pd.DataFrame(rows, columns=COLUMNS), out)
 
 
 def rows_to_csv(rows: list[dict]) -> str:
@@ -148,11 +148,10 @@ def job_params(method_cfg: dict, noise_ug, n_samples, replicates, seed) -> dict:
     return params
 
 
-def log_job(cfg, table, results_path: Path) -> None:
+def log_job(cfg, cell: dict, table, results_path: Path) -> None:
     from experiments.summary import job_metrics, summarize
     from experiments.tracking import git_commit, log_run
 
-    cell = read_npz(cfg.data.dataset)
     method_cfg = OmegaConf.to_container(cfg.method, resolve=True)
     method_cfg["prior_rad_s"] = prior_of(cfg).tolist()
     params = job_params(method_cfg, float(cell["noise_ug"]), int(cell["t_s"].size),

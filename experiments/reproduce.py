@@ -29,20 +29,6 @@ EXPERIMENTS = {
 }
 
 
-def available() -> dict[str, str]:
-    """The registered experiments whose modules exist."""
-    out = {}
-    for name, module in EXPERIMENTS.items():
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name != module:
-                raise
-            continue
-        out[name] = module
-    return out
-
-
 def task(cfg) -> None:
     exp = OmegaConf.to_object(cfg.experiment)
     module = importlib.import_module(cfg.experiment.module)
@@ -72,5 +58,5 @@ def flatten(tree: dict, prefix: str) -> dict:
 
 
 if __name__ == "__main__":
-    register(experiments=available())
+    register(experiments=EXPERIMENTS)
     run_app("reproduce", task)

@@ -1,7 +1,8 @@
 import numpy as np
 import pytest
 
-from experiments.datasets import UG, DatasetConfig, load_cell, make_cell, write_cell
+from experiments.datasets import UG, DatasetConfig, make_cell, write_cell
+from experiments.io import read_npz
 from experiments.plant import PlantConfig, build_plant
 
 
@@ -42,7 +43,7 @@ def test_fewer_replicates_are_a_prefix_of_more(tmp_path):
 
 def test_file_holds_truth_from_the_generating_model(tmp_path):
     path = write_cell(cfg(tmp_path, plant=PlantConfig(calibrate=False)))
-    cell = load_cell(path)
+    cell = read_npz(path)
     truth = build_plant(PlantConfig(calibrate=False))
     np.testing.assert_allclose(cell["truth_freq_rad_s"], truth.freq_rad_s)
     assert cell["accel_m_s2"].shape == (4, 256)
