@@ -63,7 +63,8 @@ def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed
 
 
 def _cell_axes(ax, noises, lengths, *, ylabel: bool = True):
-    ax.set_xticks(range(len(lengths)), [str(n) for n in lengths])
+    ax.set_xticks(range(len(lengths)), [str(n) for n in lengths], rotation=90 if len(lengths) > 5 else 0,
+                  fontsize=8 if len(lengths) > 5 else None)
     ax.set_yticks(range(len(noises)), [f"{v:g}" for v in noises] if ylabel else [])
     ax.set_xlabel("record length (samples)")
     if ylabel:
