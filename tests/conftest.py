@@ -3,8 +3,8 @@ import os
 import numpy as np
 import pytest
 
-from experiments.datasets import UG
-from experiments.plant import PlantConfig, build_plant
+from experiments.simulate.datasets import UG
+from experiments.simulate.plant import PlantConfig, build_plant
 
 # Physics tests use seeds 1-99; the grids score on seed 20261121 and nothing is tuned on it.
 

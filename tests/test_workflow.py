@@ -73,7 +73,7 @@ def test_a_killed_job_leaves_no_file_snakemake_takes_for_done(smoke_run, tmp_pat
     # Re-running identify into a fresh path with the process killed mid-way leaves no output file.
     cell = next((smoke_run / "results" / "smoke" / "data").glob("*.npz"))
     target = tmp_path / "res.csv"
-    proc = subprocess.Popen([sys.executable, "-m", "experiments.identify", "method=fft",
+    proc = subprocess.Popen([sys.executable, "-m", "experiments.jobs.identify", "method=fft",
                              f"data.dataset={cell}", f"out={target}", "tracking.enabled=false",
                              f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
     proc.kill()

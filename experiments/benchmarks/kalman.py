@@ -24,8 +24,8 @@ from functools import partial  # noqa: E402
 import numpy as np  # noqa: E402
 
 from experiments.benchmarks import median_seconds  # noqa: E402
-from experiments.datasets import UG  # noqa: E402
-from experiments.plant import build_plant  # noqa: E402
+from experiments.simulate.datasets import UG  # noqa: E402
+from experiments.simulate.plant import build_plant  # noqa: E402
 from methods import akf, wkf  # noqa: E402
 
 PRIOR = [3.80, 16.00, 26.00, 46.00]     # Table 3

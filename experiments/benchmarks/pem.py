@@ -9,7 +9,7 @@ Accuracy: the truth plant's tip acceleration + white noise on the grid noise ∈
 N ∈ {20, 32, 64, 128, 256}, Δt = 0.02 s, Table 4 priors, replicate r's noise from
 ``replicate_rng(seed, noise, N, r)`` with seed 1 by default (never the grid's scoring seed 20261121).
 A mode is identifiable where its CRLB std ≤ 1 % of its frequency and ≤ 10 % of the distance to the
-nearest other mode (``experiments.scoring.identifiable``). For each setting the table gives RMSE/CRLB per
+nearest other mode (``experiments.report.scoring.identifiable``). For each setting the table gives RMSE/CRLB per
 mode (``*`` = identifiable), against the bound with the offset known (the grid's) and, in brackets, with an
 unknown offset (the bound for an estimator that must estimate the sensor bias). Failure: not converged,
 or an identifiable mode more than 5 CRLB std off.
@@ -36,10 +36,10 @@ from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.optimize  # noqa: E402
 
-from experiments.crlb import crlb_std  # noqa: E402
-from experiments.datasets import UG, replicate_rng  # noqa: E402
-from experiments.plant import build_plant  # noqa: E402
-from experiments.scoring import identifiable  # noqa: E402
+from experiments.report.scoring import identifiable  # noqa: E402
+from experiments.simulate.crlb import crlb_std  # noqa: E402
+from experiments.simulate.datasets import UG, replicate_rng  # noqa: E402
+from experiments.simulate.plant import build_plant  # noqa: E402
 from methods import _pem_predictor as pp  # noqa: E402
 from methods import _pem_search as search  # noqa: E402
 from methods import pem  # noqa: E402

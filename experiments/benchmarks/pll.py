@@ -15,10 +15,10 @@ from functools import partial
 import numpy as np
 from omegaconf import OmegaConf
 
-from experiments.app import CONFIG_DIR
 from experiments.benchmarks import median_seconds
-from experiments.datasets import UG
-from experiments.plant import build_plant
+from experiments.jobs.app import CONFIG_DIR
+from experiments.simulate.datasets import UG
+from experiments.simulate.plant import build_plant
 from methods import pll
 
 _CONFIG = OmegaConf.load(f"{CONFIG_DIR}/method/pll.yaml")

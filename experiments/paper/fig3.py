@@ -28,10 +28,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from experiments.crlb import crlb_std  # noqa: E402
-from experiments.datasets import UG, replicate_rng  # noqa: E402
 from experiments.io import atomic_write_text, markdown_table, save_figure, write_table  # noqa: E402
-from experiments.plant import PlantConfig, build_plant  # noqa: E402
+from experiments.simulate.crlb import crlb_std  # noqa: E402
+from experiments.simulate.datasets import UG, replicate_rng  # noqa: E402
+from experiments.simulate.plant import PlantConfig, build_plant  # noqa: E402
 from methods import akf, wkf  # noqa: E402
 
 FILTERS = {"akf": akf, "wkf": wkf}

@@ -26,9 +26,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from experiments.datasets import UG  # noqa: E402
 from experiments.io import save_figure, write_table  # noqa: E402
-from experiments.plant import PlantConfig, build_plant  # noqa: E402
+from experiments.simulate.datasets import UG  # noqa: E402
+from experiments.simulate.plant import PlantConfig, build_plant  # noqa: E402
 from methods import pll  # noqa: E402
 from methods.pll_design import (  # noqa: E402
     LoopParameters,

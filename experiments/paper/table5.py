@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from experiments.crlb import crlb_std
-from experiments.datasets import UG, replicate_rng
 from experiments.io import atomic_write_text, markdown_table, write_table
-from experiments.plant import PlantConfig, build_plant
+from experiments.simulate.crlb import crlb_std
+from experiments.simulate.datasets import UG, replicate_rng
+from experiments.simulate.plant import PlantConfig, build_plant
 from methods import pem
 
 FAR_CRLB = 5.0           # a replicate is "far" when a mode is more than this many CRLB std off

@@ -8,6 +8,6 @@ rule dataset:
     log:
         "results/{grid}/logs/dataset/noise{noise}ug_n{n}.log",
     shell:
-        "python -m experiments.make_dataset noise_ug={wildcards.noise} n_samples={wildcards.n}"
+        "python -m experiments.jobs.make_dataset noise_ug={wildcards.noise} n_samples={wildcards.n}"
         " replicates={params.grid[replicates]} seed={params.grid[seed]} dt_s={params.grid[dt_s]}"
         " bias_m_s2={params.grid[bias_m_s2]} out={output} > {log} 2>&1"

@@ -14,6 +14,6 @@ rule identify:
     benchmark:
         "results/{grid}/benchmarks/identify/{method}/noise{noise}ug_n{n}.tsv"
     shell:
-        "python -m experiments.identify method={wildcards.method} data.dataset={input} out={output}"
+        "python -m experiments.jobs.identify method={wildcards.method} data.dataset={input} out={output}"
         " grid_name={wildcards.grid} tracking.enabled=false hydra.run.dir={params.run_dir}"
         " {params.overrides} > {log} 2>&1"

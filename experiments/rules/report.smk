@@ -9,7 +9,7 @@ rule aggregate:
     log:
         "results/{grid}/logs/aggregate.log",
     shell:
-        "python -m experiments.aggregate --grid {wildcards.grid} --out results/{wildcards.grid}"
+        "python -m experiments.report.aggregate --grid {wildcards.grid} --out results/{wildcards.grid}"
         " --experiments {input.experiments} -- {input.results} > {log} 2>&1"
 
 
@@ -24,7 +24,7 @@ rule track:
     log:
         "results/{grid}/logs/track.log",
     shell:
-        "python -m experiments.track --grid {wildcards.grid} --out {output} {input.results} > {log} 2>&1"
+        "python -m experiments.tracking.track --grid {wildcards.grid} --out {output} {input.results} > {log} 2>&1"
 
 
 rule reproduce:
@@ -35,5 +35,5 @@ rule reproduce:
     log:
         "results/{grid}/logs/paper/{experiment}.log",
     shell:
-        "python -m experiments.reproduce experiment={wildcards.experiment} out_dir={output}"
+        "python -m experiments.jobs.reproduce experiment={wildcards.experiment} out_dir={output}"
         " tracking.enabled=false > {log} 2>&1"

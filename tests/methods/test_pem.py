@@ -23,7 +23,7 @@ def damped_sinusoids(w, zeta, amp_cos, amp_sin, n, offset=0.0):
 
 
 def paper_record(n, noise_ug, seed):
-    from experiments.plant import build_plant
+    from experiments.simulate.plant import build_plant
     plant = build_plant()
     y = plant.tip_acceleration(n, DT)
     y = y + noise_ug * UG * np.random.default_rng(seed).standard_normal(n)
@@ -103,7 +103,7 @@ def test_a_gauss_newton_step_that_would_increase_the_loss_is_halved():
 
 
 def test_paper_plant_at_1000ug_and_256_samples_is_within_3_crlb():
-    from experiments.crlb import crlb_std
+    from experiments.simulate.crlb import crlb_std
     plant, y = paper_record(256, 1000.0, seed=1)
     est = pem.identify(y, DT, TABLE4_PRIOR)
     crlb = crlb_std(plant.freq_rad_s, plant.damping, plant.modal_amplitude, plant.modal_phase, 256, DT,

@@ -11,7 +11,7 @@ import pytest
 from scipy.optimize import least_squares
 
 import methods
-from experiments.datasets import UG
+from experiments.simulate.datasets import UG
 
 
 def model(theta, t, m):

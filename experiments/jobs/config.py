@@ -22,7 +22,7 @@ import methods
 class DataConfig:
     """Where the measurements come from: a generated dataset cell, or a user's CSV (columns t, accel)."""
 
-    dataset: str | None = None       # a .npz cell written by experiments.make_dataset
+    dataset: str | None = None       # a .npz cell written by experiments.jobs.make_dataset
     path: str | None = None          # a CSV with columns t (s) and accel (m/s²)
     replicates: int | None = None    # use only the first k replicates of a cell (None: all)
 
@@ -92,8 +92,8 @@ def register(*, dataset: bool = False, with_methods: list[str] | None = None,
     cs.store(name="identify_schema", node=IdentifyConfig)
     cs.store(name="reproduce_schema", node=ReproduceConfig)
     if dataset:
-        from experiments.datasets import DatasetConfig
-        from experiments.plant import PlantConfig
+        from experiments.simulate.datasets import DatasetConfig
+        from experiments.simulate.plant import PlantConfig
 
         cs.store(name="dataset_schema", node=DatasetConfig)
         cs.store(group="plant", name="plant_schema", node=PlantConfig)

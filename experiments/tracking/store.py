@@ -13,7 +13,7 @@ import os
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_DB = Path("results") / "mlflow.db"   # relative to the working directory, like all outputs
 
 

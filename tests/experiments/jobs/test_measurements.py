@@ -1,6 +1,6 @@
 import pytest
 
-from experiments.measurements import load_csv
+from experiments.jobs.measurements import load_csv
 
 
 def write(tmp_path, text):

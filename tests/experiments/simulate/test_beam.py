@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from experiments.beam import BeamGeometry, cantilever_beta_l, modal_coefficients, mode_shape
+from experiments.simulate.beam import BeamGeometry, cantilever_beta_l, modal_coefficients, mode_shape
 
 # Clamped-free eigenvalues (Rao, Mechanical Vibrations, table of beta_n L) and PHYSICS.md section 1.
 BETA_L = [1.875104, 4.694091, 7.854757, 10.995541]

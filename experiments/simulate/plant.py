@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from experiments.beam import BeamGeometry, cantilever_beta_l, modal_coefficients
+from experiments.simulate.beam import BeamGeometry, cantilever_beta_l, modal_coefficients
 
 N_RIGID = 6
 COORDS = ("theta_x", "theta_y", "theta_z", "X", "Y", "Z", "q1", "q2", "q3", "q4")

@@ -1,7 +1,7 @@
 """Hydra app: reproduce one of the paper's figures or tables.
 
-    python -m experiments.reproduce experiment=paper_fig3
-    python -m experiments.reproduce experiment=paper_table5 experiment.params.replicates=50
+    python -m experiments.jobs.reproduce experiment=paper_fig3
+    python -m experiments.jobs.reproduce experiment=paper_table5 experiment.params.replicates=50
 
 Each experiment is a module with a ``Params`` dataclass and ``run(params, out_dir) -> list[Path]``; its
 config is ``configs/experiment/<name>.yaml``. The files it writes are logged to MLflow (experiment
@@ -16,8 +16,8 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from experiments.app import run_app
-from experiments.config import register
+from experiments.jobs.app import run_app
+from experiments.jobs.config import register
 
 # experiment name -> module (configs/experiment/<name>.yaml names the same module)
 EXPERIMENTS = {
@@ -37,7 +37,7 @@ def task(cfg) -> None:
     for f in files:
         print(f"wrote {f}")
     if cfg.tracking.enabled:
-        from experiments.tracking import git_commit, log_run
+        from experiments.tracking.store import git_commit, log_run
 
         params = flatten(OmegaConf.to_container(cfg.experiment.params, resolve=True), "param")
         digest = hashlib.sha256(repr(sorted(params.items())).encode()).hexdigest()[:12]

@@ -1,7 +1,7 @@
 import mlflow
 import pytest
 
-from experiments.tracking import log_run, tracking_uri
+from experiments.tracking.store import log_run, tracking_uri
 
 
 def test_tracking_uri_defaults_to_sqlite_and_environment_wins(monkeypatch, tmp_path):

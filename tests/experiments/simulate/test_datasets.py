@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from experiments.datasets import UG, DatasetConfig, make_cell, write_cell
 from experiments.io import read_npz
-from experiments.plant import PlantConfig, build_plant
+from experiments.simulate.datasets import UG, DatasetConfig, make_cell, write_cell
+from experiments.simulate.plant import PlantConfig, build_plant
 
 
 def cfg(tmp_path, **kw):

@@ -2,8 +2,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from experiments.scoring import COLUMNS, identifiable
-from experiments.summary import job_metrics, summarize
+from experiments.report.scoring import COLUMNS, identifiable
+from experiments.report.summary import job_metrics, summarize
 
 
 def table(errors, converged, crlb=0.5, true=10.0, runtimes=None):

@@ -1,15 +1,15 @@
 """Hydra app: simulate one dataset cell (all replicates) and write it atomically.
 
-    python -m experiments.make_dataset noise_ug=1000 n_samples=256 replicates=20 seed=20261121 out=cell.npz
+    python -m experiments.jobs.make_dataset noise_ug=1000 n_samples=256 replicates=20 seed=20261121 out=cell.npz
 """
 
 from __future__ import annotations
 
 from omegaconf import OmegaConf
 
-from experiments.app import run_app
-from experiments.config import register
-from experiments.datasets import DatasetConfig, check_dataset_config, write_cell
+from experiments.jobs.app import run_app
+from experiments.jobs.config import register
+from experiments.simulate.datasets import DatasetConfig, check_dataset_config, write_cell
 
 
 def to_config(cfg) -> DatasetConfig:

@@ -1,7 +1,7 @@
 """Hydra app: run one method on one dataset cell (all replicates) or on a user's CSV measurement.
 
-    python -m experiments.identify method=pem data.dataset=results/smoke/data/noise1000ug_n256.npz
-    python -m experiments.identify method=fft data.path=my.csv prior='[3.8,16,26,46]'
+    python -m experiments.jobs.identify method=pem data.dataset=results/smoke/data/noise1000ug_n256.npz
+    python -m experiments.jobs.identify method=fft data.path=my.csv prior='[3.8,16,26,46]'
 
 On a dataset cell it writes the per-replicate results table (``out``, or ``results.csv`` in the run
 directory); on a CSV it prints the estimates and writes ``estimate.json`` in the run directory. Either way
@@ -21,10 +21,10 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import OmegaConf
 
 import methods
-from experiments.app import run_app
-from experiments.config import methods_named_on, register
 from experiments.io import atomic_write_text, read_npz, write_json
-from experiments.scoring import COLUMNS, replicate_rows
+from experiments.jobs.app import run_app
+from experiments.jobs.config import methods_named_on, register
+from experiments.report.scoring import COLUMNS, replicate_rows
 
 
 def load_data(cfg) -> dict:
@@ -33,7 +33,7 @@ def load_data(cfg) -> dict:
     if (d.dataset is None) == (d.path is None):
         raise ValueError("give exactly one of data.dataset (a generated cell) or data.path (a CSV file)")
     if d.path is not None:
-        from experiments.measurements import load_csv  # pandas: only for a user's CSV
+        from experiments.jobs.measurements import load_csv  # pandas: only for a user's CSV
 
         accel, dt = load_csv(d.path)
         return {"y": accel[None, :], "dt": dt, "truth": None, "source": str(d.path)}
@@ -149,8 +149,8 @@ def job_params(method_cfg: dict, noise_ug, n_samples, replicates, seed) -> dict:
 
 
 def log_job(cfg, cell: dict, table, results_path: Path) -> None:
-    from experiments.summary import job_metrics, summarize
-    from experiments.tracking import git_commit, log_run
+    from experiments.report.summary import job_metrics, summarize
+    from experiments.tracking.store import git_commit, log_run
 
     method_cfg = OmegaConf.to_container(cfg.method, resolve=True)
     method_cfg["prior_rad_s"] = prior_of(cfg).tolist()

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.datasets import MIN_SAMPLES
+from experiments.simulate.datasets import MIN_SAMPLES
 
 REQUIRED = ("t", "accel")
 

@@ -1,6 +1,7 @@
 """Log a grid's finished jobs to MLflow in one serial step (safe under parallel workflows).
 
-    python -m experiments.track --grid smoke --out results/smoke/mlflow_runs.json results/smoke/identify/*/*.csv
+    python -m experiments.tracking.track --grid smoke --out results/smoke/mlflow_runs.json \
+        results/smoke/identify/*/*.csv
 
 One MLflow experiment per grid; one run per (method, cell) job — parameters from the job's own Hydra
 config (``results/<grid>/runs/<method>/<cell>/.hydra/config.yaml``), metrics from its result table, the
@@ -18,10 +19,10 @@ from pathlib import Path
 import pandas as pd
 from omegaconf import OmegaConf
 
-from experiments.identify import job_params, run_key
 from experiments.io import read_npz, write_json
-from experiments.summary import job_metrics, summarize
-from experiments.tracking import git_commit, log_run
+from experiments.jobs.identify import job_params, run_key
+from experiments.report.summary import job_metrics, summarize
+from experiments.tracking.store import git_commit, log_run
 
 
 def job_run(grid: str, results_path: Path, commit: str) -> tuple[str, str, bool]:

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.io import write_npz
-from experiments.plant import PlantConfig
+from experiments.simulate.plant import PlantConfig
 
 G0 = 9.80665                 # standard gravity, m/s²
 UG = G0 * 1e-6               # 1 µg in m/s²
@@ -72,8 +72,8 @@ def replicate_rng(seed: int, noise_ug: float, n_samples: int, replicate: int) ->
 
 def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
     """Simulate one cell: the exact noise-free response plus seeded white noise and bias."""
-    from experiments.crlb import crlb_std
-    from experiments.plant import build_plant
+    from experiments.simulate.crlb import crlb_std
+    from experiments.simulate.plant import build_plant
 
     check_dataset_config(cfg)
     plant = build_plant(cfg.plant)

@@ -17,7 +17,7 @@ import hydra
 from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig, OmegaConf
 
-CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "configs")
+CONFIG_DIR = str(Path(__file__).resolve().parents[2] / "configs")
 EXIT_BAD_INPUT = 2
 BAD_INPUT = (ValueError, FileNotFoundError, KeyError)
 

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from experiments.crlb import crlb_std, signal_jacobian
-from experiments.datasets import UG
+from experiments.simulate.crlb import crlb_std, signal_jacobian
+from experiments.simulate.datasets import UG
 
 W = [3.23, 20.24, 22.00, 56.67]
 Z = [0.005] * 4

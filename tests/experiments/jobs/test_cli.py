@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from experiments.datasets import DatasetConfig, write_cell
+from experiments.simulate.datasets import DatasetConfig, write_cell
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def run(module, *args, cwd):
@@ -50,7 +50,7 @@ def assert_one_line_error(proc, *fragments):
 ])
 def test_identify_rejects_bad_input_with_one_line(workdir, args, fragments):
     before = set(workdir.rglob("*"))
-    proc = run("experiments.identify", *args, "out=res.csv", "hydra.run.dir=run", cwd=workdir)
+    proc = run("experiments.jobs.identify", *args, "out=res.csv", "hydra.run.dir=run", cwd=workdir)
     assert_one_line_error(proc, *fragments)
     assert set(workdir.rglob("*")) == before          # nothing written, not even Hydra's run folder
 
@@ -62,13 +62,13 @@ def test_identify_rejects_bad_input_with_one_line(workdir, args, fragments):
     (["n_samples=ten"], ["n_samples", "ten"]),
 ])
 def test_make_dataset_rejects_bad_input_with_one_line(workdir, args, fragments):
-    proc = run("experiments.make_dataset", *args, "out=new.npz", cwd=workdir)
+    proc = run("experiments.jobs.make_dataset", *args, "out=new.npz", cwd=workdir)
     assert_one_line_error(proc, *fragments)
     assert not (workdir / "new.npz").exists()
 
 
 def test_identify_on_a_users_csv_writes_estimate_json(workdir):
-    proc = run("experiments.identify", "method=fft", "data.path=ok.csv", "prior=[2.5]", "hydra.run.dir=mine",
+    proc = run("experiments.jobs.identify", "method=fft", "data.path=ok.csv", "prior=[2.5]", "hydra.run.dir=mine",
                "tracking.enabled=false", cwd=workdir)
     assert proc.returncode == 0, proc.stderr
     import json

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from experiments.plant import PlantConfig, build_plant
+from experiments.simulate.plant import PlantConfig, build_plant
 
 TABLE3 = [3.23, 20.24, 22.00, 56.67]
 FREE_FREE = [3.3208, 20.3557, 22.0210, 56.7821]          # PHYSICS.md section 2, 270 kg body, no calibration
