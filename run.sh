@@ -14,7 +14,7 @@ if [ ! -x .venv/bin/python ] || [ pyproject.toml -nt .venv/.installed ]; then
     || { echo "error: Python 3.11 is required (found $("$PYTHON" --version 2>&1))" >&2; exit 2; }
   [ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
   .venv/bin/python -m pip install --quiet --upgrade pip
-  .venv/bin/python -m pip install --quiet -e '.[dev]'
+  .venv/bin/python -m pip install --quiet -e '.[dev,peers,tuning,cluster]'
   touch .venv/.installed
 fi
 export PATH="$PWD/.venv/bin:$PATH"

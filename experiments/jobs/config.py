@@ -57,6 +57,7 @@ def method_schema(name: str):
     return dataclasses.make_dataclass(
         f"{name}_method",
         [("name", str, field(default=name)),
+         ("variant", str, field(default="default")),
          ("prior_rad_s", list[float], field(default=MISSING)),
          ("options", options_cls, field(default_factory=options_cls))])
 
@@ -70,13 +71,30 @@ def experiment_schema(name: str, module: str):
          ("params", params_cls, field(default_factory=params_cls))])
 
 
+def method_of_config(config_name: str) -> str | None:
+    """The registered method a method config names: ``akf`` for ``akf`` and for a variant ``akf_tuned``
+    (``configs/method/<method>_<variant>.yaml``; the longest registered prefix wins), None if none does."""
+    known = methods.names()
+    if config_name in known:
+        return config_name
+    prefixes = [m for m in known if config_name.startswith(m + "_")]
+    return max(prefixes, key=len) if prefixes else None
+
+
+def variant_label(method: str, variant: str) -> str:
+    """How tables, figures and MLflow name a method variant: ``akf`` (default config) or ``akf:tuned``."""
+    return method if variant in ("", "default") else f"{method}:{variant}"
+
+
 def methods_named_on(argv: list[str]) -> list[str]:
-    """The methods a command line selects (``method=pem``), so that only their modules are imported; all of
-    them for a sweep or when none is named but the default. Importing every method costs ~1 s per job."""
+    """The methods a command line selects (``method=pem``, ``method=akf_tuned``), so that only their modules
+    are imported; all of them for a sweep or when none is named but the default. Importing every method
+    costs ~1 s per job."""
     named = [a.split("=", 1)[1] for a in argv if a.startswith("method=")]
     if any(a in ("-m", "--multirun") for a in argv) or any("," in n for n in named):
         return methods.names()
-    return [named[-1] if named else DEFAULT_METHOD]
+    method = method_of_config(named[-1]) if named else DEFAULT_METHOD
+    return [method] if method else []
 
 
 DEFAULT_METHOD = "fft"     # configs/identify.yaml

@@ -23,7 +23,7 @@ from omegaconf import OmegaConf
 import methods
 from experiments.io import atomic_write_text, read_npz, write_json
 from experiments.jobs.app import run_app
-from experiments.jobs.config import methods_named_on, register
+from experiments.jobs.config import methods_named_on, register, variant_label
 from experiments.report.scoring import COLUMNS, replicate_rows
 
 
@@ -93,6 +93,7 @@ def task(cfg) -> None:
     data = load_data(cfg)
     prior = prior_of(cfg)
     name = cfg.method.name
+    label = variant_label(name, cfg.method.variant)
     options = OmegaConf.to_container(cfg.method.options, resolve=True)
     results = run_records(name, data["y"], data["dt"], prior, options, cfg.progress)
     run_dir = Path(HydraConfig.get().runtime.output_dir)
@@ -102,7 +103,7 @@ def task(cfg) -> None:
     cell = data["truth"]
     rows = []
     for r, (est, runtime) in enumerate(results):
-        rows += replicate_rows(name, float(cell["noise_ug"]), int(cell["t_s"].size), r, prior,
+        rows += replicate_rows(label, float(cell["noise_ug"]), int(cell["t_s"].size), r, prior,
                                cell["truth_freq_rad_s"], cell["crlb_std_rad_s"],
                                cell["crlb_offset_std_rad_s"], est, runtime)
     out = Path(cfg.out) if cfg.out else run_dir / "results.csv"
