@@ -20,10 +20,24 @@ fi
 export PATH="$PWD/.venv/bin:$PATH"
 CORES=${CORES:-$(nproc 2>/dev/null || echo 2)}
 
-# A workflow killed with SIGKILL leaves Snakemake's lock behind; clear it when no Snakemake is running.
+# A workflow killed with SIGKILL leaves Snakemake's lock behind; clear it when no Snakemake runs in this
+# working directory (Snakemake works in its --directory, so a process's cwd tells which folder it locks;
+# another user's workflow elsewhere on the machine does not count). Without /proc, any Snakemake counts.
 # (Outputs are written atomically and profiles/default reruns incomplete jobs, so the rerun completes.)
+snakemake_runs_here() {
+  local pid
+  for pid in $(pgrep -f snakemake 2>/dev/null); do
+    [ "$pid" = "$$" ] && continue
+    if [ -d /proc/self ]; then
+      [ "$(readlink "/proc/$pid/cwd" 2>/dev/null)" = "$PWD" ] && return 0
+    else
+      return 0
+    fi
+  done
+  return 1
+}
 unlock_if_stale() {
-  if [ -n "$(ls -A .snakemake/locks 2>/dev/null)" ] && ! pgrep -f "bin/snakemake" >/dev/null; then
+  if [ -n "$(ls -A .snakemake/locks 2>/dev/null)" ] && ! snakemake_runs_here; then
     snakemake --unlock --cores 1 >/dev/null 2>&1 || true
   fi
 }

@@ -1,15 +1,20 @@
 """The one place that writes files: every write goes to a temporary file in the target folder, then
 ``os.replace`` renames it, so a killed job never leaves a half-written file that Snakemake takes for done.
+Files get the permissions of an ordinary ``open`` (0666 less the umask), and the same content gives the
+same bytes (.npz timestamps, SVG ids and metadata fixed). An .npz carries a checksum of its arrays that
+:func:`read_npz` verifies.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import io
 import json
 import os
 import tempfile
 import zipfile
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -17,6 +22,14 @@ import numpy as np
 
 # A fixed timestamp inside the .npz zip, so that the same arrays give the same bytes.
 _ZIP_EPOCH = (1980, 1, 1, 0, 0, 0)
+# The .npz entry holding the SHA-256 of the other arrays (see array_checksum).
+CHECKSUM_KEY = "checksum_sha256"
+
+
+def _umask() -> int:
+    mask = os.umask(0)         # the only portable way to read the umask is to set it
+    os.umask(mask)
+    return mask
 
 
 @contextlib.contextmanager
@@ -25,6 +38,8 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    # mkstemp creates the file 0600, and the rename keeps the mode: give it what open() would have.
+    os.fchmod(fd, 0o666 & ~_umask())
     os.close(fd)
     tmp = Path(tmp)
     try:
@@ -57,13 +72,27 @@ def _json_default(x):
     raise TypeError(f"cannot write {type(x).__name__} to JSON")
 
 
+def array_checksum(arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 over the arrays in key order: each key, dtype, shape and C-order bytes (``CHECKSUM_KEY`` left
+    out). Independent of the zip container, so it checks what a reader gets, not how it was packed."""
+    h = hashlib.sha256()
+    for key in sorted(k for k in arrays if k != CHECKSUM_KEY):
+        a = np.ascontiguousarray(arrays[key])
+        h.update(f"{key}\0{a.dtype.str}\0{a.shape}\0".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
 def write_npz(path, arrays: dict[str, np.ndarray]) -> Path:
-    """A ``numpy.load``-able .npz whose bytes depend only on the arrays (fixed zip timestamps, sorted keys)."""
+    """A ``numpy.load``-able .npz whose bytes depend only on the arrays (fixed zip timestamps, sorted keys),
+    with the arrays' checksum in the entry ``checksum_sha256``."""
+    arrays = {k: np.asanyarray(v) for k, v in arrays.items() if k != CHECKSUM_KEY}
+    arrays[CHECKSUM_KEY] = np.array(array_checksum(arrays))
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
         for key in sorted(arrays):
             arr = io.BytesIO()
-            np.lib.format.write_array(arr, np.asanyarray(arrays[key]), allow_pickle=False)
+            np.lib.format.write_array(arr, arrays[key], allow_pickle=False)
             info = zipfile.ZipInfo(f"{key}.npy", date_time=_ZIP_EPOCH)
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16
@@ -71,13 +100,39 @@ def write_npz(path, arrays: dict[str, np.ndarray]) -> Path:
     return atomic_write_bytes(path, buf.getvalue())
 
 
-def read_npz(path) -> dict[str, np.ndarray]:
-    """Read an .npz written by :func:`write_npz` into a dict of arrays (scalars as 0-d arrays), no pickle."""
+def read_npz(path, required: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+    """Read an .npz written by :func:`write_npz` into a dict of arrays (scalars as 0-d arrays), no pickle.
+
+    The checksum is verified and every key of ``required`` must be present; otherwise ``ValueError`` with
+    one sentence naming the file and what is wrong with it.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"dataset file {path} does not exist")
-    with np.load(path, allow_pickle=False) as f:
-        return {k: f[k] for k in f.files}
+    damaged = f"{path}: not a readable dataset file: it is damaged, truncated or not an .npz"
+    if not zipfile.is_zipfile(path):         # np.load would take it for a pickle and say so
+        raise ValueError(damaged)
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            arrays = {k: f[k] for k in f.files}
+    except (zipfile.BadZipFile, EOFError, zlib.error, OSError) as exc:
+        raise ValueError(f"{damaged} ({' '.join(str(exc).split())})") from None
+    except ValueError as exc:
+        if "object" in str(exc).lower() or "pickle" in str(exc).lower():
+            raise ValueError(f"{path}: holds Python objects (pickled data), which are not loaded for "
+                             f"safety; a dataset holds plain numeric arrays") from None
+        raise ValueError(f"{damaged} ({' '.join(str(exc).split())})") from None
+    if CHECKSUM_KEY not in arrays:
+        raise ValueError(f"{path}: has no '{CHECKSUM_KEY}' entry, so its content cannot be verified; "
+                         f"write datasets with experiments.jobs.make_dataset")
+    if str(arrays[CHECKSUM_KEY]) != array_checksum(arrays):
+        raise ValueError(f"{path}: checksum mismatch: the file was changed or damaged after it was "
+                         f"written; regenerate it")
+    missing = [k for k in required if k not in arrays]
+    if missing:
+        raise ValueError(f"{path}: not a dataset cell: missing entr{'y' if len(missing) == 1 else 'ies'} "
+                         f"{', '.join(repr(k) for k in missing)}")
+    return arrays
 
 
 def write_table(df, stem) -> list[Path]:
@@ -101,9 +156,17 @@ def markdown_table(df, floatfmt: str = ".4g") -> str:
 
 
 def save_figure(fig, path) -> Path:
-    """Save a matplotlib figure atomically; the format follows the suffix (.png at 150 dpi, .svg, .pdf)."""
+    """Save a matplotlib figure atomically; the format follows the suffix (.png at 150 dpi, .svg, .pdf).
+
+    Identical figures give identical bytes: no date or software version in the metadata, and SVG element
+    ids from a fixed hash salt (matplotlib's ``svg.hashsalt``) instead of random ones.
+    """
+    import matplotlib
+
     path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=path.suffix.lstrip("."), dpi=150, bbox_inches="tight",
-                    metadata={"Date": None} if path.suffix == ".svg" else None)
+    fmt = path.suffix.lstrip(".")
+    metadata = {"svg": {"Date": None, "Creator": None}, "pdf": {"CreationDate": None, "Producer": None,
+                "Creator": None}, "png": {"Software": None}}.get(fmt)
+    with atomic_path(path) as tmp, matplotlib.rc_context({"svg.hashsalt": "spacecraft-modal-id"}):
+        fig.savefig(tmp, format=fmt, dpi=150, bbox_inches="tight", metadata=metadata)
     return path

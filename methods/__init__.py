@@ -22,7 +22,7 @@ _REGISTRY: dict[str, str] = {
     "pll": "methods.pll",
 }
 
-__all__ = ["Estimate", "check_inputs", "failed", "get", "names", "options_class"]
+__all__ = ["Estimate", "check_inputs", "failed", "get", "module_name", "names", "options_class"]
 
 
 def names() -> list[str]:
@@ -30,10 +30,15 @@ def names() -> list[str]:
     return list(_REGISTRY)
 
 
-def _module(name: str):
+def module_name(name: str) -> str:
+    """The module that implements method ``name`` (e.g. ``methods.fft``), without importing it."""
     if name not in _REGISTRY:
         raise ValueError(f"unknown method '{name}'; known methods: {', '.join(_REGISTRY)}")
-    return importlib.import_module(_REGISTRY[name])
+    return _REGISTRY[name]
+
+
+def _module(name: str):
+    return importlib.import_module(module_name(name))
 
 
 def get(name: str):

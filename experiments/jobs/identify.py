@@ -4,13 +4,15 @@
     python -m experiments.jobs.identify method=fft data.path=my.csv prior='[3.8,16,26,46]'
 
 On a dataset cell it writes the per-replicate results table (``out``, or ``results.csv`` in the run
-directory); on a CSV it prints the estimates and writes ``estimate.json`` in the run directory. Either way
-the job is logged to MLflow unless ``tracking.enabled=false`` (the workflow logs in one serial step).
+directory) and beside it ``<table>.json``, the job's record: its resolved config, the dataset's digest,
+the code version and package versions (what the workflow's tracking step reads). On a CSV it prints the
+estimates and writes ``estimate.json`` in the run directory. Either way the job is logged to MLflow unless
+``tracking.enabled=false`` (the workflow logs in one serial step): a cell's job in the experiment
+``tracking.experiment`` (default ``identify``), a user's CSV in the experiment ``measurements``.
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 import sys
 import time
@@ -21,7 +23,7 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import OmegaConf
 
 import methods
-from experiments.io import atomic_write_text, read_npz, write_json
+from experiments.io import CHECKSUM_KEY, atomic_write_text, read_npz, write_json
 from experiments.jobs.app import run_app
 from experiments.jobs.config import methods_named_on, register, variant_label
 from experiments.report.scoring import COLUMNS, replicate_rows
@@ -37,7 +39,9 @@ def load_data(cfg) -> dict:
 
         accel, dt = load_csv(d.path)
         return {"y": accel[None, :], "dt": dt, "truth": None, "source": str(d.path)}
-    cell = read_npz(d.dataset)
+    from experiments.simulate.datasets import CELL_KEYS
+
+    cell = read_npz(d.dataset, required=CELL_KEYS)
     y = cell["accel_m_s2"]
     if d.replicates is not None:
         if d.replicates < 1:
@@ -97,8 +101,11 @@ def task(cfg) -> None:
     options = OmegaConf.to_container(cfg.method.options, resolve=True)
     results = run_records(name, data["y"], data["dt"], prior, options, cfg.progress)
     run_dir = Path(HydraConfig.get().runtime.output_dir)
+    record = job_record(cfg, data)
     if data["truth"] is None:
-        report_measurement(name, prior, results[0][0], run_dir)
+        path = report_measurement(name, prior, results[0][0], run_dir)
+        if cfg.tracking.enabled:
+            log_measurement(record, results[0][0], path)
         return
     cell = data["truth"]
     rows = []
@@ -108,11 +115,13 @@ def task(cfg) -> None:
                                cell["crlb_offset_std_rad_s"], est, runtime)
     out = Path(cfg.out) if cfg.out else run_dir / "results.csv"
     atomic_write_text(out, rows_to_csv(rows))
-    print(f"wrote {out}")
+    record_path = write_json(out.with_suffix(".json"), record)
+    print(f"wrote {out} and {record_path}")
     if cfg.tracking.enabled:
-        import pandas as pd
+        from experiments.tracking.track import log_job
 
-        log_job(cfg, cell, pd.DataFrame(rows, columns=COLUMNS), out)
+        key, _, created = log_job(cfg.tracking.experiment, record, out, record_path)
+        print(f"MLflow experiment {cfg.tracking.experiment}: run {key} ({'logged' if created else 'already there'})")
 
 
 def rows_to_csv(rows: list[dict]) -> str:
@@ -135,32 +144,57 @@ def report_measurement(name: str, prior, est, run_dir: Path) -> None:
         "method": name, "frequencies_rad_s": est.frequencies, "std_rad_s": est.std,
         "converged": bool(est.converged), "message": est.message, "prior_rad_s": prior})
     print(f"wrote {path}")
+    return path
 
 
-def run_key(grid: str, method: str, noise_ug: float, n_samples: int, params: dict) -> str:
-    digest = hashlib.sha256(json.dumps(params, sort_keys=True, default=str).encode()).hexdigest()[:12]
-    return f"{grid}/{method}/noise{noise_ug:g}ug_n{n_samples}/{digest}"
+def job_record(cfg, data) -> dict:
+    """What determines this job's result, written beside its table and keyed in MLflow: the resolved
+    config, the dataset (name, content digest, settings), the code version and the package versions."""
+    from experiments.tracking import provenance
+
+    config_name = HydraConfig.get().runtime.choices.get("method") or cfg.method.name
+    if data["truth"] is None:
+        dataset = {"name": Path(data["source"]).name, "path": data["source"], "kind": "measurement",
+                   "digest": provenance.file_digest(data["source"])}
+    else:
+        cell = data["truth"]
+        dataset = {"name": Path(data["source"]).stem, "path": data["source"], "kind": "cell",
+                   "digest": str(cell[CHECKSUM_KEY]),
+                   "settings": {"noise_ug": float(cell["noise_ug"]), "n_samples": int(cell["t_s"].size),
+                                "seed": int(cell["seed"]), "dt_s": float(cell["dt_s"])}}
+    return {
+        "grid": cfg.grid_name,
+        "method": variant_label(cfg.method.name, cfg.method.variant),
+        "method_config": config_name,
+        "config": OmegaConf.to_container(cfg, resolve=True),
+        "dataset": dataset,
+        "code": {**provenance.git_state(), "method_files": provenance.code_digest(config_name)},
+        "versions": json.loads(provenance.package_versions(config_name)),
+    }
 
 
-def job_params(method_cfg: dict, noise_ug, n_samples, replicates, seed) -> dict:
-    params = {"method": method_cfg["name"], "prior_rad_s": method_cfg.get("prior_rad_s"),
-              "noise_ug": noise_ug, "n_samples": n_samples, "replicates": replicates, "seed": seed}
-    params.update({f"option.{k}": v for k, v in (method_cfg.get("options") or {}).items()})
-    return params
+MEASUREMENTS_EXPERIMENT = "measurements"
 
 
-def log_job(cfg, cell: dict, table, results_path: Path) -> None:
-    from experiments.report.summary import job_metrics, summarize
-    from experiments.tracking.store import git_commit, log_run
+def log_measurement(record: dict, est, estimate_path: Path) -> None:
+    """Log a run on a user's CSV in the MLflow experiment ``measurements`` (keyed like a cell's job)."""
+    from experiments.tracking.store import dataset_entity, log_run, source_tags
+    from experiments.tracking.track import IDENTIFY_SOURCE, config_yaml, job_params, run_key
 
-    method_cfg = OmegaConf.to_container(cfg.method, resolve=True)
-    method_cfg["prior_rad_s"] = prior_of(cfg).tolist()
-    params = job_params(method_cfg, float(cell["noise_ug"]), int(cell["t_s"].size),
-                        int(table["replicate"].nunique()), int(cell["seed"]))
-    key = run_key(cfg.grid_name, cfg.method.name, params["noise_ug"], params["n_samples"], params)
-    params["git_commit"] = git_commit()
-    log_run(cfg.tracking.experiment, key, params=params, metrics=job_metrics(summarize(table)),
-            artifacts=[results_path], tags={"git_commit": git_commit(), "grid": cfg.grid_name})
+    record = {**record, "grid": "measurement"}
+    key = run_key(record)
+    metrics = {}
+    for i, (w, s) in enumerate(zip(est.frequencies, est.std, strict=True)):
+        metrics[f"freq_rad_s.mode{i + 1}"] = float(w)
+        metrics[f"std_rad_s.mode{i + 1}"] = float(s)
+    metrics["converged"] = float(bool(est.converged))
+    ds = record["dataset"]
+    _, created = log_run(
+        MEASUREMENTS_EXPERIMENT, key, params=job_params(record), metrics=metrics, artifacts=[estimate_path],
+        texts={"config.yaml": config_yaml(record)},
+        dataset=dataset_entity(ds["name"], ds["digest"], ds["path"], kind="measurement"),
+        tags={**source_tags(IDENTIFY_SOURCE, record["code"]), "kind": "measurement", "method": record["method"]})
+    print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} ({'logged' if created else 'already there'})")
 
 
 if __name__ == "__main__":

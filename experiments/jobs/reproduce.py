@@ -10,7 +10,6 @@ config is ``configs/experiment/<name>.yaml``. The files it writes are logged to 
 
 from __future__ import annotations
 
-import hashlib
 import importlib
 from pathlib import Path
 
@@ -37,12 +36,15 @@ def task(cfg) -> None:
     for f in files:
         print(f"wrote {f}")
     if cfg.tracking.enabled:
-        from experiments.tracking.store import git_commit, log_run
+        from experiments.tracking.provenance import canonical_json, digest, git_state
+        from experiments.tracking.store import log_run, source_tags
 
         params = flatten(OmegaConf.to_container(cfg.experiment.params, resolve=True), "param")
-        digest = hashlib.sha256(repr(sorted(params.items())).encode()).hexdigest()[:12]
-        log_run(cfg.tracking.experiment, f"{cfg.experiment.name}/{digest}", params=params, artifacts=files,
-                tags={"git_commit": git_commit(), "kind": "paper"})
+        code = git_state()
+        key = f"{cfg.experiment.name}/{digest(canonical_json({'params': params, 'code': code}))}"
+        log_run(cfg.tracking.experiment, key, params=params, artifacts=files,
+                texts={"config.yaml": OmegaConf.to_yaml(cfg)},
+                tags={**source_tags("experiments/jobs/reproduce.py", code), "kind": "paper"})
 
 
 def flatten(tree: dict, prefix: str) -> dict:

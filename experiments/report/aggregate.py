@@ -116,6 +116,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True, type=Path, help="folder to write into, e.g. results/smoke")
     ap.add_argument("--experiments", nargs="*", type=Path, default=[],
                     help="folders of paper reproductions to link from the page")
+    ap.add_argument("--page", type=Path, default=None,
+                    help="the summary page to write (default: <out>/README.md; the workflow writes "
+                         "<out>/summary.md and the tracking step makes README.md of it)")
     ap.add_argument("results", nargs="+", type=Path, help="per-job result tables (CSV)")
     args = ap.parse_args(argv)
     try:
@@ -137,8 +140,9 @@ def main(argv=None) -> int:
     files += plots.winner_map(summary, figs / "winner_map")
     files += plots.failure_map(summary, figs / "failure_map")
     text = page(args.grid, summary, out, files, longest, noise_ref) + experiments_section(args.experiments, out)
-    atomic_write_text(out / "README.md", text)
-    print(f"wrote {out / 'README.md'} and {len(files)} tables/figures")
+    page_path = args.page or out / "README.md"
+    atomic_write_text(page_path, text)
+    print(f"wrote {page_path} and {len(files)} tables/figures")
     return 0
 
 

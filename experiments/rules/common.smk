@@ -1,10 +1,14 @@
 # Grid configs (configs/grid/*.yaml), validated against configs/grid/schema.yaml on load, and the
 # helpers that turn a grid into file names.
+import functools
 import glob
 import os
 
+import jsonschema
 import yaml
-from snakemake.utils import validate
+from snakemake.exceptions import WorkflowError
+
+from experiments.tracking import provenance
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
 # filters only makes them fight (wkf measured 4x slower per replicate on 2 busy cores).
@@ -12,29 +16,47 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 CONDA_ENV = "../../configs/conda/pipeline.yaml"
-GRID_SCHEMA = os.path.join(workflow.basedir, "configs", "grid", "schema.yaml")
+with open(os.path.join(workflow.basedir, "configs", "grid", "schema.yaml")) as _f:
+    SCHEMA = yaml.safe_load(_f)
 
 
 
-def _load_grid(path):
-    with open(path) as f:
-        grid = yaml.safe_load(f)
-    validate(grid, GRID_SCHEMA, set_default=True)
-    expected = os.path.splitext(os.path.basename(path))[0]
-    if grid["name"] != expected:
-        raise ValueError(f"{path}: name '{grid['name']}' must match the file name '{expected}'")
+GRID_DIR = os.path.join(workflow.basedir, "configs", "grid")
+# Grid names are the file names; a grid is read and validated only when a target asks for it, so one
+# malformed file never breaks the other grids.
+GRID_NAMES = sorted(
+    os.path.splitext(os.path.basename(p))[0]
+    for p in glob.glob(os.path.join(GRID_DIR, "*.yaml"))
+    if os.path.basename(p) != "schema.yaml"
+)
+
+
+@functools.cache
+def load_grid(name):
+    """The grid ``configs/grid/<name>.yaml``, validated against the schema; a bad file stops the workflow
+    with one line naming the file and the key."""
+    path = os.path.relpath(os.path.join(GRID_DIR, f"{name}.yaml"))
+    try:
+        with open(path) as f:
+            grid = yaml.safe_load(f)
+        if not isinstance(grid, dict):
+            raise ValueError("the file must be a mapping of keys (name, noise_ug, n_samples, ...)")
+        jsonschema.validate(grid, SCHEMA)
+    except jsonschema.ValidationError as exc:
+        key = ".".join(map(str, exc.absolute_path)) or "(top level)"
+        raise WorkflowError(f"error: {path}: {key}: {exc.message}") from None
+    except (OSError, ValueError, yaml.YAMLError) as exc:
+        raise WorkflowError(f"error: {path}: {' '.join(str(exc).split())}") from None
+    for key, spec in SCHEMA["properties"].items():
+        if "default" in spec:
+            grid.setdefault(key, spec["default"])
+    if grid["name"] != name:
+        raise WorkflowError(f"error: {path}: name: '{grid['name']}' must match the file name '{name}'")
     return grid
 
 
-GRIDS = {
-    os.path.splitext(os.path.basename(p))[0]: _load_grid(p)
-    for p in sorted(glob.glob(os.path.join(workflow.basedir, "configs", "grid", "*.yaml")))
-    if os.path.basename(p) != "schema.yaml"
-}
-
-
 wildcard_constraints:
-    grid="|".join(GRIDS),
+    grid="|".join(GRID_NAMES),
     method="[a-z_]+",
     noise=r"[0-9.e+-]+",
     n=r"[0-9]+",
@@ -45,22 +67,44 @@ def cell_name(noise, n):
 
 
 def cells(grid):
-    g = GRIDS[grid]
+    g = load_grid(grid)
     return [cell_name(noise, n) for noise in g["noise_ug"] for n in g["n_samples"]]
 
 
 def result_files(grid):
-    g = GRIDS[grid]
+    g = load_grid(grid)
     return [f"results/{grid}/identify/{m}/{c}.csv" for m in g["methods"] for c in cells(grid)]
 
 
+def provenance_files(grid):
+    return [f[: -len(".csv")] + ".json" for f in result_files(grid)]
+
+
 def experiment_dirs(grid):
-    return [f"results/{grid}/paper/{e}" for e in GRIDS[grid].get("experiments", [])]
+    return [f"results/{grid}/paper/{e}" for e in load_grid(grid).get("experiments", [])]
 
 
 def grid_targets(grid):
-    return [f"results/{grid}/README.md", f"results/{grid}/mlflow_runs.json"]
+    return [f"results/{grid}/README.md"]
 
 
 def method_overrides(wildcards):
-    return " ".join(GRIDS[wildcards.grid].get("method_overrides", {}).get(wildcards.method, []))
+    return " ".join(load_grid(wildcards.grid).get("method_overrides", {}).get(wildcards.method, []))
+
+
+# What an identify job's result depends on, for Snakemake's rerun triggers: the method's code files are
+# inputs (mtime/input triggers), its resolved config and the versions of the packages it imports are
+# params (params trigger). An edit of configs/method/fft.yaml or methods/fft.py reruns the fft jobs and
+# everything downstream; an edit elsewhere reruns nothing.
+def method_code(wildcards):
+    return [os.path.join(workflow.basedir, f)
+            for f in provenance.method_code_files(wildcards.method, workflow.basedir)]
+
+
+def method_config(wildcards):
+    overrides = tuple(load_grid(wildcards.grid).get("method_overrides", {}).get(wildcards.method, []))
+    return provenance.resolved_method_config(wildcards.method, overrides, workflow.basedir)
+
+
+def method_versions(wildcards):
+    return provenance.package_versions(wildcards.method, workflow.basedir)

@@ -2,7 +2,7 @@ rule dataset:
     output:
         "results/{grid}/data/noise{noise}ug_n{n}.npz",
     params:
-        grid=lambda wc: GRIDS[wc.grid],
+        grid=lambda wc: load_grid(wc.grid),
     conda:
         CONDA_ENV
     log:

@@ -1,12 +1,18 @@
 # One job per (method, cell), all replicates inside; MLflow logging is left to the serial `track` step.
+# Beside the table the job writes <cell>.json: its resolved config, the dataset's digest and the code
+# version, which is all the track step reads besides the table.
 rule identify:
     input:
-        "results/{grid}/data/noise{noise}ug_n{n}.npz",
+        data="results/{grid}/data/noise{noise}ug_n{n}.npz",
+        code=method_code,
     output:
-        "results/{grid}/identify/{method}/noise{noise}ug_n{n}.csv",
+        table="results/{grid}/identify/{method}/noise{noise}ug_n{n}.csv",
+        provenance="results/{grid}/identify/{method}/noise{noise}ug_n{n}.json",
     params:
         run_dir="results/{grid}/runs/{method}/noise{noise}ug_n{n}",
         overrides=method_overrides,
+        method_config=method_config,
+        versions=method_versions,
     conda:
         CONDA_ENV
     log:
@@ -14,6 +20,6 @@ rule identify:
     benchmark:
         "results/{grid}/benchmarks/identify/{method}/noise{noise}ug_n{n}.tsv"
     shell:
-        "python -m experiments.jobs.identify method={wildcards.method} data.dataset={input} out={output}"
-        " grid_name={wildcards.grid} tracking.enabled=false hydra.run.dir={params.run_dir}"
+        "python -m experiments.jobs.identify method={wildcards.method} data.dataset={input.data}"
+        " out={output.table} grid_name={wildcards.grid} tracking.enabled=false hydra.run.dir={params.run_dir}"
         " {params.overrides} > {log} 2>&1"

@@ -1,30 +1,41 @@
+# aggregate -> track: the grid's page results/<grid>/README.md is written last, by the tracking step, so
+# one target gives the tables, the figures and the MLflow runs (results/<grid>/summary.md is the same page
+# before tracking).
 rule aggregate:
     input:
         results=lambda wc: result_files(wc.grid),
         experiments=lambda wc: experiment_dirs(wc.grid),
     output:
-        "results/{grid}/README.md",
+        page="results/{grid}/summary.md",
+        tables=directory("results/{grid}/tables"),
+        figures=directory("results/{grid}/figures"),
     conda:
         CONDA_ENV
     log:
         "results/{grid}/logs/aggregate.log",
     shell:
         "python -m experiments.report.aggregate --grid {wildcards.grid} --out results/{wildcards.grid}"
-        " --experiments {input.experiments} -- {input.results} > {log} 2>&1"
+        " --page {output.page} --experiments {input.experiments} -- {input.results} > {log} 2>&1"
 
 
 rule track:
     input:
         results=lambda wc: result_files(wc.grid),
-        summary="results/{grid}/README.md",
+        provenance=lambda wc: provenance_files(wc.grid),
+        summary="results/{grid}/summary.md",
+        tables="results/{grid}/tables",
+        figures="results/{grid}/figures",
     output:
-        "results/{grid}/mlflow_runs.json",
+        record="results/{grid}/mlflow_runs.json",
+        page="results/{grid}/README.md",
     conda:
         CONDA_ENV
     log:
         "results/{grid}/logs/track.log",
     shell:
-        "python -m experiments.tracking.track --grid {wildcards.grid} --out {output} {input.results} > {log} 2>&1"
+        "python -m experiments.tracking.track --grid {wildcards.grid} --out {output.record}"
+        " --summary {input.summary} --page {output.page} --aggregate {input.tables} {input.figures}"
+        " -- {input.results} > {log} 2>&1"
 
 
 rule reproduce:

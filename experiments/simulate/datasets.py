@@ -14,8 +14,10 @@ File schema (every entry a plain numpy array; ``numpy.load(path)`` reads it, no 
 | ``crlb_std_rad_s`` | (4,) | Cramér–Rao bound of each frequency for this cell (16 unknowns) |
 | ``crlb_offset_std_rad_s`` | (4,) | the same with the sensor offset unknown too (17 unknowns) |
 | ``provenance_json`` | () str | the config, seed scheme, package versions |
+| ``checksum_sha256`` | () str | SHA-256 of all the other arrays (``experiments.io.array_checksum``) |
 
-Read a cell with ``experiments.io.read_npz`` (or ``numpy.load``).
+Read a cell with ``experiments.io.read_npz`` (or ``numpy.load``): it verifies the checksum, so a file
+changed or truncated after it was written is refused instead of giving stale results.
 Replicate r of a cell draws its noise from ``numpy.random.default_rng([seed, noise_ng, N, r])`` with
 ``noise_ng`` the noise level in nano-g: the same config gives the same bytes, and a cell with R = 20 holds
 the first 20 replicates of the same cell with R = 100.
@@ -36,6 +38,9 @@ from experiments.simulate.plant import PlantConfig
 G0 = 9.80665                 # standard gravity, m/s²
 UG = G0 * 1e-6               # 1 µg in m/s²
 MIN_SAMPLES = 8
+# The entries a job needs from a cell (experiments.io.read_npz(path, required=CELL_KEYS)).
+CELL_KEYS = ("t_s", "accel_m_s2", "dt_s", "noise_ug", "seed", "truth_freq_rad_s", "crlb_std_rad_s",
+             "crlb_offset_std_rad_s")
 
 
 @dataclass

@@ -1,20 +1,31 @@
-"""MLflow tracking with an embedded default and idempotent runs.
+"""MLflow tracking with an embedded default, safe under concurrent processes, with idempotent runs.
 
-Default store: SQLite at ``results/mlflow.db`` (no server); ``MLFLOW_TRACKING_URI`` in the environment wins.
-A run is identified by a *run key* (tag ``run_key``): logging the same key again is a no-op when a finished
-run holds it, and replaces a run that was cut off part-way (killed job). SQLite refuses concurrent writers
-("database is locked") and experiment creation races between processes: both are retried, and in the
-Snakemake workflow all logging happens in one serial step, so parallel jobs never write at the same time.
+Default store: SQLite at ``results/mlflow.db`` with artifacts under ``results/mlartifacts/<experiment>``
+(no server); ``MLFLOW_TRACKING_URI`` in the environment wins (a server, PostgreSQL, ...). A run is
+identified by a *run key* (tag ``run_key``): logging the same key again is a no-op when a finished run holds
+it, and replaces a run that was cut off part-way (killed job).
+
+Concurrency. MLflow creates and migrates its database schema on the first connection; two processes doing
+that at once on a fresh SQLite file leave it half-migrated for good (``table _alembic_tmp_tags already
+exists``), and a search-then-create of a run key is not atomic. MLflow's answer for concurrent writers is a
+tracking server; without one, every process here takes an inter-process file lock (``filelock``) around the
+first connection and around each run's search-create-log, so the store is initialised once and each key
+is logged once. The lock file sits beside the SQLite file, or under ``results/`` for other stores (shared
+by the processes of one project folder, e.g. the jobs of a workflow).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from pathlib import Path
+from urllib.parse import unquote, urlparse
 
-ROOT = Path(__file__).resolve().parents[2]
+from experiments.tracking.provenance import digest
+
 DEFAULT_DB = Path("results") / "mlflow.db"   # relative to the working directory, like all outputs
+LOCK_TIMEOUT_S = 600
 
 
 def tracking_uri() -> str:
@@ -25,77 +36,133 @@ def tracking_uri() -> str:
     return f"sqlite:///{DEFAULT_DB.resolve()}"
 
 
-def _client():
-    import mlflow  # imported here: ~2 s, and only the tracking steps need it
+def is_default_store(uri: str) -> bool:
+    return not os.environ.get("MLFLOW_TRACKING_URI") and uri == tracking_uri()
 
-    mlflow.set_tracking_uri(tracking_uri())
-    return mlflow.MlflowClient()
+
+def lock_path(uri: str) -> Path:
+    """The lock file that serialises this project's writers to the store ``uri``."""
+    parsed = urlparse(uri)
+    if parsed.scheme == "sqlite" and parsed.path not in ("", "/:memory:"):
+        return Path(unquote(parsed.path) + ".lock")
+    path = DEFAULT_DB.parent / f".mlflow-{digest(uri, 12)}.lock"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+@contextlib.contextmanager
+def store_lock(uri: str):
+    from filelock import FileLock
+
+    with FileLock(str(lock_path(uri)), timeout=LOCK_TIMEOUT_S):
+        yield
+
+
+_CLIENTS: dict[str, object] = {}
+
+
+def client(uri: str | None = None):
+    """An ``MlflowClient`` on ``uri`` (default :func:`tracking_uri`), its store created under the lock.
+
+    ``mlflow.set_tracking_uri`` is not used: it sets ``MLFLOW_TRACKING_URI`` in the environment, which would
+    then hide whether the default store is in use.
+    """
+    uri = uri or tracking_uri()
+    if uri not in _CLIENTS:
+        import mlflow  # imported here: ~2 s, and only the tracking steps need it
+
+        c = mlflow.MlflowClient(tracking_uri=uri)
+        with store_lock(uri):
+            _retry(lambda: c.search_experiments(max_results=1))   # creates/migrates the schema, once
+        _CLIENTS[uri] = c
+    return _CLIENTS[uri]
 
 
 def _retry(fn, attempts: int = 8):
+    """Retry a store call that failed on a transient condition (SQLite busy under a foreign writer)."""
     delay = 0.2
     for i in range(attempts):
         try:
             return fn()
         except Exception as exc:  # noqa: BLE001 - MLflow wraps SQLite errors in several types
-            transient = any(s in str(exc).lower() for s in ("locked", "already exists", "unique constraint",
-                                                             "busy"))
+            transient = any(s in str(exc).lower() for s in ("locked", "busy"))
             if not transient or i == attempts - 1:
                 raise
             time.sleep(delay)
             delay *= 2
 
 
-def experiment_id(client, name: str) -> str:
-    def get_or_create():
-        exp = client.get_experiment_by_name(name)
-        if exp is not None:
-            if exp.lifecycle_stage == "deleted":
-                client.restore_experiment(exp.experiment_id)
-            return exp.experiment_id
-        artifact_root = None
-        if tracking_uri().startswith("sqlite:///") and "MLFLOW_TRACKING_URI" not in os.environ:
-            artifact_root = (DEFAULT_DB.parent.resolve() / "mlartifacts" / name).as_uri()
-        return client.create_experiment(name, artifact_location=artifact_root)
-    return _retry(get_or_create)
+def experiment_id(c, name: str, uri: str) -> str:
+    """The id of experiment ``name``, created if needed (called under the store lock)."""
+    exp = _retry(lambda: c.get_experiment_by_name(name))
+    if exp is not None:
+        if exp.lifecycle_stage == "deleted":
+            _retry(lambda: c.restore_experiment(exp.experiment_id))
+        return exp.experiment_id
+    artifact_root = None
+    if is_default_store(uri):
+        artifact_root = (DEFAULT_DB.parent.resolve() / "mlartifacts" / name).as_uri()
+    return _retry(lambda: c.create_experiment(name, artifact_location=artifact_root))
 
 
 def log_run(experiment: str, run_key: str, *, params: dict | None = None, metrics: dict | None = None,
-            artifacts: list | None = None, tags: dict | None = None) -> tuple[str, bool]:
-    """Log one run unless a finished run with ``run_key`` exists. Returns (run_id, created)."""
-    from mlflow.entities import Metric, Param, RunTag
+            artifacts: list | None = None, tags: dict | None = None, texts: dict | None = None,
+            dataset=None, parent_run_id: str | None = None) -> tuple[str, bool]:
+    """Log one run unless a finished run with ``run_key`` exists. Returns (run_id, created).
 
-    client = _client()
-    exp_id = experiment_id(client, experiment)
-    existing = _retry(lambda: client.search_runs([exp_id], filter_string=f"tags.run_key = '{run_key}'"))
-    for run in existing:
-        if run.info.status == "FINISHED":
-            return run.info.run_id, False
-        _retry(lambda r=run: client.delete_run(r.info.run_id))      # a run cut off part-way
+    ``texts`` maps artifact file names to text (e.g. the resolved config); ``dataset`` is an
+    ``mlflow.entities.Dataset`` logged as the run's input; ``parent_run_id`` makes it a child run (an
+    existing run with the key is moved under that parent).
+    """
+    from mlflow.entities import DatasetInput, InputTag, Metric, Param
+
+    uri = tracking_uri()
+    c = client(uri)
     all_tags = {"run_key": run_key, **(tags or {})}
-    run = _retry(lambda: client.create_run(exp_id, tags=all_tags, run_name=run_key.replace("/", "_")))
-    rid = run.info.run_id
-    now = int(time.time() * 1000)
-    _retry(lambda: client.log_batch(
-        rid,
-        metrics=[Metric(k, float(v), now, 0) for k, v in (metrics or {}).items() if v == v],
-        params=[Param(k, str(v)[:6000]) for k, v in (params or {}).items()],
-        tags=[RunTag(k, str(v)) for k, v in all_tags.items()]))
-    for path in artifacts or []:
-        _retry(lambda p=path: client.log_artifact(rid, str(p)))
-    _retry(lambda: client.set_terminated(rid, "FINISHED"))
+    if parent_run_id:
+        all_tags["mlflow.parentRunId"] = parent_run_id
+    with store_lock(uri):
+        exp_id = experiment_id(c, experiment, uri)
+        existing = _retry(lambda: c.search_runs([exp_id], filter_string=f"tags.run_key = '{run_key}'"))
+        for run in existing:
+            if run.info.status == "FINISHED":
+                if parent_run_id and run.data.tags.get("mlflow.parentRunId") != parent_run_id:
+                    _retry(lambda r=run: c.set_tag(r.info.run_id, "mlflow.parentRunId", parent_run_id))
+                return run.info.run_id, False
+            _retry(lambda r=run: c.delete_run(r.info.run_id))      # cut off part-way: nobody holds the lock
+        run = _retry(lambda: c.create_run(exp_id, tags=all_tags, run_name=run_key.replace("/", "_")[-250:]))
+        rid = run.info.run_id
+        now = int(time.time() * 1000)
+        _retry(lambda: c.log_batch(
+            rid,
+            metrics=[Metric(k, float(v), now, 0) for k, v in (metrics or {}).items() if v == v],
+            params=[Param(k, str(v)[:6000]) for k, v in (params or {}).items()]))
+        if dataset is not None:
+            _retry(lambda: c.log_inputs(rid, datasets=[DatasetInput(
+                dataset, tags=[InputTag("mlflow.data.context", "evaluation")])]))
+        for name, text in (texts or {}).items():
+            _retry(lambda n=name, t=text: c.log_text(rid, t, n))
+        for path in artifacts or []:
+            _retry(lambda p=path: c.log_artifact(rid, str(p)))
+        _retry(lambda: c.set_terminated(rid, "FINISHED"))
     return rid, True
 
 
-def git_commit() -> str:
-    """The commit of the working tree (``unknown`` outside a git checkout), '+dirty' if modified."""
-    import subprocess
+def dataset_entity(name: str, digest_: str, source: str, *, kind: str, profile: dict | None = None):
+    """An MLflow dataset (name, digest, source) for ``log_run(dataset=...)``."""
+    import json
 
-    try:
-        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                             check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
-                               capture_output=True, text=True, check=True).stdout.strip()
-        return sha + ("+dirty" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+    from mlflow.entities import Dataset
+
+    return Dataset(name=name, digest=digest_[:36], source_type="local",
+                   source=json.dumps({"uri": str(source)}),
+                   schema=json.dumps({"kind": kind}), profile=json.dumps(profile or {}))
+
+
+def source_tags(entry_point: str, code: dict) -> dict:
+    """MLflow's standard source tags (and the tree's dirty flag) for a run produced by ``entry_point``."""
+    tags = {"mlflow.source.name": entry_point, "mlflow.source.type": "LOCAL",
+            "git_dirty": str(bool(code.get("dirty"))).lower()}
+    if code.get("commit", "unknown") != "unknown":
+        tags["mlflow.source.git.commit"] = code["commit"]
+    return tags

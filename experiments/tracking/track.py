@@ -1,78 +1,131 @@
-"""Log a grid's finished jobs to MLflow in one serial step (safe under parallel workflows).
+"""Log a grid's finished jobs to MLflow in one serial step, then write the grid's page.
 
     python -m experiments.tracking.track --grid smoke --out results/smoke/mlflow_runs.json \
-        results/smoke/identify/*/*.csv
+        --summary results/smoke/summary.md --page results/smoke/README.md \
+        --aggregate results/smoke/tables results/smoke/figures -- results/smoke/identify/*/*.csv
 
-One MLflow experiment per grid; one run per (method, cell) job — parameters from the job's own Hydra
-config (``results/<grid>/runs/<method>/<cell>/.hydra/config.yaml``), metrics from its result table, the
-table as an artifact — and one aggregate run carrying the tables and figures. Run keys make it idempotent:
-running it again (or after a kill) logs each run exactly once.
+One MLflow experiment per grid (``grid-<name>``). The grid is a parent run carrying the tables, figures and
+page; each (method, cell) job is a child run: parameters and provenance from the job's own record
+``<cell>.json`` written beside its table (resolved config, dataset digest, code version, package
+versions), metrics from its table, the dataset as an MLflow dataset input, the resolved config and the table
+as artifacts. Run keys cover the dataset's content, the resolved options and the code version, so a changed
+result is a new run and running this again (or after a kill, or from another process at the same time)
+logs nothing twice. Only the files named on the command line are read.
 """
 
 from __future__ import annotations
 
 import argparse
-import hashlib
+import json
 import sys
 from pathlib import Path
 
 import pandas as pd
-from omegaconf import OmegaConf
 
-from experiments.io import read_npz, write_json
-from experiments.jobs.identify import job_params, run_key
+from experiments.io import atomic_write_text, write_json
 from experiments.report.summary import job_metrics, summarize
-from experiments.tracking.store import git_commit, log_run
+from experiments.tracking.provenance import canonical_json, digest, git_state
+from experiments.tracking.store import dataset_entity, log_run, source_tags
+
+IDENTIFY_SOURCE = "experiments/jobs/identify.py"
 
 
-def job_run(grid: str, results_path: Path, commit: str) -> tuple[str, str, bool]:
-    method, cell = results_path.parent.name, results_path.stem
-    grid_dir = results_path.parent.parent.parent
-    cfg = OmegaConf.load(grid_dir / "runs" / method / cell / ".hydra" / "config.yaml")
-    method_cfg = OmegaConf.to_container(cfg.method, resolve=True)
-    if cfg.get("prior") is not None:
-        method_cfg["prior_rad_s"] = list(cfg.prior)
-    data = read_npz(cfg.data.dataset)
-    table = pd.read_csv(results_path)
-    params = job_params(method_cfg, float(data["noise_ug"]), int(data["t_s"].size),
-                        int(table["replicate"].nunique()), int(data["seed"]))
-    key = run_key(grid, method, params["noise_ug"], params["n_samples"], params)
-    params["git_commit"] = commit          # logged, but not part of the key: a new commit is not a new result
-    rid, created = log_run(f"grid-{grid}", key, params=params, metrics=job_metrics(summarize(table)),
-                           artifacts=[results_path], tags={"git_commit": commit, "grid": grid,
-                                                           "kind": "job"})
+def run_key(record: dict) -> str:
+    """``<grid>/<method>/<cell>/<digest>`` over what determines the result: the dataset's content, the
+    resolved method config, prior and replicates, the code version (commit, dirty diff, method files) and
+    the package versions; never a path or a time."""
+    cfg = record["config"]
+    keyed = {"method": cfg["method"], "prior": cfg.get("prior"), "replicates": cfg["data"].get("replicates"),
+             "dataset": record["dataset"]["digest"], "code": record["code"], "versions": record["versions"]}
+    return f"{record['grid']}/{record['method']}/{record['dataset']['name']}/{digest(canonical_json(keyed))}"
+
+
+def job_params(record: dict, table: pd.DataFrame | None = None) -> dict:
+    """Flat MLflow parameters of a job: the method's resolved options, the prior, the cell's settings."""
+    cfg = record["config"]
+    params = {"method": record["method"], "method_config": record["method_config"],
+              "prior_rad_s": cfg.get("prior") or cfg["method"].get("prior_rad_s"),
+              "dataset": record["dataset"]["name"], "dataset_digest": record["dataset"]["digest"],
+              "git_commit": record["code"]["commit"], "git_dirty": record["code"]["dirty"]}
+    params.update(record["dataset"].get("settings", {}))
+    if table is not None:
+        params["replicates"] = int(table["replicate"].nunique())
+    params.update({f"option.{k}": v for k, v in (cfg["method"].get("options") or {}).items()})
+    return params
+
+
+def config_yaml(record: dict) -> str:
+    from omegaconf import OmegaConf
+
+    return OmegaConf.to_yaml(OmegaConf.create(record["config"]))
+
+
+def log_job(experiment: str, record: dict, table_path: Path, record_path: Path | None = None,
+            parent_run_id: str | None = None) -> tuple[str, str, bool]:
+    """Log one identify job on a dataset cell (from its table and its record). Returns (key, id, created)."""
+    table = pd.read_csv(table_path)
+    key = run_key(record)
+    ds = record["dataset"]
+    artifacts = [table_path] + ([record_path] if record_path else [])
+    rid, created = log_run(
+        experiment, key, params=job_params(record, table), metrics=job_metrics(summarize(table)),
+        artifacts=artifacts, texts={"config.yaml": config_yaml(record)},
+        dataset=dataset_entity(ds["name"], ds["digest"], ds["path"], kind="cell", profile=ds.get("settings")),
+        tags={**source_tags(IDENTIFY_SOURCE, record["code"]), "grid": record["grid"], "kind": "job",
+              "method": record["method"]},
+        parent_run_id=parent_run_id)
     return key, rid, created
 
 
-def aggregate_run(grid: str, grid_dir: Path, commit: str) -> tuple[str, str, bool]:
-    files = sorted(p for sub in ("tables", "figures") for p in (grid_dir / sub).glob("*") if p.is_file())
-    files.append(grid_dir / "README.md")
-    digest = hashlib.sha256(b"".join(p.name.encode() + (p.read_bytes() if p.suffix in (".csv", ".md")
-                                                         else b"") for p in files)).hexdigest()[:12]
-    key = f"{grid}/aggregate/{digest}"
-    rid, created = log_run(f"grid-{grid}", key, params={"grid": grid}, artifacts=files,
-                           tags={"git_commit": commit, "grid": grid, "kind": "aggregate"})
+def grid_run(grid: str, child_keys: list[str], files: list[Path]) -> tuple[str, str, bool]:
+    """The grid's parent run: keyed by its jobs' keys and the code version, carrying tables and figures."""
+    code = git_state()
+    key = f"{grid}/grid/{digest(canonical_json({'jobs': sorted(child_keys), 'code': code}))}"
+    rid, created = log_run(f"grid-{grid}", key, params={"grid": grid, "jobs": len(child_keys)}, artifacts=files,
+                           tags={**source_tags("Snakefile", code), "grid": grid, "kind": "grid"})
     return key, rid, created
+
+
+def aggregate_files(paths: list[Path]) -> list[Path]:
+    out = []
+    for p in paths:
+        out += sorted(f for f in p.rglob("*") if f.is_file()) if p.is_dir() else [p]
+    return out
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", required=True)
     ap.add_argument("--out", required=True, type=Path, help="JSON record of the logged runs")
-    ap.add_argument("results", nargs="+", type=Path)
+    ap.add_argument("--summary", type=Path, help="the aggregate's page; with --page: copied there, plus "
+                                                  "where the runs are in MLflow")
+    ap.add_argument("--page", type=Path)
+    ap.add_argument("--aggregate", nargs="*", type=Path, default=[],
+                    help="tables/figures (files or folders) to log with the grid's parent run")
+    ap.add_argument("results", nargs="+", type=Path, help="the jobs' tables; <table>.json beside each")
     args = ap.parse_args(argv)
-    commit = git_commit()
-    runs, created = {}, 0
+    experiment = f"grid-{args.grid}"
+    jobs = []
     for path in sorted(args.results):
-        key, rid, new = job_run(args.grid, path, commit)
+        record_path = path.with_suffix(".json")
+        jobs.append((path, record_path, json.loads(record_path.read_text())))
+    child_keys = [run_key(rec) for _, _, rec in jobs]
+    files = aggregate_files(args.aggregate) + ([args.summary] if args.summary else [])
+    parent_key, parent_id, created = grid_run(args.grid, child_keys, files)
+    runs = {parent_key: parent_id}
+    for path, record_path, rec in jobs:
+        key, rid, new = log_job(experiment, rec, path, record_path, parent_run_id=parent_id)
         runs[key] = rid
         created += new
-    grid_dir = args.results[0].parent.parent.parent
-    key, rid, new = aggregate_run(args.grid, grid_dir, commit)
-    runs[key] = rid
-    created += new
-    write_json(args.out, {"experiment": f"grid-{args.grid}", "runs": runs})
-    print(f"{len(runs)} runs in MLflow experiment grid-{args.grid} ({created} newly logged)")
+    write_json(args.out, {"experiment": experiment, "parent_run": parent_id, "runs": runs})
+    message = f"{len(runs)} runs in MLflow experiment {experiment} ({created} newly logged)"
+    if args.page:
+        summary = args.summary.read_text() if args.summary else ""
+        atomic_write_text(args.page, summary.rstrip("\n") + "\n\n## Tracking\n\n"
+                          f"MLflow experiment `{experiment}`: one parent run for the grid (tables, figures, "
+                          f"this page) with its {len(jobs)} jobs as child runs; run ids in "
+                          f"[{args.out.name}]({args.out.name}).\n")
+    print(message)
     return 0
 
 

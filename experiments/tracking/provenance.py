@@ -1,0 +1,173 @@
+"""What determines a job's result, computed cheaply: the method's resolved config, the files of its code,
+the versions of the packages that code imports, a dataset's digest and the code's git state.
+
+The Snakemake rules use the first three as the identify rule's params and inputs (Snakemake's own rerun
+triggers then rerun exactly the affected jobs); the MLflow run key uses all five. Nothing here imports a
+method or MLflow: the workflow evaluates these functions for every job when it builds the DAG.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import hashlib
+import json
+import subprocess
+import sys
+from importlib.metadata import PackageNotFoundError, packages_distributions, version
+from pathlib import Path
+
+import methods
+from experiments.jobs.config import method_of_config
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def canonical_json(obj) -> str:
+    """One text per value: sorted keys, no whitespace (the form digests are taken of)."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str)
+
+
+def digest(text: str | bytes, length: int = 16) -> str:
+    data = text.encode() if isinstance(text, str) else text
+    return hashlib.sha256(data).hexdigest()[:length]
+
+
+_HYDRA_ROOT: list[str] = []     # the config folder Hydra was initialised on in this process
+
+
+@functools.cache
+def resolved_method_config(config_name: str, overrides: tuple[str, ...] = (), root: str = str(ROOT)) -> str:
+    """The method node of ``configs/identify.yaml`` with ``method=<config_name>`` and ``overrides``, composed
+    by Hydra (defaults chain, variants, interpolations) and returned as canonical JSON.
+
+    The methods' structured schemas (``<name>_schema``, generated from ``Options``) are stood in for by empty
+    nodes, so no method module is imported: the ``Options`` defaults live in the method's module, which the
+    identify rule takes as an input (:func:`method_code_files`).
+    """
+    from hydra import compose, initialize_config_dir
+    from hydra.core.config_store import ConfigStore
+    from hydra.core.global_hydra import GlobalHydra
+    from omegaconf import OmegaConf
+
+    from experiments.jobs.config import IdentifyConfig
+
+    if not _HYDRA_ROOT or _HYDRA_ROOT[0] != root:
+        cs = ConfigStore.instance()
+        cs.store(name="identify_schema", node=IdentifyConfig)
+        for name in methods.names():
+            cs.store(group="method", name=f"{name}_schema", node={})
+        GlobalHydra.instance().clear()
+        initialize_config_dir(config_dir=str(Path(root) / "configs"), version_base="1.3")
+        _HYDRA_ROOT[:] = [root]
+    cfg = compose(config_name="identify", overrides=[f"method={config_name}", *overrides])
+    return canonical_json(OmegaConf.to_container(cfg.method, resolve=True))
+
+
+def _module_file(module: str, root: Path) -> Path | None:
+    base = root.joinpath(*module.split("."))
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def _imports(path: Path, package: str) -> set[str]:
+    """Modules imported by the file ``path`` (absolute names; relative imports resolved in ``package``)."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                parts = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(parts + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            names.add(base)
+            names.update(f"{base}.{a.name}" for a in node.names)   # `from methods import fft` imports a module
+    return names
+
+
+@functools.cache
+def method_code_files(config_name: str, root: str = str(ROOT)) -> tuple[str, ...]:
+    """The source files a method's result depends on: its module and, transitively, every module of the
+    ``methods`` package it imports. The package's ``__init__`` (the name registry) is left out: it maps names
+    to modules and holds no numerics, so registering another method reruns nothing.
+
+    Python's ``modulefinder`` would follow every import into numpy and scipy (seconds per method); only the
+    ``methods`` package matters here, so its ``import`` statements are read with ``ast``.
+    """
+    root_path = Path(root)
+    name = method_of_config(config_name)
+    if name is None:
+        raise ValueError(f"method config '{config_name}' names no registered method; known: "
+                         f"{', '.join(methods.names())}")
+    todo, seen = [methods.module_name(name)], {}
+    while todo:
+        module = todo.pop()
+        path = _module_file(module, root_path)
+        if path is None or module in seen:
+            continue
+        seen[module] = path
+        package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+        todo += [m for m in _imports(path, package) if m.split(".")[0] == "methods" and m != "methods"]
+    files = [p for m, p in seen.items() if m != "methods"]
+    return tuple(sorted(str(p.relative_to(root_path)) for p in files))
+
+
+@functools.cache
+def _distributions() -> dict[str, list[str]]:
+    return packages_distributions()
+
+
+@functools.cache
+def package_versions(config_name: str, root: str = str(ROOT)) -> str:
+    """Canonical JSON {distribution: version} of the third-party packages the method's code imports
+    (and Python's own version): an upgrade of one of them reruns the method's jobs."""
+    tops = set()
+    for rel in method_code_files(config_name, root):
+        tops.update(m.split(".")[0] for m in _imports(Path(root) / rel, "methods"))
+    out = {"python": ".".join(map(str, sys.version_info[:3]))}
+    for top in sorted(tops - {"methods", "__future__"} - set(sys.stdlib_module_names)):
+        try:
+            out[top] = version(top)           # the usual case: the distribution is named like the module
+        except PackageNotFoundError:
+            for dist in _distributions().get(top, [top]):
+                try:
+                    out[dist] = version(dist)
+                except PackageNotFoundError:
+                    out[dist] = "not installed"
+    return canonical_json(out)
+
+
+def code_digest(config_name: str, root: str = str(ROOT)) -> str:
+    """A digest of the method's source files (their bytes, in name order)."""
+    h = hashlib.sha256()
+    for rel in method_code_files(config_name, root):
+        h.update(rel.encode() + b"\0" + (Path(root) / rel).read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
+def file_digest(path) -> str:
+    """SHA-256 of a file's bytes (a user's CSV; a dataset cell is digested by its arrays, see io.read_npz)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def git_state(root: str = str(ROOT)) -> dict:
+    """The code version: ``commit`` (``unknown`` outside a git checkout), ``dirty`` (tracked files modified)
+    and ``diff`` (a digest of the uncommitted changes, so two different dirty trees are told apart)."""
+    def git(*args):
+        return subprocess.run(["git", *args], cwd=root, capture_output=True, check=True).stdout
+
+    try:
+        commit = git("rev-parse", "HEAD").decode().strip()
+        diff = git("diff", "HEAD", "--no-ext-diff", "--binary")
+    except (OSError, subprocess.CalledProcessError):
+        return {"commit": "unknown", "dirty": False, "diff": ""}
+    return {"commit": commit, "dirty": bool(diff), "diff": digest(diff) if diff else ""}
