@@ -18,11 +18,11 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.slow
 
 
-def snakemake(workdir, *args):
+def snakemake(workdir, *args, snakefile=ROOT / "Snakefile"):
     bindir = Path(sys.executable).parent          # the rules call `python -m ...` of this environment
     env = os.environ | {"PATH": f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}"}
     env.pop("MLFLOW_TRACKING_URI", None)
-    return subprocess.run([str(bindir / "snakemake"), "-s", str(ROOT / "Snakefile"), "--directory", str(workdir),
+    return subprocess.run([str(bindir / "snakemake"), "-s", str(snakefile), "--directory", str(workdir),
                            "--cores", "2", *args], capture_output=True, text=True, timeout=900, env=env)
 
 
@@ -58,6 +58,22 @@ def test_mlflow_holds_each_job_once_and_a_rerun_adds_nothing(smoke_run):
     runs = client.search_runs([exp.experiment_id], max_results=1000)
     assert len(runs) == len(record["runs"])
     assert len({r.data.tags["run_key"] for r in runs}) == len(runs)
+    # the grid is a parent run (tables, figures, page) with every job as its child
+    parent = client.get_run(record["parent_run"])
+    assert parent.data.tags["kind"] == "grid"
+    assert {"comparison.csv", "winner_map.png", "summary.md"} <= {
+        Path(a.path).name for d in ("", "tables", "figures") for a in client.list_artifacts(parent.info.run_id, d)}
+    jobs = [r for r in runs if r.data.tags.get("kind") == "job"]
+    assert len(jobs) == len(runs) - 1 == len(list((out / "identify").glob("*/*.csv")))
+    for r in jobs:
+        assert r.data.tags["mlflow.parentRunId"] == parent.info.run_id
+        assert r.data.tags["mlflow.source.name"] == "experiments/jobs/identify.py"
+        (ds,) = r.inputs.dataset_inputs
+        cell = r.data.params["dataset"]
+        assert ds.dataset.name == cell and len(ds.dataset.digest) > 8
+        assert "config.yaml" in {a.path for a in client.list_artifacts(r.info.run_id)}
+    assert "## Tracking" in (out / "README.md").read_text()
+    assert (out / "README.md").read_text().startswith((out / "summary.md").read_text().rstrip("\n"))
     table = (out / "tables" / "comparison.csv").read_bytes()
     proc = snakemake(smoke_run, "smoke")
     assert proc.returncode == 0
@@ -80,3 +96,101 @@ def test_a_killed_job_leaves_no_file_snakemake_takes_for_done(smoke_run, tmp_pat
     proc.wait()
     assert not target.exists()
     shutil.rmtree(tmp_path / "run", ignore_errors=True)
+
+
+# ---- Reruns after a change: a scratch copy of the repository with a two-method grid -----------------------
+
+TINY = """name: tiny
+noise_ug: [1000]
+n_samples: [64]
+replicates: 2
+seed: 7
+methods: [fft, akf]
+"""
+IGNORE = shutil.ignore_patterns(".venv", ".git", "results", ".snakemake", "__pycache__", ".pytest_cache",
+                                ".ruff_cache", "*.egg-info")
+
+
+def planned(workdir, target="results/tiny/README.md"):
+    """The jobs ``snakemake -n`` would run: {rule: [outputs]}."""
+    proc = snakemake(workdir, "-n", target, snakefile=workdir / "Snakefile")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    jobs, rule = {}, None
+    for line in (proc.stdout + proc.stderr).splitlines():
+        if line.startswith(("rule ", "localrule ")):
+            rule = line.split()[1].rstrip(":")
+            jobs.setdefault(rule, [])
+        elif rule and line.strip().startswith("output:"):
+            jobs[rule].append(line.split(":", 1)[1].split(",")[0].strip())
+    return jobs
+
+
+@pytest.fixture(scope="module")
+def repo_copy(tmp_path_factory):
+    copy = tmp_path_factory.mktemp("repo") / "repo"
+    shutil.copytree(ROOT, copy, ignore=IGNORE)
+    (copy / "configs" / "grid" / "tiny.yaml").write_text(TINY)
+    (copy / "configs" / "grid" / "broken.yaml").write_text(TINY.replace("tiny", "broken").replace("[1000]", "[-1]"))
+    proc = snakemake(copy, "results/tiny/README.md", snakefile=copy / "Snakefile")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return copy
+
+
+def test_one_target_gives_a_grids_tables_figures_and_tracking(repo_copy):
+    out = repo_copy / "results" / "tiny"
+    assert (out / "tables" / "comparison.csv").exists() and (out / "figures" / "winner_map.png").exists()
+    record = json.loads((out / "mlflow_runs.json").read_text())
+    client = mlflow.MlflowClient(f"sqlite:///{repo_copy / 'results' / 'mlflow.db'}")
+    exp = client.get_experiment_by_name("grid-tiny")
+    assert len(client.search_runs([exp.experiment_id])) == len(record["runs"]) == 1 + 2
+    assert "grid-tiny" in (out / "README.md").read_text()
+
+
+def test_a_malformed_grid_file_breaks_only_itself_in_one_line(repo_copy):
+    assert planned(repo_copy) == {}                       # the tiny grid still plans (nothing to do)
+    proc = snakemake(repo_copy, "-n", "results/broken/README.md", snakefile=repo_copy / "Snakefile")
+    assert proc.returncode != 0
+    errors = [line for line in (proc.stdout + proc.stderr).splitlines() if "broken.yaml" in line]
+    assert errors and "noise_ug" in errors[0] and "-1" in errors[0], proc.stderr[-2000:]
+
+
+def test_tracking_reads_only_what_the_workflow_declares(repo_copy):
+    # the Hydra run folders are not inputs of the track step: without them it still logs
+    shutil.rmtree(repo_copy / "results" / "tiny" / "runs")
+    (repo_copy / "results" / "tiny" / "README.md").unlink()
+    proc = snakemake(repo_copy, "results/tiny/README.md", snakefile=repo_copy / "Snakefile")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "rule track" in proc.stdout + proc.stderr
+    assert "0 newly logged" in (repo_copy / "results" / "tiny" / "logs" / "track.log").read_text()
+
+
+def _edit(path, old, new):
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+    return text
+
+
+def test_an_edit_reruns_exactly_the_affected_jobs_and_what_follows(repo_copy):
+    downstream = {"aggregate", "track"}
+    fft_jobs = ["results/tiny/identify/fft/noise1000ug_n64.csv"]
+    # unrelated edits: a README, another method's code and config
+    for path, old, new in [(repo_copy / "README.md", "# Identifying", "# Identifying (edited)"),
+                           (repo_copy / "methods" / "pll.py", '"""', '"""Edited. '),
+                           (repo_copy / "configs" / "method" / "pem.yaml", "name: pem", "name: pem  # edited")]:
+        _edit(path, old, new)
+        assert planned(repo_copy) == {}, path
+    # the fft method's config, then its code: the fft job and everything downstream, nothing else
+    cfg = repo_copy / "configs" / "method" / "fft.yaml"
+    original = _edit(cfg, "zero_pad_factor: 16", "zero_pad_factor: 8")
+    jobs = planned(repo_copy)
+    assert jobs.pop("identify") == fft_jobs and set(jobs) == downstream
+    cfg.write_text(original)
+    assert planned(repo_copy) == {}                       # back to the config the results were made with
+    _edit(repo_copy / "methods" / "fft.py", '"""', '"""Edited. ')
+    jobs = planned(repo_copy)
+    assert jobs.pop("identify") == fft_jobs and set(jobs) == downstream
+    # a module shared by several methods reruns all of theirs
+    _edit(repo_copy / "methods" / "estimate.py", '"""', '"""Edited. ')
+    assert sorted(planned(repo_copy)["identify"]) == sorted(
+        fft_jobs + ["results/tiny/identify/akf/noise1000ug_n64.csv"])

@@ -85,7 +85,7 @@ def experiment_dirs(grid):
 
 
 def grid_targets(grid):
-    return [f"results/{grid}/README.md"]
+    return [f"results/{grid}/README.md", f"results/{grid}/mlflow_runs.json"]
 
 
 def method_overrides(wildcards):

@@ -75,7 +75,11 @@ def _module_file(module: str, root: Path) -> Path | None:
 def _imports(path: Path, package: str) -> set[str]:
     """Modules imported by the file ``path`` (absolute names; relative imports resolved in ``package``)."""
     names = set()
-    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+    try:
+        tree = ast.parse(path.read_text(), filename=str(path))
+    except SyntaxError:
+        return names            # the job itself will report it; the file is an input all the same
+    for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             names.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
