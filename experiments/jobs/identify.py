@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
 from omegaconf import OmegaConf
 
 import methods
@@ -93,7 +94,8 @@ def _progress(total: int, name: str, enabled: bool):
                 mininterval=2.0)
 
 
-def task(cfg) -> None:
+def task(cfg) -> float | None:
+    """Identify every record; in a sweep (``-m``) or when tracking, return the cell's objective."""
     data = load_data(cfg)
     prior = prior_of(cfg)
     name = cfg.method.name
@@ -122,6 +124,19 @@ def task(cfg) -> None:
 
         key, _, created = log_job(cfg.tracking.experiment, record, out, record_path)
         print(f"MLflow experiment {cfg.tracking.experiment}: run {key} ({'logged' if created else 'already there'})")
+    if cfg.tracking.enabled or HydraConfig.get().mode == RunMode.MULTIRUN:
+        import pandas as pd
+
+        from experiments.report.summary import summarize
+        from experiments.tuning.objective import cell_objective
+
+        # A sweeper's objective (any Hydra sweeper minimises what the job returns): log10 of the median
+        # RMSE/CRLB over modes + a failure penalty, as the tuning command (experiments/tuning/objective.py)
+        objective = cell_objective(summarize(pd.DataFrame(rows, columns=COLUMNS)))
+        print(f"objective {objective['value']:.4g} (median RMSE/CRLB {objective['median_rmse_over_crlb']:.3g}, "
+              f"failure rate {objective['failure_rate']:.2f})")
+        return objective["value"]
+    return None
 
 
 def rows_to_csv(rows: list[dict]) -> str:

@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
-from experiments.tracking.provenance import digest
+from experiments.tracking.provenance import digest, git_state
 
 DEFAULT_DB = Path("results") / "mlflow.db"   # relative to the working directory, like all outputs
 LOCK_TIMEOUT_S = 600
@@ -166,3 +166,9 @@ def source_tags(entry_point: str, code: dict) -> dict:
     if code.get("commit", "unknown") != "unknown":
         tags["mlflow.source.git.commit"] = code["commit"]
     return tags
+
+
+def git_commit() -> str:
+    """The commit of the code (``unknown`` outside a git checkout), ``+dirty`` if tracked files changed."""
+    state = git_state()
+    return state["commit"] + ("+dirty" if state["dirty"] else "")
