@@ -194,3 +194,27 @@ def test_an_edit_reruns_exactly_the_affected_jobs_and_what_follows(repo_copy):
     _edit(repo_copy / "methods" / "estimate.py", '"""', '"""Edited. ')
     assert sorted(planned(repo_copy)["identify"]) == sorted(
         fft_jobs + ["results/tiny/identify/akf/noise1000ug_n64.csv"])
+
+
+def test_run_sh_clears_a_stale_lock_unless_a_snakemake_works_in_this_folder(repo_copy, tmp_path):
+    (repo_copy / ".venv").symlink_to(ROOT / ".venv")            # run.sh's environment, not a new one
+    locks = repo_copy / ".snakemake" / "locks"
+    fake = tmp_path / "bin" / "snakemake"                       # stands for a running Snakemake
+    fake.parent.mkdir()
+    shutil.copy("/bin/sleep", fake)
+
+    def stale_lock_cleared_with(cwd):
+        locks.mkdir(parents=True, exist_ok=True)
+        (locks / "0.input.lock").write_text(f"{repo_copy / 'results' / 'x'}\n")
+        other = subprocess.Popen([str(fake), "120"], cwd=cwd)
+        try:
+            proc = subprocess.run(["./run.sh", "smoke", "--version"], cwd=repo_copy, capture_output=True,
+                                  text=True, timeout=300)
+            assert proc.returncode == 0, proc.stderr
+        finally:
+            other.kill()
+            other.wait()
+        return not locks.exists() or not any(locks.iterdir())
+
+    assert stale_lock_cleared_with(tmp_path)          # another workflow elsewhere on the machine: cleared
+    assert not stale_lock_cleared_with(repo_copy)     # a Snakemake working here: left alone

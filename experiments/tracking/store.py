@@ -42,10 +42,11 @@ def is_default_store(uri: str) -> bool:
 
 def lock_path(uri: str) -> Path:
     """The lock file that serialises this project's writers to the store ``uri``."""
-    parsed = urlparse(uri)
-    if parsed.scheme == "sqlite" and parsed.path not in ("", "/:memory:"):
-        return Path(unquote(parsed.path) + ".lock")
-    path = DEFAULT_DB.parent / f".mlflow-{digest(uri, 12)}.lock"
+    if uri.startswith("sqlite:///") and ":memory:" not in uri:
+        # sqlite:///relative.db or sqlite:////absolute.db (SQLAlchemy's forms)
+        path = Path(unquote(urlparse(uri).path[1:]) + ".lock")
+    else:
+        path = DEFAULT_DB.parent / f".mlflow-{digest(uri, 12)}.lock"
     path.parent.mkdir(parents=True, exist_ok=True)
     return path
 

@@ -78,9 +78,11 @@ def log_job(experiment: str, record: dict, table_path: Path, record_path: Path |
 
 
 def grid_run(grid: str, child_keys: list[str], files: list[Path]) -> tuple[str, str, bool]:
-    """The grid's parent run: keyed by its jobs' keys and the code version, carrying tables and figures."""
+    """The grid's parent run, carrying tables and figures: keyed by its jobs' keys (which cover their data,
+    options and code) and the commit (the report's code); uncommitted edits make no new grid run unless
+    they change a job."""
     code = git_state()
-    key = f"{grid}/grid/{digest(canonical_json({'jobs': sorted(child_keys), 'code': code}))}"
+    key = f"{grid}/grid/{digest(canonical_json({'jobs': sorted(child_keys), 'commit': code['commit']}))}"
     rid, created = log_run(f"grid-{grid}", key, params={"grid": grid, "jobs": len(child_keys)}, artifacts=files,
                            tags={**source_tags("Snakefile", code), "grid": grid, "kind": "grid"})
     return key, rid, created
