@@ -197,7 +197,13 @@ def test_an_edit_reruns_exactly_the_affected_jobs_and_what_follows(repo_copy):
 
 
 def test_run_sh_clears_a_stale_lock_unless_a_snakemake_works_in_this_folder(repo_copy, tmp_path):
-    (repo_copy / ".venv").symlink_to(ROOT / ".venv")            # run.sh's environment, not a new one
+    # run.sh's environment: this one, seen through a .venv that run.sh takes as installed (a symlink to the
+    # real .venv would let run.sh reinstall the package from the copy)
+    venv_bin = repo_copy / ".venv" / "bin"
+    venv_bin.mkdir(parents=True)
+    for exe in ("python", "snakemake"):
+        (venv_bin / exe).symlink_to(Path(sys.executable).parent / exe)
+    (repo_copy / ".venv" / ".installed").touch()
     locks = repo_copy / ".snakemake" / "locks"
     fake = tmp_path / "bin" / "snakemake"                       # stands for a running Snakemake
     fake.parent.mkdir()

@@ -72,8 +72,8 @@ def client(uri: str | None = None):
     if uri not in _CLIENTS:
         import mlflow  # imported here: ~2 s, and only the tracking steps need it
 
-        c = mlflow.MlflowClient(tracking_uri=uri)
-        with store_lock(uri):
+        with store_lock(uri):            # the client may open the store on construction (tracing)
+            c = mlflow.MlflowClient(tracking_uri=uri)
             _retry(lambda: c.search_experiments(max_results=1))   # creates/migrates the schema, once
         _CLIENTS[uri] = c
     return _CLIENTS[uri]
