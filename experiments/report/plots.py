@@ -152,7 +152,7 @@ def coverage(summary: pd.DataFrame, table: pd.DataFrame, stem: Path) -> list[Pat
         ax1.bar(x + (k - 0.5) * 0.38, np.nan_to_num(vals), 0.36, color=colors, alpha=1.0 if k == 0 else 0.45,
                 edgecolor="k")
         ax1.bar([0], [0], 0, color="0.3", alpha=1.0 if k == 0 else 0.45, edgecolor="k", label=label)
-        for xi, v, m in zip(x, vals, with_std, strict=True):
+        for xi, v in zip(x, vals, strict=True):
             ax1.text(xi + (k - 0.5) * 0.38, (0 if np.isnan(v) else v) + 1.5,
                      "no data" if np.isnan(v) else f"{v:.0f}", ha="center", fontsize=7,
                      rotation=90 if np.isnan(v) else 0)
