@@ -1,9 +1,13 @@
 # Grid configs (configs/grid/*.yaml), validated against configs/grid/schema.yaml on load, and the
 # helpers that turn a grid into file names.
 import glob
+import math
 import os
+import shlex
+import sys
 
 import yaml
+from snakemake.settings.types import DeploymentMethod
 from snakemake.utils import validate
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
@@ -12,6 +16,14 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 CONDA_ENV = "../../configs/conda/pipeline.yaml"
+
+# Each job's `python` is the interpreter running Snakemake, whose environment has the project installed. Its
+# directory goes first on the jobs' PATH, so a job never depends on the PATH of the shell that submitted it
+# (a SLURM job starts in whatever shell the node gives, and the plugin re-runs this file there with the same
+# interpreter). Under --use-conda the job's conda environment provides `python` instead. "set -euo pipefail"
+# is Snakemake's default prefix, kept.
+if DeploymentMethod.CONDA not in workflow.deployment_settings.deployment_method:
+    shell.prefix(f"set -euo pipefail; export PATH={shlex.quote(os.path.dirname(sys.executable))}:\"$PATH\"; ")
 GRID_SCHEMA = os.path.join(workflow.basedir, "configs", "grid", "schema.yaml")
 
 
@@ -64,3 +76,19 @@ def grid_targets(grid):
 
 def method_overrides(wildcards):
     return " ".join(GRIDS[wildcards.grid].get("method_overrides", {}).get(wildcards.method, []))
+
+
+# Resources (threads, mem_mb, runtime in minutes) that a cluster executor requests per job; a local run only
+# uses threads. Measured with Snakemake's benchmark files and /usr/bin/time (README "Running on a cluster"):
+# every job is one process on one core; peak RSS 92-122 MB in the smoke grid and < 200 MB at N = 2048, R = 4;
+# CPU time = ~1.5 s of imports + a per-sample cost that grows with N * R (pem the slowest). The requests
+# below carry >= 4x headroom on memory and on the measured CPU time at the largest cells.
+MEM_MB_JOB = 1000
+# CPU seconds per (replicate x sample), measured at N = 2048, R = 4 (upper end over the methods: pem).
+CPU_S_PER_SAMPLE = 0.01
+
+
+def identify_runtime(wildcards, attempt):
+    """Minutes for one identify job: 4x the measured cost of its cell, at least 10 min, doubled per retry."""
+    work = GRIDS[wildcards.grid]["replicates"] * int(wildcards.n)
+    return attempt * max(10, math.ceil(4 * CPU_S_PER_SAMPLE * work / 60))

@@ -1,3 +1,10 @@
+# aggregate and track are light and serial (track is the one writer of the MLflow store): they run on the
+# machine that runs Snakemake, never as cluster jobs.
+localrules:
+    aggregate,
+    track,
+
+
 rule aggregate:
     input:
         results=lambda wc: result_files(wc.grid),
@@ -30,6 +37,10 @@ rule track:
 rule reproduce:
     output:
         directory("results/{grid}/paper/{experiment}"),
+    threads: 1
+    resources:
+        mem_mb=MEM_MB_JOB,
+        runtime=30,
     conda:
         CONDA_ENV
     log:
