@@ -21,8 +21,8 @@ from experiments.io import atomic_write_text, markdown_table, write_table
 from experiments.report import plots
 from experiments.report.summary import summarize
 
-ROOT = Path(__file__).resolve().parents[2]
-PRINTED = ROOT / "configs" / "paper" / "printed.yaml"
+# experiments/configs is configs/ (a link in the repository, package data in a wheel)
+PRINTED = Path(__file__).resolve().parents[1] / "configs" / "paper" / "printed.yaml"
 
 
 def read_results(paths) -> pd.DataFrame:

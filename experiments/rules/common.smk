@@ -79,13 +79,13 @@ def method_overrides(wildcards):
 
 
 # Resources (threads, mem_mb, runtime in minutes) that a cluster executor requests per job; a local run only
-# uses threads. Measured with Snakemake's benchmark files and /usr/bin/time (README "Running on a cluster"):
-# every job is one process on one core; peak RSS 92-122 MB in the smoke grid and < 200 MB at N = 2048, R = 4;
-# CPU time = ~1.5 s of imports + a per-sample cost that grows with N * R (pem the slowest). The requests
-# below carry >= 4x headroom on memory and on the measured CPU time at the largest cells.
+# uses threads. Measured with Snakemake's benchmark files (smoke grid) and /usr/bin/time on one N = 2048, R = 4
+# cell (2026-11-22): every job is one process on one core; peak RSS 92-122 MB in the smoke grid, 95 MB
+# (dataset) to 145 MB (pem) at N = 2048; CPU time = ~1.5 s of imports + a cost per replicate x sample,
+# largest for pem: 29 s for 8192 samples, 0.0035 s each (fft/akf/pll <= 0.0002, wkf 0.0002, dataset 0.0001).
+# Requests: 1000 MB (~7x the peak) and 4x the pem cost of the cell, at least 10 minutes.
 MEM_MB_JOB = 1000
-# CPU seconds per (replicate x sample), measured at N = 2048, R = 4 (upper end over the methods: pem).
-CPU_S_PER_SAMPLE = 0.01
+CPU_S_PER_SAMPLE = 0.0035
 
 
 def identify_runtime(wildcards, attempt):

@@ -14,8 +14,7 @@ import shutil
 import subprocess
 
 import pytest
-
-from tests.cluster._smoke import ROOT, result_tables, snakemake
+from _smoke import ROOT, result_tables, snakemake
 
 pytestmark = pytest.mark.slow
 
