@@ -83,12 +83,13 @@ def method_overrides(wildcards):
 # cell (2026-11-22): every job is one process on one core; peak RSS 92-122 MB in the smoke grid, 95 MB
 # (dataset) to 145 MB (pem) at N = 2048; CPU time = ~1.5 s of imports + a cost per replicate x sample,
 # largest for pem: 29 s for 8192 samples, 0.0035 s each (fft/akf/pll <= 0.0002, wkf 0.0002, dataset 0.0001).
-# Requests: 1000 MB (~7x the peak) and 4x the pem cost of the cell, at least 10 minutes.
+# Requests: 1000 MB (~7x the peak); identify 4x the pem cost of its cell, at least 2 minutes (a smoke job takes
+# ~2 s of CPU, ~17 s wall on a machine loaded 8x); dataset 5 minutes (20 s of CPU at N = 2048, R = 100).
 MEM_MB_JOB = 1000
 CPU_S_PER_SAMPLE = 0.0035
 
 
 def identify_runtime(wildcards, attempt):
-    """Minutes for one identify job: 4x the measured cost of its cell, at least 10 min, doubled per retry."""
+    """Minutes for one identify job: 4x the measured cost of its cell, at least 2 min, doubled per retry."""
     work = GRIDS[wildcards.grid]["replicates"] * int(wildcards.n)
-    return attempt * max(10, math.ceil(4 * CPU_S_PER_SAMPLE * work / 60))
+    return attempt * max(2, math.ceil(4 * CPU_S_PER_SAMPLE * work / 60))

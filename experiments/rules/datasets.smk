@@ -6,7 +6,7 @@ rule dataset:
     threads: 1
     resources:
         mem_mb=MEM_MB_JOB,
-        runtime=10,
+        runtime=5,
     group:
         "cells"
     conda:
