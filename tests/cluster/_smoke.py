@@ -14,13 +14,24 @@ ROOT = Path(__file__).resolve().parents[2]
 SYSTEM_PATH = "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"
 
 
-def snakemake(workdir: Path, *args: str, env: dict | None = None, timeout: int = 1200):
-    """Run the workflow of this repository in ``workdir``; the PATH is the system's, not the venv's."""
+def _command(workdir: Path, args, env: dict | None):
     base = {k: v for k, v in os.environ.items() if k not in ("MLFLOW_TRACKING_URI", "VIRTUAL_ENV")}
     base["PATH"] = SYSTEM_PATH
-    return subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"),
-                           "--directory", str(workdir), *args],
-                          capture_output=True, text=True, timeout=timeout, env=base | (env or {}), cwd=ROOT)
+    cmd = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "--directory", str(workdir), *args]
+    return cmd, base | (env or {})
+
+
+def snakemake(workdir: Path, *args: str, env: dict | None = None, timeout: int = 1200):
+    """Run the workflow of this repository in ``workdir``; the PATH is the system's, not the venv's."""
+    cmd, env = _command(workdir, args, env)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)
+
+
+def start_snakemake(workdir: Path, *args: str, env: dict | None = None) -> subprocess.Popen:
+    """Like ``snakemake`` but in the background (output in ``workdir``/snakemake.out)."""
+    cmd, env = _command(workdir, args, env)
+    return subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=open(workdir / "snakemake.out", "w"),
+                            stderr=subprocess.STDOUT)
 
 
 def table_without_runtimes(path: Path) -> list[list[str]]:

@@ -42,17 +42,14 @@ def slurm():
 
 
 @pytest.fixture(scope="module")
-def runs(slurm, tmp_path_factory):
-    local = tmp_path_factory.mktemp("local")
-    proc = snakemake(local, "--cores", "2", "smoke")
-    assert proc.returncode == 0, proc.stderr[-3000:]
+def runs(slurm, local_smoke, tmp_path_factory):
     remote = tmp_path_factory.mktemp("slurm")
     # --cores: the node of this test has nproc CPUs; a group job asking for more (the profile says 8) never starts
     cores = str(len(os.sched_getaffinity(0)))
     proc = snakemake(remote, "--workflow-profile", str(ROOT / "profiles" / "slurm"), "smoke", "--cores", cores,
                      "--slurm-init-seconds-before-status-checks", "1", env=slurm)
     assert proc.returncode == 0, proc.stderr[-4000:]
-    return local, remote, proc.stdout + proc.stderr
+    return local_smoke, remote, proc.stdout + proc.stderr
 
 
 def test_slurm_tables_equal_the_local_run_bit_for_bit(runs):
