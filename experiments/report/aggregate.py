@@ -21,7 +21,7 @@ import pandas as pd
 import yaml
 
 from experiments.io import atomic_write_text, markdown_table, write_table
-from experiments.report import catalog, htmltables, plots
+from experiments.report import catalog, htmltables, plots, variants
 from experiments.report.coverage import coverage_table, honesty_lines
 from experiments.report.summary import summarize
 
@@ -149,11 +149,7 @@ def main(argv=None) -> int:
     context = {"grid": args.grid, "longest": longest, "noise_ref": f"{noise_ref:g}"}
 
     files = write_table(summary, tables / "comparison")
-    files.append(htmltables.write(tables / "comparison.html", f"{args.grid}: comparison table",
-                                  [("", summary)]))
     files += write_table(cov, tables / "coverage_by_method")
-    files.append(htmltables.write(tables / "coverage_by_method.html", f"{args.grid}: coverage of the reported std",
-                                  [("", cov)]))
     paper = paper_tables(summary, results)
     files.append(atomic_write_text(tables / "paper_tables.md", render_paper_tables(paper) + "\n"))
     files.append(htmltables.write(tables / "paper_tables.html", "The paper's tables, regenerated",
@@ -168,7 +164,14 @@ def main(argv=None) -> int:
     files += plots.winner_map(summary, figs / "winner_map")
     files += plots.failure_map(summary, figs / "failure_map")
     files += plots.coverage(summary, cov, figs / "coverage")
+    var = variants.table(summary)
+    if len(var):
+        files += write_table(var, tables / "variants")
+        files.append(htmltables.write(tables / "variants.html", f"{args.grid}: method variants side by side",
+                                      [("", var)] + variants.provenance(var["variant"])))
+        files += variants.figure(var, figs / "variants")
 
+    files += html_twins(tables, args.grid, files)
     files += write_captions(figs, "png", context) + write_captions(tables, "html", context)
     text = (page(args.grid, summary, cov, out, context) + experiments_section(args.experiments, out))
     atomic_write_text(out / "README.md", text)
@@ -185,6 +188,13 @@ def experiment_tables(folder: Path, path: Path) -> Path:
         if not f.with_suffix(".csv").exists():
             sections.append((f.stem, f.read_text(encoding="utf-8")))
     return htmltables.write(path, f"Paper reproduction {folder.name}", sections)
+
+
+def html_twins(folder: Path, grid: str, written) -> list[Path]:
+    """An HTML page beside every CSV table of ``folder`` (anyone's) unless one was ``written`` already."""
+    done = {Path(f) for f in written}
+    return [htmltables.write(f.with_suffix(".html"), f"{grid}: {catalog.title_of(f.stem)}", [("", pd.read_csv(f))])
+            for f in sorted(folder.glob("*.csv")) if f.with_suffix(".html") not in done]
 
 
 def write_captions(folder: Path, suffix: str, context: dict) -> list[Path]:
