@@ -25,8 +25,8 @@ from experiments.report import catalog, htmltables, plots, variants
 from experiments.report.coverage import coverage_table, honesty_lines
 from experiments.report.summary import summarize
 
-ROOT = Path(__file__).resolve().parents[2]
-PRINTED = ROOT / "configs" / "paper" / "printed.yaml"
+# experiments/configs is configs/ (a link in the repository, package data in a wheel)
+PRINTED = Path(__file__).resolve().parents[1] / "configs" / "paper" / "printed.yaml"
 
 
 def read_results(paths) -> pd.DataFrame:
