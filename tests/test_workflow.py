@@ -18,7 +18,8 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.slow
 
 
-def snakemake(workdir, *args, snakefile=ROOT / "Snakefile"):
+def snakemake_in(workdir, *args, snakefile=ROOT / "Snakefile"):
+    """Snakemake with any Snakefile (a scratch copy of the repository) in a scratch working directory."""
     bindir = Path(sys.executable).parent          # the rules call `python -m ...` of this environment
     env = os.environ | {"PATH": f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}"}
     env.pop("MLFLOW_TRACKING_URI", None)
@@ -27,11 +28,8 @@ def snakemake(workdir, *args, snakefile=ROOT / "Snakefile"):
 
 
 @pytest.fixture(scope="module")
-def smoke_run(tmp_path_factory):
-    workdir = tmp_path_factory.mktemp("smoke")
-    proc = snakemake(workdir, "smoke")
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    return workdir
+def smoke_run(smoke_workdir):
+    return smoke_workdir
 
 
 def test_smoke_workflow_writes_tables_figures_and_page(smoke_run):
@@ -42,15 +40,17 @@ def test_smoke_workflow_writes_tables_figures_and_page(smoke_run):
     assert set(summary["method"]) == set(grid["methods"])
     assert len(summary) == len(grid["methods"]) * n_cells * 4
     assert (summary["replicates"] == grid["replicates"]).all()
-    for fig in ("rmse_vs_noise", "rmse_vs_length", "winner_map", "failure_map"):
+    for fig in ("rmse_vs_noise", "rmse_vs_length", "winner_map", "failure_map", "coverage"):
         assert (out / "figures" / f"{fig}.png").stat().st_size > 10_000
         assert (out / "figures" / f"{fig}.svg").exists()
     page = (out / "README.md").read_text()
     assert "figures/winner_map.png" in page and "tables/comparison.csv" in page
+    assert "Is each method's reported std honest?" in page
+    assert {"coverage_1std", "coverage_2std", "median_abs_err_over_std"} <= set(summary.columns)
     assert len(list((out / "benchmarks").rglob("*.tsv"))) == len(grid["methods"]) * n_cells
 
 
-def test_mlflow_holds_each_job_once_and_a_rerun_adds_nothing(smoke_run):
+def test_mlflow_holds_each_job_once_and_a_rerun_adds_nothing(smoke_run, snakemake):
     out = smoke_run / "results" / "smoke"
     record = json.loads((out / "mlflow_runs.json").read_text())
     client = mlflow.MlflowClient(f"sqlite:///{smoke_run / 'results' / 'mlflow.db'}")
@@ -113,7 +113,7 @@ IGNORE = shutil.ignore_patterns(".venv", ".git", "results", ".snakemake", "__pyc
 
 def planned(workdir, target="results/tiny/README.md"):
     """The jobs ``snakemake -n`` would run: {rule: [outputs]}."""
-    proc = snakemake(workdir, "-n", target, snakefile=workdir / "Snakefile")
+    proc = snakemake_in(workdir, "-n", target, snakefile=workdir / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
     jobs, rule = {}, None
     for line in (proc.stdout + proc.stderr).splitlines():
@@ -131,7 +131,7 @@ def repo_copy(tmp_path_factory):
     shutil.copytree(ROOT, copy, ignore=IGNORE)
     (copy / "configs" / "grid" / "tiny.yaml").write_text(TINY)
     (copy / "configs" / "grid" / "broken.yaml").write_text(TINY.replace("tiny", "broken").replace("[1000]", "[-1]"))
-    proc = snakemake(copy, "results/tiny/README.md", snakefile=copy / "Snakefile")
+    proc = snakemake_in(copy, "results/tiny/README.md", snakefile=copy / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
     return copy
 
@@ -148,7 +148,7 @@ def test_one_target_gives_a_grids_tables_figures_and_tracking(repo_copy):
 
 def test_a_malformed_grid_file_breaks_only_itself_in_one_line(repo_copy):
     assert planned(repo_copy) == {}                       # the tiny grid still plans (nothing to do)
-    proc = snakemake(repo_copy, "-n", "results/broken/README.md", snakefile=repo_copy / "Snakefile")
+    proc = snakemake_in(repo_copy, "-n", "results/broken/README.md", snakefile=repo_copy / "Snakefile")
     assert proc.returncode != 0
     errors = [line for line in (proc.stdout + proc.stderr).splitlines() if "broken.yaml" in line]
     assert errors and "noise_ug" in errors[0] and "-1" in errors[0], proc.stderr[-2000:]
@@ -158,7 +158,7 @@ def test_tracking_reads_only_what_the_workflow_declares(repo_copy):
     # the Hydra run folders are not inputs of the track step: without them it still logs
     shutil.rmtree(repo_copy / "results" / "tiny" / "runs")
     (repo_copy / "results" / "tiny" / "README.md").unlink()
-    proc = snakemake(repo_copy, "results/tiny/README.md", snakefile=repo_copy / "Snakefile")
+    proc = snakemake_in(repo_copy, "results/tiny/README.md", snakefile=repo_copy / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "rule track" in proc.stdout + proc.stderr
     assert "0 newly logged" in (repo_copy / "results" / "tiny" / "logs" / "track.log").read_text()

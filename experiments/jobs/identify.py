@@ -212,6 +212,11 @@ def log_measurement(record: dict, est, estimate_path: Path) -> None:
     print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} ({'logged' if created else 'already there'})")
 
 
-if __name__ == "__main__":
+def main() -> None:
+    """The console script ``modal-id-identify`` (pyproject.toml), same as ``python -m experiments.jobs.identify``."""
     register(with_methods=methods_named_on(sys.argv[1:]))
     run_app("identify", task, check)
+
+
+if __name__ == "__main__":
+    main()

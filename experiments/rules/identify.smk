@@ -13,6 +13,12 @@ rule identify:
         overrides=method_overrides,
         method_config=method_config,
         versions=method_versions,
+    threads: 1
+    resources:
+        mem_mb=MEM_MB_JOB,
+        runtime=identify_runtime,
+    group:
+        "cells"
     conda:
         CONDA_ENV
     log:
