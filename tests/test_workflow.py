@@ -117,7 +117,7 @@ def planned(workdir, target="results/tiny/README.md"):
     assert proc.returncode == 0, proc.stderr[-3000:]
     jobs, rule = {}, None
     for line in (proc.stdout + proc.stderr).splitlines():
-        if line.startswith(("rule ", "localrule ")):
+        if line.lstrip().startswith(("rule ", "localrule ")):          # indented inside a job group
             rule = line.split()[1].rstrip(":")
             jobs.setdefault(rule, [])
         elif rule and line.strip().startswith("output:"):

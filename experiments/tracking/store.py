@@ -11,13 +11,17 @@ exists``), and a search-then-create of a run key is not atomic. MLflow's answer 
 tracking server; without one, every process here takes an inter-process file lock (``filelock``) around the
 first connection and around each run's search-create-log, so the store is initialised once and each key
 is logged once. The lock file sits beside the SQLite file, or under ``results/`` for other stores (shared
-by the processes of one project folder, e.g. the jobs of a workflow).
+by the processes of one project folder, e.g. the jobs of a workflow). Writers in other folders or on other
+machines (a shared server) share no lock: there each run, once finished, looks for others with its key and
+the earliest-started one stays (a run that finds an earlier one deletes itself), and a run left RUNNING is
+taken for cut off only when its owner process (tag ``owner``, host:pid) is known to be gone.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import socket
 import time
 from pathlib import Path
 from urllib.parse import unquote, urlparse
@@ -119,7 +123,7 @@ def log_run(experiment: str, run_key: str, *, params: dict | None = None, metric
 
     uri = tracking_uri()
     c = client(uri)
-    all_tags = {"run_key": run_key, **(tags or {})}
+    all_tags = {"run_key": run_key, "owner": _OWNER, **(tags or {})}
     if parent_run_id:
         all_tags["mlflow.parentRunId"] = parent_run_id
     with store_lock(uri):
@@ -130,7 +134,8 @@ def log_run(experiment: str, run_key: str, *, params: dict | None = None, metric
                 if parent_run_id and run.data.tags.get("mlflow.parentRunId") != parent_run_id:
                     _retry(lambda r=run: c.set_tag(r.info.run_id, "mlflow.parentRunId", parent_run_id))
                 return run.info.run_id, False
-            _retry(lambda r=run: c.delete_run(r.info.run_id))      # cut off part-way: nobody holds the lock
+            if _owner_gone(run):
+                _retry(lambda r=run: c.delete_run(r.info.run_id))  # cut off part-way
         run = _retry(lambda: c.create_run(exp_id, tags=all_tags, run_name=run_key.replace("/", "_")[-250:]))
         rid = run.info.run_id
         now = int(time.time() * 1000)
@@ -146,7 +151,36 @@ def log_run(experiment: str, run_key: str, *, params: dict | None = None, metric
         for path in artifacts or []:
             _retry(lambda p=path: c.log_artifact(rid, str(p)))
         _retry(lambda: c.set_terminated(rid, "FINISHED"))
+        _retry(lambda: c.delete_tag(rid, "owner"))        # only a RUNNING run needs it
+        # a writer from another folder (no shared lock) may have logged the same key meanwhile
+        same = _retry(lambda: c.search_runs([exp_id], filter_string=f"tags.run_key = '{run_key}'"))
+        live = [r for r in same if r.info.status in ("RUNNING", "FINISHED")]
+        first = min(live, key=lambda r: (r.info.start_time, r.info.run_id))
+        if first.info.run_id != rid:
+            _retry(lambda: c.delete_run(rid))
+            return first.info.run_id, False
     return rid, True
+
+
+_OWNER = f"{socket.gethostname()}:{os.getpid()}"
+
+
+def _owner_gone(run) -> bool:
+    """Whether the process that created a RUNNING run is known to have ended (on this host; an owner on
+    another host is taken for alive, and a run without an owner tag for cut off)."""
+    owner = run.data.tags.get("owner")
+    if not owner:
+        return True
+    host, _, pid = owner.rpartition(":")
+    if host != socket.gethostname():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except (PermissionError, ValueError):
+        return False
+    return int(pid) == os.getpid()    # our own leftover (an earlier attempt in this process)
 
 
 def dataset_entity(name: str, digest_: str, source: str, *, kind: str, profile: dict | None = None):

@@ -115,3 +115,16 @@ def test_identify_logs_each_distinct_result_once_and_user_measurements_too(cells
     assert meas[0].inputs.dataset_inputs[0].dataset.name == "my.csv"
     assert "freq_rad_s.mode1" in meas[0].data.metrics
     assert not (tmp_path / "mlruns").exists()
+
+
+def test_a_run_of_the_same_key_from_a_writer_elsewhere_is_not_duplicated(mlflow_uri):
+    """Writers in another folder share no lock: the earlier-started run with a key stays, a later one
+    deletes itself; a RUNNING run of a live owner elsewhere is not taken for cut off."""
+    client = mlflow.MlflowClient(mlflow_uri)
+    exp_id = client.create_experiment("exp3")
+    other = client.create_run(exp_id, tags={"run_key": "k", "owner": "another-host:1"})   # still running
+    rid, created = log_run("exp3", "k", metrics={"x": 1.0})
+    assert not created and rid == other.info.run_id
+    assert [r.info.run_id for r in client.search_runs([exp_id])] == [other.info.run_id]
+    client.set_terminated(other.info.run_id)
+    assert log_run("exp3", "k", metrics={"x": 1.0}) == (other.info.run_id, False)
