@@ -185,6 +185,14 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
 
 
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods` (validated without a record, before any work). Issue 9:
+    keep this function (or its equivalent) when rewriting the module; ``identify`` runs the same checks."""
+    opts = make_options(Options, options, "pem")
+    _check_options(opts, np.atleast_1d(np.asarray(prior, dtype=float)))
+    return opts
+
+
 def _free_mask(m: int, opts: Options) -> tuple[bool, ...]:
     """Which entries of θ = [ω, ζ, x₀, b] the search estimates."""
     return tuple([True] * m + [opts.estimate_damping] * m + [True] * (2 * m) + [opts.bias == "estimate"])
