@@ -7,7 +7,7 @@ hankel_preprocessing``); the eigenvalues are continuous-time poles s, constraine
 record is real), and :func:`methods.modal_poles.pick_modes` picks the m modes.
 
 Settings (methods/README_peers.md): rank 2m + 1 + ``extra_order``, d = ``delays_fraction``·N delays,
-chosen on tuning seeds 1-10 (never the scoring seed). Uncertainty: with ``num_trials`` > 0 BOPDMD bags
+chosen on tuning seed 1 (never the scoring seed). Uncertainty: with ``num_trials`` > 0 BOPDMD bags
 (refits on random subsets of ``trial_size`` of the snapshots) and ``std`` is the library's spread of the
 picked eigenvalue, |std(s)|, over the bags — the library's own uncertainty, not a calibrated one; with
 ``num_trials`` = 0 (the default: plain optimized DMD, 3–10× faster) ``std`` is NaN.
@@ -28,8 +28,8 @@ from methods.modal_poles import check_common, to_estimate
 @dataclass
 class Options:
     order: int | None = None         # rank; None: 2m + 1 + extra_order
-    extra_order: int = 1             # spare states beyond modes and offset (tuned on seeds 1-10)
-    delays_fraction: float = 0.25    # delays d / N
+    extra_order: int = 1             # spare states beyond modes and offset (tuned on seed 1)
+    delays_fraction: float = 0.5     # delays d / N
     num_trials: int = 0              # BOPDMD bags; > 0 gives the library's eigenvalue std
     trial_size: float = 0.6          # fraction of the snapshots per bag
     seed: int = 0                    # numpy's global seed for the bags (pydmd draws from np.random)

@@ -24,7 +24,7 @@ from methods.modal_poles import check_common, continuous_poles, order_rule, to_e
 @dataclass
 class Options:
     order: int | None = None         # model order; None: 2m + 1 + extra_order (clipped to what N allows)
-    extra_order: int = 7             # spare states beyond modes and offset (tuned on seeds 1-10)
+    extra_order: int = 3             # spare states beyond modes and offset (tuned on seed 1)
     rows_fraction: float = 0.5       # Hankel rows / (N − 1); the rest are columns (square: the usual rule)
     band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
     min_damping: float = -0.02       # mode picker: accepted damping ratios

@@ -10,7 +10,7 @@ Nyquist; and its inverse FFT has an even length, so an odd record loses its last
 sdypy-EMA computes every order 1…n (its stabilisation diagram); the adapter takes the poles of order n and
 :func:`methods.modal_poles.pick_modes` picks the m modes. Settings (methods/README_peers.md): n =
 ⌈(2m + 1 + ``extra_order``)/2⌉ pole pairs, capped by the library's requirement N > 4n; ``extra_order``
-chosen on tuning seeds 1-10 (never the scoring seed). No uncertainty: ``std`` is NaN.
+chosen on tuning seed 1 (never the scoring seed). No uncertainty: ``std`` is NaN.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from methods.modal_poles import check_common, order_rule, to_estimate
 @dataclass
 class Options:
     order: int | None = None         # number of poles 2n; None: 2m + 1 + extra_order (rounded up to even)
-    extra_order: int = 7             # spare poles beyond modes and offset (tuned on seeds 1-10)
+    extra_order: int = 31            # spare poles beyond modes and offset (tuned on seed 1)
     band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
     min_damping: float = -0.02       # mode picker: accepted damping ratios
     max_damping: float = 0.2

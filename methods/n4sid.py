@@ -6,7 +6,7 @@ and SVD, and ``system_identification(rank=order)`` returns (A, B, C, D); the eig
 continuous-time poles s = log(z)/Δt and :func:`methods.modal_poles.pick_modes` picks the m modes.
 
 Settings (methods/README_peers.md): order 2m + 1 + ``extra_order``; block rows = ``rows_fraction`` · N,
-at least the order; chosen on tuning seeds 1-10 (never the scoring seed). The library's covariance
+at least the order; chosen on tuning seed 1 (never the scoring seed). The library's covariance
 matrices describe the innovation, not the frequencies: ``std`` is NaN.
 """
 
@@ -23,8 +23,8 @@ from methods.modal_poles import check_common, continuous_poles, order_rule, to_e
 @dataclass
 class Options:
     order: int | None = None         # model order; None: 2m + 1 + extra_order
-    extra_order: int = 3             # spare states beyond modes and offset (tuned on seeds 1-10)
-    rows_fraction: float = 0.15      # block rows / N (the past and the future each have this many)
+    extra_order: int = 3             # spare states beyond modes and offset (tuned on seed 1)
+    rows_fraction: float = 0.25      # block rows / N (the past and the future each have this many)
     band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
     min_damping: float = -0.02       # mode picker: accepted damping ratios
     max_damping: float = 0.2
