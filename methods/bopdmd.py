@@ -55,7 +55,7 @@ def identify(y, dt, prior, **options):
     dmd = hankel_preprocessing(BOPDMD(svd_rank=order, eig_constraints={"conjugate_pairs"},
                                       num_trials=opts.num_trials, trial_size=opts.trial_size), d=d)
     if opts.num_trials:
-        np.random.seed(opts.seed)                   # pydmd's bags draw from numpy's global generator
+        np.random.seed(opts.seed)  # noqa: NPY002 - pydmd draws its bags from numpy's global generator
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         dmd.fit(y[None, :], t=np.arange(y.size - d + 1) * dt)
