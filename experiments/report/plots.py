@@ -15,7 +15,13 @@ from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 from experiments.io import save_figure  # noqa: E402
 
 METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab:cyan", "D"),
-                "pem": ("tab:red", "^"), "pll": ("tab:green", "v")}
+                "pem": ("tab:red", "^"), "pll": ("tab:green", "v"),
+                # the peers (methods/README_peers.md)
+                "era": ("tab:orange", "P"), "n4sid": ("tab:purple", "X"), "ssi_cov": ("tab:brown", "<"),
+                "ssi_data": ("tab:pink", ">"), "lsce": ("tab:olive", "h"), "hdmd": ("gold", "*"),
+                "bopdmd": ("navy", "p")}
+# Any other method (a variant, a plugin) gets a colour of its own from this list, by its sorted position.
+EXTRA_COLOURS = ["darkgreen", "teal", "maroon", "indigo", "darkorange", "slategray", "crimson", "olive"]
 MAX_FAILURE_RATE = 0.5   # a (method, cell) that failed more often than this is not drawn as a point
 
 
@@ -26,7 +32,12 @@ def _save(fig, stem: Path) -> list[Path]:
 
 
 def _style(method):
-    return METHOD_STYLE.get(method, ("k", "x"))
+    if method in METHOD_STYLE:
+        return METHOD_STYLE[method]
+    base = method.split(":")[0]
+    if base in METHOD_STYLE:                 # a variant: its method's marker, another colour
+        return EXTRA_COLOURS[sum(map(ord, method)) % len(EXTRA_COLOURS)], METHOD_STYLE[base][1]
+    return EXTRA_COLOURS[sum(map(ord, method)) % len(EXTRA_COLOURS)], "x"
 
 
 def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed_value) -> list[Path]:
@@ -103,11 +114,12 @@ def winner_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
         ax.set_title(f"mode {mode}")
     handles = [plt.Rectangle((0, 0), 1, 1, color=_style(m)[0]) for m in methods]
     fig.legend(handles + [plt.Rectangle((0, 0), 1, 1, fc="white", ec="k")], methods + ["none ≤ 10 % fail"],
-               loc="lower center", ncol=len(methods) + 1, fontsize=8)
+               loc="lower center", ncol=min(len(methods) + 1, 7), fontsize=8)
     fig.suptitle("Best method per cell (lowest RMSE among methods failing ≤ 10 %); number = its RMSE/CRLB; "
                  "pale, in brackets: the mode is not identifiable there (CRLB > 1 % of ω or > 10 % of the spacing)",
                  fontsize=9)
-    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
+    legend_rows = -(-(len(methods) + 1) // 7)
+    fig.tight_layout(rect=(0, 0.04 + 0.05 * legend_rows, 1, 0.95))
     return _save(fig, stem)
 
 
@@ -117,10 +129,14 @@ def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
     noises = sorted(summary["noise_ug"].unique())
     lengths = sorted(summary["n_samples"].unique())
     worst = summary.groupby(["method", "noise_ug", "n_samples"])["failure_rate"].max()
-    fig, axes = plt.subplots(1, len(methods), figsize=(3.4 * len(methods), 0.5 * len(noises) + 2.2),
+    cols = min(len(methods), 6)                       # wrap many methods into rows of six
+    rows = -(-len(methods) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, rows * (0.5 * len(noises) + 2.2)),
                              squeeze=False)
+    for ax in axes.flat[len(methods):]:
+        ax.set_visible(False)
     im = None
-    for ax, method in zip(axes[0], methods, strict=True):
+    for ax, method in zip(axes.flat, methods, strict=False):
         grid = np.full((len(noises), len(lengths)), np.nan)
         for i, noise in enumerate(noises):
             for j, n in enumerate(lengths):
@@ -129,8 +145,8 @@ def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
                     ax.text(j, i, f"{grid[i, j]:.0f}", ha="center", va="center", fontsize=7,
                             color="white" if grid[i, j] > 60 else "black")
         im = ax.imshow(grid, cmap="Reds", vmin=0, vmax=100, aspect="auto", origin="lower")
-        _cell_axes(ax, noises, lengths, ylabel=ax is axes[0][0])
+        _cell_axes(ax, noises, lengths, ylabel=ax in axes[:, 0])
         ax.set_title(method)
-    fig.colorbar(im, ax=axes[0].tolist(), label="failure rate, worst mode (%)", shrink=0.8)
+    fig.colorbar(im, ax=axes.ravel().tolist(), label="failure rate, worst mode (%)", shrink=0.8)
     fig.suptitle("Failure rate (not converged / no estimate), percent of replicates")
     return _save(fig, stem)
