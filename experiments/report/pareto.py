@@ -83,7 +83,10 @@ def figure(table: pd.DataFrame, stem: Path) -> list[Path]:
             color, marker = plots._style(row.method)
             faint = row.mean_failure_rate > MAX_MEAN_FAILURE
             ax.scatter(row.median_ms_per_fit, row.median_rmse_over_crlb, color=color, marker=marker, s=48,
-                       alpha=0.35 if faint else 1.0, edgecolors="k" if row.winner else "none", zorder=3)
+                       alpha=0.35 if faint else 1.0, zorder=3)
+            if row.winner:
+                ax.scatter(row.median_ms_per_fit, row.median_rmse_over_crlb, s=160, facecolors="none",
+                           edgecolors="k", zorder=2)
             ax.annotate(row.method + (f" ({row.mean_failure_rate:.0%} fail)" if faint else ""),
                         (row.median_ms_per_fit, row.median_rmse_over_crlb), textcoords="offset points",
                         xytext=(4, 3), fontsize=7, alpha=0.5 if faint else 1.0)
@@ -100,7 +103,7 @@ def figure(table: pd.DataFrame, stem: Path) -> list[Path]:
     axes[0][0].set_ylabel("median RMSE/CRLB over identifiable (mode, cell) pairs")
     fig.suptitle(f"Accuracy against cost per cell class (short < {SHORT_BELOW_SAMPLES} samples, low noise "
                  f"≤ {LOW_NOISE_UG:g} µg); dotted: the bound; dashed: Pareto front of methods failing "
-                 f"≤ {MAX_MEAN_FAILURE:.0%}; faint: failing more; black edge: the class winner", fontsize=9)
+                 f"≤ {MAX_MEAN_FAILURE:.0%}; faint: failing more; ringed: the class winner", fontsize=9)
     fig.tight_layout(rect=(0, 0, 1, 0.93))
     return plots._save(fig, stem)
 
