@@ -4,7 +4,10 @@
 least-squares fit of eigenvalues and amplitudes, started from a trapezoidal-rule DMD), which removes the
 noise bias of exact DMD. A scalar record is delay-embedded first (``pydmd.preprocessing.
 hankel_preprocessing``); the eigenvalues are continuous-time poles s, constrained to conjugate pairs (the
-record is real), and :func:`methods.modal_poles.pick_modes` picks the m modes.
+record is real) and to the left half-plane (the record is a free decay; without it, variable projection
+on a short noisy record can diverge to eigenvalues with Re s ~ 10⁴ whose exponentials overflow, and
+LAPACK's least squares on the resulting inf/NaN never returns — seen at 10 µg, N = 20), and
+:func:`methods.modal_poles.pick_modes` picks the m modes.
 
 Settings (methods/README_peers.md): rank 2m + 1 + ``extra_order``, d = ``delays_fraction``·N delays,
 chosen on tuning seed 1 (never the scoring seed). Uncertainty: with ``num_trials`` > 0 BOPDMD bags
@@ -52,7 +55,7 @@ def identify(y, dt, prior, **options):
     from pydmd import BOPDMD  # optional extra (.[peers])
     from pydmd.preprocessing import hankel_preprocessing
 
-    dmd = hankel_preprocessing(BOPDMD(svd_rank=order, eig_constraints={"conjugate_pairs"},
+    dmd = hankel_preprocessing(BOPDMD(svd_rank=order, eig_constraints={"stable", "conjugate_pairs"},
                                       num_trials=opts.num_trials, trial_size=opts.trial_size), d=d)
     if opts.num_trials:
         np.random.seed(opts.seed)  # noqa: NPY002 - pydmd draws its bags from numpy's global generator
