@@ -75,11 +75,15 @@ def figure(table: pd.DataFrame, stem: Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     classes = [c for c in CLASSES if c in set(table["cell_class"])]
-    fig, axes = plt.subplots(1, len(classes), figsize=(4.4 * len(classes), 4.4), squeeze=False)
-    for ax, cls in zip(axes[0], classes, strict=True):
+    cols = min(len(classes), 2)
+    rows = -(-len(classes) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(6.4 * cols, 4.6 * rows), squeeze=False)
+    for ax in axes.flat[len(classes):]:
+        ax.set_visible(False)
+    for ax, cls in zip(axes.flat, classes, strict=False):
         g = table[(table["cell_class"] == cls)].dropna(subset=["median_rmse_over_crlb"])
-        g = g[g["median_ms_per_fit"] > 0]
-        for row in g.itertuples():
+        g = g[g["median_ms_per_fit"] > 0].sort_values("median_ms_per_fit")
+        for k, row in enumerate(g.itertuples()):
             color, marker = plots._style(row.method)
             faint = row.mean_failure_rate > MAX_MEAN_FAILURE
             ax.scatter(row.median_ms_per_fit, row.median_rmse_over_crlb, color=color, marker=marker, s=48,
@@ -89,7 +93,7 @@ def figure(table: pd.DataFrame, stem: Path) -> list[Path]:
                            edgecolors="k", zorder=2)
             ax.annotate(row.method + (f" ({row.mean_failure_rate:.0%} fail)" if faint else ""),
                         (row.median_ms_per_fit, row.median_rmse_over_crlb), textcoords="offset points",
-                        xytext=(4, 3), fontsize=7, alpha=0.5 if faint else 1.0)
+                        xytext=(5, 4 if k % 2 == 0 else -10), fontsize=7, alpha=0.5 if faint else 1.0)
         front = pareto_front(g[g["mean_failure_rate"] <= MAX_MEAN_FAILURE])
         if len(front) > 1:
             ax.step(front["median_ms_per_fit"], front["median_rmse_over_crlb"], where="post", color="k",
@@ -100,11 +104,12 @@ def figure(table: pd.DataFrame, stem: Path) -> list[Path]:
         ax.set_xlabel("median time per fit (ms)")
         ax.set_title(cls)
         ax.grid(True, which="both", alpha=0.3)
-    axes[0][0].set_ylabel("median RMSE/CRLB over identifiable (mode, cell) pairs")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("median RMSE/CRLB, identifiable pairs")
     fig.suptitle(f"Accuracy against cost per cell class (short < {SHORT_BELOW_SAMPLES} samples, low noise "
-                 f"≤ {LOW_NOISE_UG:g} µg); dotted: the bound; dashed: Pareto front of methods failing "
+                 f"≤ {LOW_NOISE_UG:g} µg)\ndotted: the bound; dashed: Pareto front of methods failing "
                  f"≤ {MAX_MEAN_FAILURE:.0%}; faint: failing more; ringed: the class winner", fontsize=9)
-    fig.tight_layout(rect=(0, 0, 1, 0.93))
+    fig.tight_layout(rect=(0, 0, 1, 0.94))
     return plots._save(fig, stem)
 
 
