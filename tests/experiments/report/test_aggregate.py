@@ -47,6 +47,7 @@ def test_aggregate_writes_coverage_html_tables_and_captions(tmp_path):
     assert "**akf: its reported std is not honest**" in page
     assert "pem: std consistent" in page
 
+    assert "| pem: errors within ±1σ / ±2σ of its std |" in (out / "tables" / "paper_tables.md").read_text()
     html = (out / "tables" / "paper_fig4.html").read_text()
     assert "pull_in_rad_s" in html and "Loop 1 needs 21 s to lock." in html
     assert "| loop |" not in html                       # a Markdown twin of a CSV is not repeated
