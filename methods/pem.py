@@ -27,6 +27,7 @@ See methods/README_pem.md for the choices and the measured numbers.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass, field
 
@@ -99,6 +100,20 @@ def identify(y, dt, prior, **options) -> Estimate:
     y, dt, prior = check_inputs(y, dt, prior)
     opts = make_options(Options, options, "pem")
     _check_options(opts, prior)
+    # One BLAS thread inside the fit: its matrices are small (p ≤ 4m + 1 columns), and OpenBLAS's own
+    # threads made it 2.6–5× slower on 2 cores (measured: experiments.benchmarks.pem_speed --parts warm blas).
+    with _blas().limit(limits=1, user_api="blas"):
+        return _identify(y, dt, prior, opts)
+
+
+@functools.cache
+def _blas():
+    from threadpoolctl import ThreadpoolController  # inspects the loaded libraries: once per process
+
+    return ThreadpoolController()
+
+
+def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Estimate:
     m, n = prior.size, y.size
     free = _free_mask(m, opts)
     n_free = int(sum(free))

@@ -1,7 +1,8 @@
 """Accuracy (RMSE/CRLB per mode and cell), failure rates and speed of the prediction-error method.
 
     python -m experiments.benchmarks.pem                      # everything, R = 100 (about 20 min on 2 cores)
-    python -m experiments.benchmarks.pem --part speed         # speed only (about 1 min)
+    python -m experiments.benchmarks.pem --part speed         # speed: experiments/benchmarks/pem_speed.py
+    python -m experiments.benchmarks.pem --part speed-old     # one-start fits and GN vs FD least_squares
     python -m experiments.benchmarks.pem --part accuracy --replicates 20 --jobs 2
     python -m experiments.benchmarks.pem --part starts --replicates 50 # which start finds the answer
     python -m experiments.benchmarks.pem --part grid --out results/bench/pem_grid_new.npz \
@@ -33,8 +34,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # before numpy loads OpenBL
 import argparse  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
-from pathlib import Path  # noqa: E402
 from concurrent.futures import ProcessPoolExecutor  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import scipy.optimize  # noqa: E402
@@ -107,7 +108,7 @@ def accuracy(replicates: int, seed: int, jobs: int, settings: list[str]) -> None
               f"largest {max(worst):.3g}")
 
 
-def grid(replicates: int, seed: int, jobs: int, out: str, compare: str | None) -> None:
+def grid(replicates: int, seed: int, jobs: int, out: str, compare: str | None, max_n: int | None = None) -> None:
     """pem (default options) alone on the full grid's cells (configs/grid/full.yaml), seed ``seed``: the
     errors of every replicate saved to ``out`` (.npz); with ``compare``, a table of both runs side by side.
 
@@ -118,7 +119,8 @@ def grid(replicates: int, seed: int, jobs: int, out: str, compare: str | None) -
     from experiments import io
 
     full = OmegaConf.load(Path(__file__).resolve().parents[2] / "configs" / "grid" / "full.yaml")
-    cells = [("default", float(noise), int(n), replicates, seed) for n in full.n_samples for noise in full.noise_ug]
+    cells = [("default", float(noise), int(n), replicates, seed) for n in full.n_samples for noise in full.noise_ug
+             if max_n is None or n <= max_n]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         results = list(pool.map(run_cell, cells))
@@ -157,7 +159,8 @@ def _compare_grids(old: dict, new: dict) -> None:
     R = old["errors"].shape[1]
     print(f"\n## pem on the full grid's cells, old (main) / new, R = {R}: RMSE/CRLB (identifiable modes only), "
           "failures, not converged, median ms")
-    print("| N | noise µg | mode 1 | mode 2 | mode 3 | mode 4 | failures | not converged | median ms | within scatter |")
+    print("| N | noise µg | mode 1 | mode 2 | mode 3 | mode 4 | failures | not converged | median ms "
+          "| within scatter |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     outside = 0
     for c in range(len(old["n"])):
@@ -297,7 +300,8 @@ def _versus_least_squares(plant, repeats: int, seed: int) -> None:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=["all", "accuracy", "speed", "starts", "grid"], default="all")
+    parser.add_argument("--part", choices=["all", "accuracy", "speed", "speed-old", "starts", "grid"],
+                        default="all")
     parser.add_argument("--replicates", type=int, default=100)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--jobs", type=int, default=2)
@@ -305,15 +309,19 @@ def main(argv=None) -> None:
     parser.add_argument("--settings", nargs="+", choices=list(SETTINGS), default=list(SETTINGS))
     parser.add_argument("--out", default="results/bench/pem_grid.npz", help="--part grid: where to save")
     parser.add_argument("--compare", default=None, help="--part grid: an earlier run's .npz to compare with")
+    parser.add_argument("--max-n", type=int, default=None, help="--part grid: only cells with N <= this")
     args = parser.parse_args(argv)
     if args.seed == 20261121:
         raise SystemExit("seed 20261121 is the grid's scoring seed: benchmark and tune on other seeds")
     if args.part in ("all", "speed"):
+        from experiments.benchmarks import pem_speed  # the issue-12 targets, with comparison columns
+        pem_speed.main(["--repeats", str(args.repeats)])
+    if args.part == "speed-old":
         speed(args.repeats, args.seed)
     if args.part in ("all", "starts"):
         starts(min(args.replicates, 50), args.seed)
     if args.part == "grid":
-        grid(args.replicates, args.seed, args.jobs, args.out, args.compare)
+        grid(args.replicates, args.seed, args.jobs, args.out, args.compare, args.max_n)
     if args.part in ("all", "accuracy"):
         accuracy(args.replicates, args.seed, args.jobs, args.settings)
 
