@@ -3,6 +3,12 @@ rule dataset:
         "results/{grid}/data/noise{noise}ug_n{n}.npz",
     params:
         grid=lambda wc: GRIDS[wc.grid],
+    threads: 1
+    resources:
+        mem_mb=MEM_MB_JOB,
+        runtime=5,
+    group:
+        "cells"
     conda:
         CONDA_ENV
     log:
