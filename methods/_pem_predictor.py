@@ -36,9 +36,10 @@ from __future__ import annotations
 
 import functools
 
-import casadi as ca
 import numpy as np
-import scipy.linalg
+
+# casadi and scipy.linalg are imported where the Kalman predictor needs them: the default (output-error)
+# path uses neither, and a pipeline job that only runs it should not pay for their import.
 
 
 def n_params(n_modes: int) -> int:
@@ -90,6 +91,8 @@ def kalman_gain(omega, zeta, dt: float, tip_shape, qd: float, rd: float) -> np.n
     K_paper = φPCᵀ(CPCᵀ + Rd)⁻¹ is the gain on the innovation in x(k+1) = φx(k) + Ke(k); here K = T⁻¹K_paper.
     (The paper used MATLAB's LQE with Qd = 0.001, Rd = 0.4, §4.3.)
     """
+    import scipy.linalg
+
     phi, C, T = paper_state_space(omega, zeta, dt, tip_shape)
     n = phi.shape[0]
     P = scipy.linalg.solve_discrete_are(phi.T, C.T, qd * np.eye(n), np.array([[rd]]))
@@ -187,7 +190,7 @@ class ClosedForm:
 
 
 @functools.lru_cache(maxsize=32)
-def _step_function(n_modes: int, with_gain: bool, columns: tuple[int, ...]) -> ca.Function:
+def _step_function(n_modes: int, with_gain: bool, columns: tuple[int, ...]):
     """One step of the predictor and of its forward sensitivities S = ∂x̂/∂θ_columns, a graph of fixed size:
 
         (x̂(k), S(k), y(k), θ, K, Δt) ↦ (x̂(k+1), S(k+1), ε(k), ∂ε(k)/∂θ_columns),
@@ -195,6 +198,8 @@ def _step_function(n_modes: int, with_gain: bool, columns: tuple[int, ...]) -> c
 
     Differentiating one step symbolically (SX) and repeating it with ``mapaccum`` costs the same for every
     N; differentiating the repeated map instead (MX) took 2 s to build and 160 ms to evaluate at N = 256."""
+    import casadi as ca
+
     m = n_modes
     p = len(columns)
     x = ca.SX.sym("x", 2 * m)
@@ -237,6 +242,8 @@ def predictor(n_samples: int, n_modes: int, free: tuple[bool, ...], with_gain: b
     linear_part : casadi.Function
         ↦ (ε, ∂ε/∂c_free) with c = (x₀, b) the unknowns that enter ε affinely; columns in θ order.
     """
+    import casadi as ca
+
     m = n_modes
     if len(free) != n_params(m):
         raise ValueError(f"free mask has {len(free)} entries, expected {n_params(m)}")
