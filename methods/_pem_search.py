@@ -18,6 +18,7 @@ SETTLED_STD = 0.01              # a located mode has 'settled' when it moved les
 SETTLED_ITERATIONS = 5          # … over this many iterations
 MAX_GROWTH_EXPONENT = 20.0      # no mode may grow by more than e²⁰ over the record
 LOSS_FLOOR_REL = 1e-13         # a residual rms this far below the data's rms is rounding: stop there
+PHASE_ROUNDING = 1e-15          # … plus this times the largest phase ω·NΔt the model reaches (rad)
 JOIN_STD = 0.1                  # a later start within this many std of an earlier fit in every (ω, ζ) has joined it
 
 
@@ -88,7 +89,9 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
     loss = e @ e / n
     # A noise-free record is fitted to rounding; below this every step's decrease is rounding noise, and
     # proving "no decrease" costs ~85 trial points (every halving at every λ) — on 10⁶ samples, minutes.
-    floor = LOSS_FLOOR_REL ** 2 * float(ev.y @ ev.y) / n if hasattr(ev, "y") else 0.0
+    # The model's own rounding grows with the phase ωt it reaches (t = kΔt is rounded): ~ε_mach·ω·t_max.
+    floor_rel = LOSS_FLOOR_REL + PHASE_ROUNDING * float(np.max(theta[:m])) * n * dt
+    floor = floor_rel ** 2 * float(ev.y @ ev.y) / n
     message, converged, iterations = "iteration limit", False, 0
     history, step_lengths = [theta[:m].copy()], []
     while iterations < opts.max_iterations:
