@@ -7,8 +7,12 @@ import shlex
 import sys
 
 import yaml
+from snakemake.exceptions import WorkflowError
 from snakemake.settings.types import DeploymentMethod
 from snakemake.utils import validate
+
+import methods
+from experiments.jobs.config import method_of_config
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
 # filters only makes them fight (wkf measured 4x slower per replicate on 2 busy cores).
@@ -25,6 +29,27 @@ CONDA_ENV = "../../configs/conda/pipeline.yaml"
 if DeploymentMethod.CONDA not in workflow.deployment_settings.deployment_method:
     shell.prefix(f"set -euo pipefail; export PATH={shlex.quote(os.path.dirname(sys.executable))}:\"$PATH\"; ")
 GRID_SCHEMA = os.path.join(workflow.basedir, "configs", "grid", "schema.yaml")
+METHOD_CONFIGS = os.path.join(workflow.basedir, "configs", "method")
+
+
+def method_config(entry):
+    """The Hydra method config of a grid's methods entry: `pem` -> pem, `pem:paper` -> pem_paper."""
+    return entry.replace(":", "_")
+
+
+def _check_methods(path, grid):
+    """Each method a grid names must have a config (or be an installed plugin) and its library."""
+    for entry in grid["methods"]:
+        config = method_config(entry)
+        method = method_of_config(config)
+        has_config = os.path.exists(os.path.join(METHOD_CONFIGS, f"{config}.yaml"))
+        if method is None or not (has_config or (config in methods.plugins())):
+            raise WorkflowError(f"error: {path}: unknown method '{entry}' (no configs/method/{config}.yaml "
+                                f"and no installed plugin of that name)")
+        try:
+            methods.require(method)
+        except ValueError as exc:
+            raise WorkflowError(f"error: {path}: {exc}") from None
 
 
 
@@ -35,6 +60,7 @@ def _load_grid(path):
     expected = os.path.splitext(os.path.basename(path))[0]
     if grid["name"] != expected:
         raise ValueError(f"{path}: name '{grid['name']}' must match the file name '{expected}'")
+    _check_methods(path, grid)
     return grid
 
 
@@ -47,7 +73,7 @@ GRIDS = {
 
 wildcard_constraints:
     grid="|".join(GRIDS),
-    method="[a-z_]+",
+    method="[a-z0-9_]+",
     noise=r"[0-9.e+-]+",
     n=r"[0-9]+",
 
@@ -63,7 +89,7 @@ def cells(grid):
 
 def result_files(grid):
     g = GRIDS[grid]
-    return [f"results/{grid}/identify/{m}/{c}.csv" for m in g["methods"] for c in cells(grid)]
+    return [f"results/{grid}/identify/{method_config(m)}/{c}.csv" for m in g["methods"] for c in cells(grid)]
 
 
 def experiment_dirs(grid):
@@ -75,7 +101,9 @@ def grid_targets(grid):
 
 
 def method_overrides(wildcards):
-    return " ".join(GRIDS[wildcards.grid].get("method_overrides", {}).get(wildcards.method, []))
+    overrides = GRIDS[wildcards.grid].get("method_overrides", {})
+    named = {method_config(k): v for k, v in overrides.items()}
+    return " ".join(named.get(wildcards.method, []))
 
 
 # Resources (threads, mem_mb, runtime in minutes) that a cluster executor requests per job; a local run only
