@@ -283,8 +283,10 @@ def _valid(theta, dt, n) -> bool:
     e²⁰ over the record (a negative ζ lets a mode the record does not determine mimic a trend)."""
     m = (theta.size - 1) // 4
     w, z = theta[:m], theta[m:2 * m]
-    return bool(np.all(w > 0) and np.all(np.abs(z) < 0.9) and np.all(w * np.sqrt(1 - z * z) * dt < np.pi)
-                and np.all(-z * w * dt * n < MAX_GROWTH_EXPONENT))
+    # one vectorised test (called for every trial point; the chained np.all calls were 15 % of a fit)
+    ok = ((w > 0) & (np.abs(z) < 0.9) & (w * np.sqrt(np.maximum(1.0 - z * z, 0.0)) * dt < np.pi)
+          & (-z * w * dt * n < MAX_GROWTH_EXPONENT))
+    return bool(ok.all())
 
 
 def _bad(theta, message) -> dict:

@@ -5,7 +5,7 @@ The identification model is eq. (8) without the frequency states, with the tip a
 frequencies, the initial state (as MATLAB's ``pem`` estimates it), optionally the damping ratios and a
 sensor offset. The loss V(θ) = (1/N) Σ ε(k)² is minimised by Gauss–Newton, eq. (30),
 
-    θ⁽ⁱ⁺¹⁾ = θ⁽ⁱ⁾ − μ (JᵀJ)⁻¹ Jᵀε,    J = ∂ε/∂θ (exact, from CasADi),
+    θ⁽ⁱ⁺¹⁾ = θ⁽ⁱ⁾ − μ (JᵀJ)⁻¹ Jᵀε,    J = ∂ε/∂θ (exact: closed form, or CasADi for the Kalman predictor),
 
 with μ = 1 halved until the loss decreases (the paper's rule), optionally Levenberg–Marquardt damped and
 with the initial state and offset re-solved exactly at every trial point (:mod:`methods._pem_search`).
@@ -19,7 +19,8 @@ Local minima (the paper's first complaint): several starts — a data-driven one
 :mod:`methods.damped_sinusoids`, matched to the prior), the prior, seeded perturbations of the prior — the
 lowest loss wins, then modes the record does not determine are restarted from the prior's frequency ratios
 (:func:`_repaired_start`); ``extra["n_agree"]`` says how many starts reached the answer. "Demanding
-calculation" (the second): exact derivatives compiled once per record shape.
+calculation" (the second): the output-error predictor and its Jacobian in closed form, O(N), nothing built
+per record shape; one BLAS thread inside the fit (small matrices; OpenBLAS threads only slow it down).
 
 The defaults of :class:`Options` are the measured best setting; the paper's is :data:`PAPER_OPTIONS`.
 See methods/README_pem.md for the choices and the measured numbers.

@@ -11,12 +11,12 @@ record is the Table 5 cell (truth plant, 1000 µg, Table 4 prior, replicate 0 of
   perturbation; x₀ and b at their least-squares values), the lowest cost wins: with 2-point finite-difference
   and with the analytic Jacobian (:class:`methods._pem_predictor.ClosedForm`).
 - ``pem`` through the recursive CasADi predictor (``Recursive``, K = 0: the reference path, same search).
-- the peer identifiers: ERA (``control.era`` of python-control, order 2m + 1, 64 × 64 Hankel blocks) —
-  timed here because the project's own ERA/DMD/N4SID methods have not landed; the peer reaches the bound
-  on this record only approximately (its frequencies are printed for comparison).
+- the peer identifiers that reach the bound on some records (issue 10): ``methods.era``, ``methods.hdmd``,
+  ``methods.n4sid`` with their default options, and ``control.era`` called directly (order 2m + 1,
+  64 × 64 Hankel blocks); their errors are printed beside the times.
 
-BLAS threads: the process runs with the machine's default (as a user calls it); ``--blas-compare`` re-runs
-the warm-fit table in a child with ``OPENBLAS_NUM_THREADS=1``.
+BLAS threads: part ``blas`` (default) runs the warm-fit table twice, each in a fresh child: with the
+machine's default OpenBLAS threads (``OPENBLAS_NUM_THREADS`` unset, as a user calls it) and with one.
 """
 
 from __future__ import annotations
@@ -90,15 +90,24 @@ def warm(repeats: int) -> None:
             "least_squares lm, 2-point finite differences, same starts": lambda: _scipy_fit(y, False),
             "pem paper setting (Kalman predictor, GN, 1 start)":
             lambda: pem.identify(y, DT_S, PRIOR, **pem.PAPER_OPTIONS).frequencies}
+    import importlib
+    for peer in ("era", "hdmd", "n4sid"):                   # the project's peer methods (issue 10), defaults
+        try:
+            mod = importlib.import_module(f"methods.{peer}")
+            mod.identify(y, DT_S, PRIOR)
+            rows[f"{peer} (methods/{peer}.py, default options) — peer"] = \
+                lambda mod=mod: mod.identify(y, DT_S, PRIOR).frequencies
+        except (ImportError, ValueError) as exc:
+            print(f"(no {peer} row: {exc})")
     try:
         import control  # noqa: F401
-        rows["ERA (control.era, order 9, 64 x 64 blocks) — peer"] = lambda: _era_fit(y)
+        rows["ERA (control.era directly, order 9, 64 x 64 blocks) — peer library"] = lambda: _era_fit(y)
     except ImportError:
         print("(python-control not installed: no ERA row)")
     print(f"\n## Warm fit, 4 modes, N = 256, 1000 µg (median of {repeats}; OPENBLAS_NUM_THREADS="
           f"{os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}; load average {os.getloadavg()[0]:.1f} on "
           f"{os.cpu_count()} cores)")
-    print("| fit | median ms | / pem | max error / CRLB-scale (rad/s) |")
+    print("| fit | median ms | / pem | max error (rad/s) |")
     print("|---|---|---|---|")
     base = None
     for name, fn in rows.items():
@@ -168,15 +177,20 @@ def main(argv=None) -> None:
     ap.add_argument("--repeats", type=int, default=21)
     ap.add_argument("--sizes", type=int, nargs="+", default=[256, 1024, 4096, 16384, 65536, 262144, 1000000])
     ap.add_argument("--plot", default="results/bench/pem_scaling.png")
-    ap.add_argument("--parts", nargs="+", default=["warm", "blas", "cold", "scaling"],
+    ap.add_argument("--parts", nargs="+", default=["blas", "cold", "scaling"],
                     choices=["warm", "blas", "cold", "scaling"])
     args = ap.parse_args(argv)
     if "warm" in args.parts:
         warm(args.repeats)
-    if "blas" in args.parts and "OPENBLAS_NUM_THREADS" not in os.environ:
-        env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
-        subprocess.run([sys.executable, "-m", "experiments.benchmarks.pem_speed", "--parts", "warm",
-                        "--repeats", str(args.repeats)], env=env, check=True)
+    if "blas" in args.parts:
+        # as a user calls it (the machine's default BLAS threads) and with one thread, each in a fresh child
+        # (the variable must be set before numpy loads OpenBLAS)
+        for threads in (None, "1"):
+            env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+            if threads:
+                env["OPENBLAS_NUM_THREADS"] = threads
+            subprocess.run([sys.executable, "-m", "experiments.benchmarks.pem_speed", "--parts", "warm",
+                            "--repeats", str(args.repeats)], env=env, check=True)
     if "cold" in args.parts:
         cold()
     if "scaling" in args.parts:
