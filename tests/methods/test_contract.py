@@ -16,22 +16,6 @@ import methods
 DT = 0.02
 PRIOR = [3.8, 16.0, 26.0, 46.0]          # Table 3's a-priori frequencies
 N = 1024                                  # 20 s: longer than every default PLL's acquisition time (15 s)
-PEM_XFAIL = "pem rewrite in progress (issue 12)"
-# Known gaps of the peer identifiers (methods/README_peers.md), landed before this contract: they expose no
-# check_options yet, and pick poles out of pure noise (and, some, out of a zero record) as converged modes.
-# Listed so the gap stays visible; a method not listed here must keep the contract.
-PEER_XFAIL = "peer method: contract of methods/__init__.py not implemented yet (issue 9)"
-PEER_GAPS = {
-    "era": {"zero", "noise", "check_options"}, "n4sid": {"noise", "check_options"},
-    "ssi_cov": {"zero", "noise", "check_options"}, "ssi_data": {"zero", "noise", "check_options"},
-    "lsce": {"constant", "noise", "check_options"}, "hdmd": {"zero", "noise", "check_options"},
-    "bopdmd": {"zero", "noise", "check_options"},
-}
-
-
-def _gap(name, what):
-    return [pytest.mark.xfail(reason=PEER_XFAIL, strict=False)] if what in PEER_GAPS.get(name, ()) else []
-
 SIGNALS = {
     "zero": lambda: np.zeros(N),
     "constant": lambda: np.full(N, 0.3),                                         # a pure sensor bias
@@ -42,10 +26,7 @@ SIGNALS = {
 def _cases():
     for name in methods.names():
         for signal in SIGNALS:
-            marks = _gap(name, signal)
-            if name == "pem":     # zero: std inf; constant and noise: called converged (checked 07:30 UTC)
-                marks = [pytest.mark.xfail(reason=PEM_XFAIL, strict=False)]
-            yield pytest.param(name, signal, marks=marks, id=f"{name}-{signal}")
+            yield pytest.param(name, signal, id=f"{name}-{signal}")
 
 
 @pytest.mark.parametrize("name, signal", list(_cases()))
@@ -58,7 +39,7 @@ def test_a_record_without_information_is_never_called_converged(name, signal):
     assert np.all(np.isnan(est.std) | (np.isfinite(est.std) & (est.std > 0)))
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=_gap(n, "check_options")) for n in methods.names()])
+@pytest.mark.parametrize("name", methods.names())
 def test_every_method_shows_the_three_names_of_the_contract(name):
     module = methods._module(name)
     assert callable(module.identify) and callable(module.check_options)
