@@ -1,16 +1,47 @@
 """Identification methods: arrays in, an :class:`~methods.estimate.Estimate` out.
 
-Every method is a module exposing ``identify(y, dt, prior, **options) -> Estimate`` and an ``Options``
-dataclass (its keyword options with the paper's settings as defaults). ``get(name)`` finds it by name.
-Adding a method: write ``methods/<name>.py`` and add one line to ``_REGISTRY``. Nothing here imports
-the experiments, Hydra, MLflow or the file system.
+Every method is a module exposing
+
+* ``identify(y, dt, prior, **options) -> Estimate``: it starts with ``check_inputs(y, dt, prior)`` (the
+  common rules: real finite samples of physical size, a positive ``dt``, a positive, increasing prior below
+  Nyquist) and ``check_options(prior, dt, **options)``;
+* ``Options``: a dataclass of its keyword options with the paper's settings as defaults;
+* ``check_options(prior, dt, **options) -> Options``: every check of the options that needs no record
+  (unknown key, wrong value, a per-mode list of the wrong length, a filter that cannot be designed at
+  ``dt``), raising ``ValueError`` with one line naming the option. It must be cheap: the jobs call it,
+  through :func:`check_options`, before the first record is read, so that a bad option is one
+  ``error:`` line and not a failure in the middle of a run.
+
+Honesty contract of the ``Estimate``: a mode the record does not determine (an all-zero or constant record
+— see ``estimate.flat_record`` —, a peak not above the noise, a filter that learnt nothing) has
+``extra["converged_per_mode"]`` False and a std that is NaN or finite and honest, never 0
+(tests/methods/test_contract.py checks every registered method).
+
+``get(name)`` finds a method by name. Adding a method: write ``methods/<name>.py`` with the three names
+above and add one line to ``_REGISTRY``. Nothing here imports the experiments, Hydra, MLflow or the file
+system.
+
+**Methods from other packages.** An installed distribution that declares an entry point in the group
+``spacecraft_modal_id.methods`` (:data:`ENTRY_POINT_GROUP`), e.g. in its pyproject.toml::
+
+    [project.entry-points."spacecraft_modal_id.methods"]
+    mymethod = "my_package.my_method"      # a module with identify() and Options
+
+joins the registry under that name (``names()``, ``get()``, ``options_class()``) and runs in any grid
+without an edit here. A module may set ``PRIOR_RAD_S`` (its default a-priori frequencies); built-in names
+cannot be replaced by a plugin.
 """
 
 from __future__ import annotations
 
+import functools
 import importlib
+import importlib.util
+from importlib.metadata import entry_points
 
-from methods.estimate import Estimate, check_inputs, failed
+import numpy as np
+
+from methods.estimate import Estimate, check_inputs, check_prior, failed, flat_record, make_options
 
 # name -> module path; modules are imported on first use so that a light method does not pay for the
 # import of a heavy one (CasADi, filterpy).
@@ -20,21 +51,62 @@ _REGISTRY: dict[str, str] = {
     "wkf": "methods.wkf",
     "pem": "methods.pem",
     "pll": "methods.pll",
+    # the field's established identifiers (optional extra .[peers]; methods/README_peers.md)
+    "era": "methods.era",
+    "n4sid": "methods.n4sid",
+    "ssi_cov": "methods.ssi_cov",
+    "ssi_data": "methods.ssi_data",
+    "lsce": "methods.lsce",
+    "hdmd": "methods.hdmd",
+    "bopdmd": "methods.bopdmd",
 }
 
-__all__ = ["Estimate", "check_inputs", "failed", "get", "module_name", "names", "options_class"]
+# The library each peer method needs (the optional extra .[peers]); checked before a job starts.
+_REQUIRES: dict[str, str] = {
+    "era": "control", "n4sid": "nfoursid", "ssi_cov": "strid", "ssi_data": "strid", "lsce": "sdypy.EMA",
+    "hdmd": "pydmd", "bopdmd": "pydmd",
+}
+
+ENTRY_POINT_GROUP = "spacecraft_modal_id.methods"
+
+__all__ = ["ENTRY_POINT_GROUP", "Estimate", "check_inputs", "check_options", "check_prior", "failed", "flat_record",
+           "get", "module_name", "names", "options_class", "plugins", "require"]
+
+
+@functools.cache
+def plugins() -> dict[str, str]:
+    """Methods of other installed packages: entry-point name -> module path (group ENTRY_POINT_GROUP)."""
+    return {ep.name: ep.module for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name not in _REGISTRY}
+
+
+def _all() -> dict[str, str]:
+    return _REGISTRY | plugins()
 
 
 def names() -> list[str]:
-    """Names of the registered methods."""
-    return list(_REGISTRY)
+    """Names of the registered methods: the built-in ones, then those of installed plugins."""
+    return list(_all())
+
+
+def require(name: str) -> None:
+    """Raise ``ValueError`` (one line) if method ``name`` is unknown or its optional library is missing."""
+    if name not in _all():
+        raise ValueError(f"unknown method '{name}'; known methods: {', '.join(_all())}")
+    lib = _REQUIRES.get(name)
+    if lib is not None:
+        try:
+            found = importlib.util.find_spec(lib) is not None
+        except ModuleNotFoundError:           # the parent package of a dotted name is missing
+            found = False
+        if not found:
+            raise ValueError(f"method '{name}' needs the library '{lib}', which is not installed "
+                             f"(pip install -e '.[peers]')")
 
 
 def module_name(name: str) -> str:
     """The module that implements method ``name`` (e.g. ``methods.fft``), without importing it."""
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown method '{name}'; known methods: {', '.join(_REGISTRY)}")
-    return _REGISTRY[name]
+    require(name)
+    return _all()[name]
 
 
 def _module(name: str):
@@ -49,3 +121,18 @@ def get(name: str):
 def options_class(name: str):
     """Return the ``Options`` dataclass of method ``name`` (its keyword options and defaults)."""
     return _module(name).Options
+
+
+def check_options(name: str, prior, dt: float, options: dict | None = None):
+    """Validate method ``name``'s options for this prior and sample interval, without a record.
+
+    Returns the method's ``Options``; raises ``ValueError`` (one line, naming the option) when one is
+    impossible. A plugin module that does not define ``check_options`` gets the generic check of unknown
+    keys only.
+    """
+    module = _module(name)
+    dt, prior = check_prior(dt, prior)
+    options = dict(options or {})
+    if hasattr(module, "check_options"):
+        return module.check_options(np.asarray(prior), dt, **options)
+    return make_options(module.Options, options, name)

@@ -5,7 +5,7 @@ The identification model is eq. (8) without the frequency states, with the tip a
 frequencies, the initial state (as MATLAB's ``pem`` estimates it), optionally the damping ratios and a
 sensor offset. The loss V(θ) = (1/N) Σ ε(k)² is minimised by Gauss–Newton, eq. (30),
 
-    θ⁽ⁱ⁺¹⁾ = θ⁽ⁱ⁾ − μ (JᵀJ)⁻¹ Jᵀε,    J = ∂ε/∂θ (exact, from CasADi),
+    θ⁽ⁱ⁺¹⁾ = θ⁽ⁱ⁾ − μ (JᵀJ)⁻¹ Jᵀε,    J = ∂ε/∂θ (exact: closed form, or CasADi for the Kalman predictor),
 
 with μ = 1 halved until the loss decreases (the paper's rule), optionally Levenberg–Marquardt damped and
 with the initial state and offset re-solved exactly at every trial point (:mod:`methods._pem_search`).
@@ -19,7 +19,8 @@ Local minima (the paper's first complaint): several starts — a data-driven one
 :mod:`methods.damped_sinusoids`, matched to the prior), the prior, seeded perturbations of the prior — the
 lowest loss wins, then modes the record does not determine are restarted from the prior's frequency ratios
 (:func:`_repaired_start`); ``extra["n_agree"]`` says how many starts reached the answer. "Demanding
-calculation" (the second): exact derivatives compiled once per record shape.
+calculation" (the second): the output-error predictor and its Jacobian in closed form, O(N), nothing built
+per record shape; one BLAS thread inside the fit (small matrices; OpenBLAS threads only slow it down).
 
 The defaults of :class:`Options` are the measured best setting; the paper's is :data:`PAPER_OPTIONS`.
 See methods/README_pem.md for the choices and the measured numbers.
@@ -27,6 +28,7 @@ See methods/README_pem.md for the choices and the measured numbers.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass, field
 
@@ -99,6 +101,20 @@ def identify(y, dt, prior, **options) -> Estimate:
     y, dt, prior = check_inputs(y, dt, prior)
     opts = make_options(Options, options, "pem")
     _check_options(opts, prior)
+    # One BLAS thread inside the fit: its matrices are small (p ≤ 4m + 1 columns), and OpenBLAS's own
+    # threads made it 2.6–5× slower on 2 cores (measured: experiments.benchmarks.pem_speed --parts warm blas).
+    with _blas().limit(limits=1, user_api="blas"):
+        return _identify(y, dt, prior, opts)
+
+
+@functools.cache
+def _blas():
+    from threadpoolctl import ThreadpoolController  # inspects the loaded libraries: once per process
+
+    return ThreadpoolController()
+
+
+def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Estimate:
     m, n = prior.size, y.size
     free = _free_mask(m, opts)
     n_free = int(sum(free))
@@ -108,12 +124,17 @@ def identify(y, dt, prior, **options) -> Estimate:
         y = y - y.mean()
     shape = np.asarray(opts.tip_mode_shape if len(opts.tip_mode_shape) == m else np.ones(m), float)
     bounds = search.search_bounds(prior, dt, opts)
-    fits = []
+    fits, join = [], None
     for label, w0, z0 in _starts(y, dt, prior, opts):
-        fit = search.fit_one_start(y, dt, w0, z0, shape, free, opts, bounds)
+        fit = search.fit_one_start(y, dt, w0, z0, shape, free, opts, bounds, join)
         fit["start"] = label
         fits.append(fit)
-    ok = [f for f in fits if np.isfinite(f["loss"])]
+        if join is None and fit["converged"] and np.isfinite(fit["loss"]):
+            std = search.lstsq_step(fit["J"], fit["e"])[1]
+            if np.all(std[:m] <= search.IDENTIFIED_REL_STD * fit["theta"][:m]):   # every mode determined
+                join = (fit["theta"], std)
+    # a start that joined an earlier fit stopped short of the common minimum: it never wins
+    ok = [f for f in fits if np.isfinite(f["loss"]) and not f["joined"]]
     if not ok:
         reasons = "; ".join(f"{f['start']}: {f['message']}" for f in fits)
         return failed(prior, f"every start failed: {reasons}")
@@ -128,7 +149,7 @@ def identify(y, dt, prior, **options) -> Estimate:
         if not fit["loss"] < best["loss"]:
             break
         best = fit
-    return _estimate(best, fits, prior, free)
+    return _estimate(best, fits, prior, free, n, dt)
 
 
 def _repaired_start(best: dict, free, prior: np.ndarray, opts: Options):
@@ -185,6 +206,14 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
 
 
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods` (validated without a record, before any work). Issue 9:
+    keep this function (or its equivalent) when rewriting the module; ``identify`` runs the same checks."""
+    opts = make_options(Options, options, "pem")
+    _check_options(opts, np.atleast_1d(np.asarray(prior, dtype=float)))
+    return opts
+
+
 def _free_mask(m: int, opts: Options) -> tuple[bool, ...]:
     """Which entries of θ = [ω, ζ, x₀, b] the search estimates."""
     return tuple([True] * m + [opts.estimate_damping] * m + [True] * (2 * m) + [opts.bias == "estimate"])
@@ -210,7 +239,19 @@ def _starts(y, dt, prior, opts: Options):
     return starts[:opts.n_starts]
 
 
-def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free) -> Estimate:
+def detection_std(n: int, dt: float, alpha: float = 0.01) -> float:
+    """The largest std(ω) of a mode the record detects, at false-alarm rate ``alpha``.
+
+    A sinusoid of energy E in white noise σ over N samples has std(ω) ≈ √(6σ²/E)/(N·Δt) (its Fisher
+    information; damping only raises it). Pure noise exceeds E/σ² = 2 ln(N/2α) with probability α (the
+    largest of N/2 χ²₂ projections, the rule of the fft's peak test and methods.modal_poles), so a mode whose
+    std is above √(3/ln(N/2α))/(N·Δt) — about a tenth of the Fourier resolution 2π/(NΔt) — is not told
+    apart from noise.
+    """
+    return float(np.sqrt(3.0 / np.log(n / (2.0 * alpha))) / (n * dt))
+
+
+def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float) -> Estimate:
     """The winning fit as an Estimate, its modes labelled with the prior entries (:func:`_label_modes`)."""
     m = prior.size
     w, w_std, z, z_std = _mode_table(best, free, m)
@@ -228,7 +269,15 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free) -> Estimate
     # The answer stands when a search that reached it (within 3 std in every determined mode) stopped on
     # a tolerance, even if the lowest-loss one ran into the iteration limit.
     converged = bool(best["converged"] or agree_converged)
+    # per mode: the search stopped on a tolerance and the record locates the mode (a finite, non-zero std
+    # within 10 % of ω) and detects it (below); no such mode — an all-zero, constant or pure-noise record
+    # — is no answer at all
+    per_mode = (converged & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
+                & (std <= detection_std(n, dt)))
+    converged = converged and bool(per_mode.any())
+    std = np.where(np.isfinite(std), std, np.nan)   # a column the record does not move: no std, not inf
     extra = {
+        "converged_per_mode": per_mode,
         "damping": damp, "damping_std": damp_std, "identified": identified,
         "offset_m_s2": float(best["theta"][-1]), "loss": float(best["loss"]),
         "n_starts": len(fits), "n_agree": agree, "best_start": best["start"],

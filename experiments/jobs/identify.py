@@ -25,7 +25,7 @@ from omegaconf import OmegaConf
 
 import methods
 from experiments.io import CHECKSUM_KEY, atomic_write_text, read_npz, write_json
-from experiments.jobs.app import run_app
+from experiments.jobs.app import fail, run_app
 from experiments.jobs.config import methods_named_on, register, variant_label
 from experiments.report.scoring import COLUMNS, replicate_rows
 
@@ -57,20 +57,39 @@ def prior_of(cfg) -> np.ndarray:
 
 
 def check(cfg) -> None:
-    """Everything that can be known wrong before any work: data readable, prior sensible."""
+    """Everything that can be known wrong before any work: data readable, every record and the prior
+    sensible, the method's options possible (``methods.check_options``, the contract of methods/__init__.py)."""
     data = load_data(cfg)
     prior = prior_of(cfg)
     if data["truth"] is not None and prior.size != data["truth"]["truth_freq_rad_s"].size:
         raise ValueError(f"prior {prior.tolist()} has {prior.size} entries; the dataset has "
                          f"{data['truth']['truth_freq_rad_s'].size} modes")
-    methods.check_inputs(data["y"][0], data["dt"], prior)   # prior > 0, below Nyquist, record ≥ 8
+    for r, rec in enumerate(data["y"]):   # samples finite and physical, prior > 0, increasing, below Nyquist
+        try:
+            methods.check_inputs(rec, data["dt"], prior)
+        except ValueError as exc:
+            raise ValueError(f"{data['source']}: {exc}" if r == 0 else
+                             f"{data['source']}, replicate {r}: {exc}") from None
+    methods.check_options(cfg.method.name, prior, data["dt"],
+                          OmegaConf.to_container(cfg.method.options, resolve=True))
+
+
+# A single record this long gets an info line (the progress bar counts records, and there is one).
+LONG_RECORD_SAMPLES = 100_000
 
 
 def run_records(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict, progress: bool):
-    """Identify every record; an exception on one record marks it failed and the job goes on."""
+    """Identify every record; an exception on one record marks it failed and the job goes on.
+
+    The options were checked before (``check``); a ValueError that still comes from the first record is
+    bad input and stops the job before anything is written."""
     identify = methods.get(name)
     out = []
-    bar = _progress(len(y), name, progress)
+    bar = None
+    long_single = progress and len(y) == 1 and y.shape[1] >= LONG_RECORD_SAMPLES
+    if long_single:
+        print(f"info: {name} on one record of {y.shape[1]} samples ({y.shape[1] * dt:.6g} s)...",
+              file=sys.stderr, flush=True)
     for r, rec in enumerate(y):
         t0 = time.perf_counter()
         try:
@@ -82,8 +101,13 @@ def run_records(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options:
         except Exception as exc:  # noqa: BLE001 - a method bug must not stop the grid; it is recorded
             est = methods.failed(prior, f"{type(exc).__name__}: {exc}")
         out.append((est, time.perf_counter() - t0))
+        if bar is None:            # after the first record: no bar fragment before a bad-input error
+            bar = _progress(len(y), name, progress)
         bar.update(1)
-    bar.close()
+    if bar is not None:
+        bar.close()
+    if long_single:
+        print(f"info: {name} done in {out[0][1]:.3g} s", file=sys.stderr, flush=True)
     return out
 
 
@@ -152,12 +176,15 @@ def rows_to_csv(rows: list[dict]) -> str:
 
 
 def report_measurement(name: str, prior, est, run_dir: Path) -> None:
+    per_mode = est.extra.get("converged_per_mode", [est.converged] * len(prior))
     for i, (w, s) in enumerate(zip(est.frequencies, est.std, strict=True)):
-        print(f"mode {i + 1}: {w:.6g} rad/s ± {s:.3g} (prior {prior[i]:g})")
+        note = "" if per_mode[i] else " — not determined by the record"
+        print(f"mode {i + 1}: {w:.6g} rad/s ± {s:.3g} (prior {prior[i]:g}){note}")
     print(f"converged: {est.converged} ({est.message})")
     path = write_json(run_dir / "estimate.json", {
         "method": name, "frequencies_rad_s": est.frequencies, "std_rad_s": est.std,
-        "converged": bool(est.converged), "message": est.message, "prior_rad_s": prior})
+        "converged": bool(est.converged), "converged_per_mode": [bool(c) for c in per_mode],
+        "message": est.message, "prior_rad_s": prior})
     print(f"wrote {path}")
     return path
 
@@ -214,7 +241,10 @@ def log_measurement(record: dict, est, estimate_path: Path) -> None:
 
 def main() -> None:
     """The console script ``modal-id-identify`` (pyproject.toml), same as ``python -m experiments.jobs.identify``."""
-    register(with_methods=methods_named_on(sys.argv[1:]))
+    try:
+        register(with_methods=methods_named_on(sys.argv[1:]))
+    except ValueError as exc:          # a method whose optional library is not installed
+        fail(str(exc))
     run_app("identify", task, check)
 
 

@@ -12,6 +12,8 @@ import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.settings.types import DeploymentMethod
 
+import methods
+from experiments.jobs.config import method_of_config
 from experiments.tracking import provenance
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
@@ -30,6 +32,29 @@ if DeploymentMethod.CONDA not in workflow.deployment_settings.deployment_method:
     shell.prefix(f"set -euo pipefail; export PATH={shlex.quote(os.path.dirname(sys.executable))}:\"$PATH\"; ")
 with open(os.path.join(workflow.basedir, "configs", "grid", "schema.yaml")) as _f:
     SCHEMA = yaml.safe_load(_f)
+
+METHOD_CONFIGS = os.path.join(workflow.basedir, "configs", "method")
+
+
+def method_config(entry):
+    """The Hydra method config of a grid's methods entry: `pem` -> pem, `pem:paper` -> pem_paper."""
+    return entry.replace(":", "_")
+
+
+def _check_methods(path, grid):
+    """Each method a grid names must have a config (or be an installed plugin) and its library."""
+    for entry in grid["methods"]:
+        config = method_config(entry)
+        method = method_of_config(config)
+        has_config = os.path.exists(os.path.join(METHOD_CONFIGS, f"{config}.yaml"))
+        if method is None or not (has_config or (config in methods.plugins())):
+            raise WorkflowError(f"error: {path}: unknown method '{entry}' (no configs/method/{config}.yaml "
+                                f"and no installed plugin of that name)")
+        try:
+            methods.require(method)
+        except ValueError as exc:
+            raise WorkflowError(f"error: {path}: {exc}") from None
+
 
 GRID_DIR = os.path.join(workflow.basedir, "configs", "grid")
 # Grid names are the file names; a grid is read and validated only when a target asks for it, so one
@@ -62,12 +87,13 @@ def load_grid(name):
             grid.setdefault(key, spec["default"])
     if grid["name"] != name:
         raise WorkflowError(f"error: {path}: name: '{grid['name']}' must match the file name '{name}'")
+    _check_methods(path, grid)
     return grid
 
 
 wildcard_constraints:
     grid="|".join(GRID_NAMES),
-    method="[a-z_]+",
+    method="[a-z0-9_]+",
     noise=r"[0-9.e+-]+",
     n=r"[0-9]+",
 
@@ -83,7 +109,7 @@ def cells(grid):
 
 def result_files(grid):
     g = load_grid(grid)
-    return [f"results/{grid}/identify/{m}/{c}.csv" for m in g["methods"] for c in cells(grid)]
+    return [f"results/{grid}/identify/{method_config(m)}/{c}.csv" for m in g["methods"] for c in cells(grid)]
 
 
 def provenance_files(grid):
@@ -99,7 +125,9 @@ def grid_targets(grid):
 
 
 def method_overrides(wildcards):
-    return " ".join(load_grid(wildcards.grid).get("method_overrides", {}).get(wildcards.method, []))
+    overrides = load_grid(wildcards.grid).get("method_overrides", {})
+    named = {method_config(k): v for k, v in overrides.items()}
+    return " ".join(named.get(wildcards.method, []))
 
 
 # What an identify job's result depends on, for Snakemake's rerun triggers: the method's code files are
@@ -111,8 +139,10 @@ def method_code(wildcards):
             for f in provenance.method_code_files(wildcards.method, workflow.basedir)]
 
 
-def method_config(wildcards):
-    overrides = tuple(load_grid(wildcards.grid).get("method_overrides", {}).get(wildcards.method, []))
+def resolved_config(wildcards):
+    overrides = tuple(method_overrides(wildcards).split())
+    if not os.path.exists(os.path.join(METHOD_CONFIGS, f"{wildcards.method}.yaml")):
+        return provenance.canonical_json({"plugin": wildcards.method, "overrides": overrides})
     return provenance.resolved_method_config(wildcards.method, overrides, workflow.basedir)
 
 

@@ -11,7 +11,7 @@ rule identify:
     params:
         run_dir="results/{grid}/runs/{method}/noise{noise}ug_n{n}",
         overrides=method_overrides,
-        method_config=method_config,
+        method_config=resolved_config,
         versions=method_versions,
     threads: 1
     resources:

@@ -33,6 +33,7 @@ CLICK_THROUGH = """<script>
 window.addEventListener("load", function () {
   var steps = [];
   function open(c, sc, p) {
+    steps.push(function () { app.setView({navbarMode: "menu"}); });    // back to the menu, as a user goes
     steps.push(function () {
       if (Object.keys(categories[c]).length > 1) {
         app.setView({navbarMode: "subcategory", category: c, subcategory: sc});
