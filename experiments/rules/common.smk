@@ -91,6 +91,29 @@ def load_grid(name):
     return grid
 
 
+def _requested_grids():
+    """The grids the command line asks for (a named rule or a results/<grid>/... file). Snakemake has not
+    parsed its targets yet while it reads this file, so the command line's words are looked at."""
+    names = set()
+    for target in sys.argv[1:]:
+        parts = os.path.normpath(str(target)).split(os.sep)
+        if target in GRID_NAMES:
+            names.add(target)
+        elif len(parts) > 1 and parts[0] == "results" and parts[1] in GRID_NAMES:
+            names.add(parts[1])
+    return sorted(names)
+
+
+# A requested grid is checked before the DAG is built, so a bad file is reported as one line (an error
+# inside an input function would come wrapped in Snakemake's context); other grids' files are not read.
+for _grid in _requested_grids():
+    try:
+        load_grid(_grid)
+    except WorkflowError as _exc:
+        print(str(_exc).strip(), file=sys.stderr)
+        sys.exit(2)
+
+
 wildcard_constraints:
     grid="|".join(GRID_NAMES),
     method="[a-z0-9_]+",
