@@ -25,6 +25,7 @@ from experiments.io import atomic_write_text, read_npz, write_json
 from experiments.jobs.app import run_app
 from experiments.jobs.config import methods_named_on, register, variant_label
 from experiments.report.scoring import COLUMNS, replicate_rows
+from experiments.simulate.scenarios import AXES, result_columns
 
 
 def load_data(cfg) -> dict:
@@ -43,7 +44,9 @@ def load_data(cfg) -> dict:
         if d.replicates < 1:
             raise ValueError(f"data.replicates = {d.replicates} must be at least 1")
         y = y[: d.replicates]
-    return {"y": y, "dt": float(cell["dt_s"]), "truth": cell, "source": str(d.dataset)}
+    # a cell with a prior-error axis carries the harness's prior per replicate (never the truth)
+    priors = cell["prior_rad_s"][: len(y)] if "prior_rad_s" in cell else None
+    return {"y": y, "dt": float(cell["dt_s"]), "truth": cell, "source": str(d.dataset), "priors": priors}
 
 
 def prior_of(cfg) -> np.ndarray:
@@ -51,22 +54,40 @@ def prior_of(cfg) -> np.ndarray:
     return np.asarray(list(prior), dtype=float)
 
 
+def priors_of(cfg, data: dict) -> np.ndarray:
+    """One prior per record (R × m): the command line's ``prior`` if given, else the cell's harness prior
+    (a prior-error scenario), else the method config's prior."""
+    if cfg.prior is None and data.get("priors") is not None:
+        return np.asarray(data["priors"], dtype=float)
+    return np.tile(prior_of(cfg), (len(data["y"]), 1))
+
+
+def scenario_of(cell) -> dict:
+    """The cell's scenario axis values ({} for a plain noise × length cell)."""
+    if cell is None or "scenario_json" not in cell:
+        return {}
+    return json.loads(str(cell["scenario_json"]))
+
+
 def check(cfg) -> None:
     """Everything that can be known wrong before any work: data readable, prior sensible."""
     data = load_data(cfg)
-    prior = prior_of(cfg)
-    if data["truth"] is not None and prior.size != data["truth"]["truth_freq_rad_s"].size:
-        raise ValueError(f"prior {prior.tolist()} has {prior.size} entries; the dataset has "
-                         f"{data['truth']['truth_freq_rad_s'].size} modes")
-    methods.check_inputs(data["y"][0], data["dt"], prior)   # prior > 0, below Nyquist, record ≥ 8
+    for prior in np.unique(priors_of(cfg, data), axis=0):
+        if data["truth"] is not None and prior.size != data["truth"]["truth_freq_rad_s"].size:
+            raise ValueError(f"prior {prior.tolist()} has {prior.size} entries; the dataset has "
+                             f"{data['truth']['truth_freq_rad_s'].size} modes")
+        methods.check_inputs(data["y"][0], data["dt"], prior)   # prior > 0, below Nyquist, record ≥ 8
 
 
 def run_records(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict, progress: bool):
-    """Identify every record; an exception on one record marks it failed and the job goes on."""
+    """Identify every record (``prior``: one for all, or one row per record); an exception on one record
+    marks it failed and the job goes on."""
     identify = methods.get(name)
+    priors = np.broadcast_to(np.asarray(prior, dtype=float), (len(y), np.shape(prior)[-1]))
     out = []
     bar = _progress(len(y), name, progress)
     for r, rec in enumerate(y):
+        prior = priors[r]
         t0 = time.perf_counter()
         try:
             est = identify(rec, dt, prior, **options)
@@ -91,21 +112,24 @@ def _progress(total: int, name: str, enabled: bool):
 
 def task(cfg) -> None:
     data = load_data(cfg)
-    prior = prior_of(cfg)
+    priors = priors_of(cfg, data)
     name = cfg.method.name
     label = variant_label(name, cfg.method.variant)
     options = OmegaConf.to_container(cfg.method.options, resolve=True)
-    results = run_records(name, data["y"], data["dt"], prior, options, cfg.progress)
+    results = run_records(name, data["y"], data["dt"], priors, options, cfg.progress)
     run_dir = Path(HydraConfig.get().runtime.output_dir)
     if data["truth"] is None:
-        report_measurement(name, prior, results[0][0], run_dir)
+        report_measurement(name, priors[0], results[0][0], run_dir)
         return
     cell = data["truth"]
+    scenario = scenario_of(cell)
     rows = []
     for r, (est, runtime) in enumerate(results):
-        rows += replicate_rows(label, float(cell["noise_ug"]), int(cell["t_s"].size), r, prior,
+        rows += replicate_rows(label, float(cell["noise_ug"]), int(cell["t_s"].size), r, priors[r],
                                cell["truth_freq_rad_s"], cell["crlb_std_rad_s"],
                                cell["crlb_offset_std_rad_s"], est, runtime)
+    for row in rows:              # the cell's scenario axes, as columns after the standard ones
+        row.update(result_columns(scenario, row["mode"]))
     out = Path(cfg.out) if cfg.out else run_dir / "results.csv"
     atomic_write_text(out, rows_to_csv(rows))
     print(f"wrote {out}")
@@ -121,7 +145,8 @@ def rows_to_csv(rows: list[dict]) -> str:
     import io
 
     buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
+    extra = [a for a in AXES if rows and a in rows[0]]
+    writer = csv.DictWriter(buf, fieldnames=COLUMNS + extra, lineterminator="\n")
     writer.writeheader()
     writer.writerows(rows)
     return buf.getvalue()
@@ -142,9 +167,12 @@ def run_key(grid: str, method: str, noise_ug: float, n_samples: int, params: dic
     return f"{grid}/{method}/noise{noise_ug:g}ug_n{n_samples}/{digest}"
 
 
-def job_params(method_cfg: dict, noise_ug, n_samples, replicates, seed) -> dict:
+def job_params(method_cfg: dict, noise_ug, n_samples, replicates, seed, scenario: dict | None = None) -> dict:
+    """MLflow parameters of one job; a scenario cell adds its axes (``scenario.<axis>``), so its run key
+    differs from the plain cell's."""
     params = {"method": method_cfg["name"], "prior_rad_s": method_cfg.get("prior_rad_s"),
               "noise_ug": noise_ug, "n_samples": n_samples, "replicates": replicates, "seed": seed}
+    params.update({f"scenario.{k}": v for k, v in (scenario or {}).items()})
     params.update({f"option.{k}": v for k, v in (method_cfg.get("options") or {}).items()})
     return params
 
@@ -156,7 +184,7 @@ def log_job(cfg, cell: dict, table, results_path: Path) -> None:
     method_cfg = OmegaConf.to_container(cfg.method, resolve=True)
     method_cfg["prior_rad_s"] = prior_of(cfg).tolist()
     params = job_params(method_cfg, float(cell["noise_ug"]), int(cell["t_s"].size),
-                        int(table["replicate"].nunique()), int(cell["seed"]))
+                        int(table["replicate"].nunique()), int(cell["seed"]), scenario_of(cell))
     key = run_key(cfg.grid_name, cfg.method.name, params["noise_ug"], params["n_samples"], params)
     params["git_commit"] = git_commit()
     log_run(cfg.tracking.experiment, key, params=params, metrics=job_metrics(summarize(table)),

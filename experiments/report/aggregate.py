@@ -19,7 +19,7 @@ import yaml
 
 from experiments.io import atomic_write_text, markdown_table, write_table
 from experiments.report import plots
-from experiments.report.summary import summarize
+from experiments.report.summary import cell_keys, summarize
 
 ROOT = Path(__file__).resolve().parents[2]
 PRINTED = ROOT / "configs" / "paper" / "printed.yaml"
@@ -97,7 +97,7 @@ def headline(summary: pd.DataFrame) -> str:
     ident = summary[summary["identifiable"] & (summary["failure_rate"] <= 0.1)].dropna(subset=["rmse_rad_s"])
     lines = []
     for mode, g in ident.groupby("mode"):
-        best = g.loc[g.groupby(["noise_ug", "n_samples"])["rmse_rad_s"].idxmin()]
+        best = g.loc[g.groupby(cell_keys(g), dropna=False)["rmse_rad_s"].idxmin()]
         counts = best["method"].value_counts()
         parts = [f"{m} wins {c} of {len(best)} identifiable cells (median RMSE/CRLB "
                  f"{best[best['method'] == m]['rmse_over_crlb'].median():.2f})" for m, c in counts.items()]
@@ -130,13 +130,24 @@ def main(argv=None) -> int:
     figs = out / "figures"
     longest = int(summary["n_samples"].max())
     noise_ref = 1000.0 if 1000.0 in set(summary["noise_ug"]) else float(np.median(summary["noise_ug"]))
-    files += plots.rmse_against(summary, figs / "rmse_vs_noise", x="noise_ug", fixed="n_samples",
-                                fixed_value=longest)
-    files += plots.rmse_against(summary, figs / "rmse_vs_length", x="n_samples", fixed="noise_ug",
-                                fixed_value=noise_ref)
-    files += plots.winner_map(summary, figs / "winner_map")
-    files += plots.failure_map(summary, figs / "failure_map")
-    text = page(args.grid, summary, out, files, longest, noise_ref) + experiments_section(args.experiments, out)
+    # the noise x length figures show the plain cells (no scenario axis), if the grid has any
+    scenario_cols = cell_keys(summary)[2:]
+    plain = summary[summary[scenario_cols].isna().all(axis=1)] if scenario_cols else summary
+    if not plain.empty:
+        files += plots.rmse_against(plain, figs / "rmse_vs_noise", x="noise_ug", fixed="n_samples",
+                                    fixed_value=longest)
+        files += plots.rmse_against(plain, figs / "rmse_vs_length", x="n_samples", fixed="noise_ug",
+                                    fixed_value=noise_ref)
+        files += plots.winner_map(plain, figs / "winner_map")
+        files += plots.failure_map(plain, figs / "failure_map")
+    scenario_text = ""
+    if scenario_cols:
+        from experiments.report import axes
+
+        axis_files, scenario_text = axes.figures(summary, results, out)
+        files += axis_files
+    text = (page(args.grid, summary, out, [f for f in files if f.parent == figs and not f.stem.startswith(
+        ("axis_", "basin"))], longest, noise_ref) + scenario_text + experiments_section(args.experiments, out))
     atomic_write_text(out / "README.md", text)
     print(f"wrote {out / 'README.md'} and {len(files)} tables/figures")
     return 0

@@ -1,10 +1,18 @@
 # Grid configs (configs/grid/*.yaml), validated against configs/grid/schema.yaml on load, and the
-# helpers that turn a grid into file names.
+# helpers that turn a grid into file names. A grid's cells (noise x length x scenario axes) and their names
+# come from experiments/simulate/scenarios.py.
 import glob
 import os
+import shlex
+import sys
 
+import jsonschema
 import yaml
 from snakemake.utils import validate
+
+sys.path.insert(0, workflow.basedir)
+from experiments.simulate import scenarios as _scenarios  # noqa: E402
+from experiments.simulate.plant import PlantConfig  # noqa: E402
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
 # filters only makes them fight (wkf measured 4x slower per replicate on 2 busy cores).
@@ -13,16 +21,57 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 CONDA_ENV = "../../configs/conda/pipeline.yaml"
 GRID_SCHEMA = os.path.join(workflow.basedir, "configs", "grid", "schema.yaml")
+METHOD_DIR = os.path.join(workflow.basedir, "configs", "method")
 
+
+def _plant_config():
+    """The grids' base plant (configs/plant/paper.yaml), to check scenario cells against it."""
+    with open(os.path.join(workflow.basedir, "configs", "plant", "paper.yaml")) as f:
+        values = {k: v for k, v in yaml.safe_load(f).items() if k != "defaults"}
+    return PlantConfig(**values)
+
+
+def config_of(entry):
+    """A grid's method entry -> its Hydra config name (and result folder): akf -> akf, akf:tuned -> akf_tuned."""
+    return entry.replace(":", "_")
+
+
+def _method_options(config_name):
+    """The option names a method config sets (following its `defaults:` chain), without importing it."""
+    with open(os.path.join(METHOD_DIR, f"{config_name}.yaml")) as f:
+        cfg = yaml.safe_load(f) or {}
+    keys = set((cfg.get("options") or {}).keys())
+    for parent in cfg.get("defaults") or []:
+        if isinstance(parent, str) and parent != "_self_" and not parent.endswith("_schema"):
+            keys |= _method_options(parent)
+    return keys
+
+
+def _refuse(path, message):
+    """A bad grid: one line `error: ...` naming the file and the value, exit status 2, nothing run."""
+    print(f"error: {os.path.relpath(path)}: {message}", file=sys.stderr)
+    sys.exit(2)
 
 
 def _load_grid(path):
     with open(path) as f:
         grid = yaml.safe_load(f)
-    validate(grid, GRID_SCHEMA, set_default=True)
+    with open(GRID_SCHEMA) as f:
+        error = jsonschema.exceptions.best_match(
+            jsonschema.Draft202012Validator(yaml.safe_load(f)).iter_errors(grid))
+    if error is not None:
+        _refuse(path, f"{error.json_path}: {error.message}")
+    validate(grid, GRID_SCHEMA, set_default=True)     # fills the schema's defaults
     expected = os.path.splitext(os.path.basename(path))[0]
     if grid["name"] != expected:
-        raise ValueError(f"{path}: name '{grid['name']}' must match the file name '{expected}'")
+        _refuse(path, f"name '{grid['name']}' must match the file name '{expected}'")
+    for entry in grid["methods"]:
+        if not os.path.exists(os.path.join(METHOD_DIR, f"{config_of(entry)}.yaml")):
+            _refuse(path, f"method '{entry}' has no config configs/method/{config_of(entry)}.yaml")
+    try:
+        grid["cells"] = _scenarios.check_grid(grid, _plant_config())
+    except ValueError as exc:
+        _refuse(path, str(exc))
     return grid
 
 
@@ -35,23 +84,24 @@ GRIDS = {
 
 wildcard_constraints:
     grid="|".join(GRIDS),
-    method="[a-z_]+",
-    noise=r"[0-9.e+-]+",
-    n=r"[0-9]+",
-
-
-def cell_name(noise, n):
-    return f"noise{noise:g}ug_n{n}"
+    method="[a-z0-9_]+",
+    cell=r"noise[A-Za-z0-9_.+-]+",
 
 
 def cells(grid):
-    g = GRIDS[grid]
-    return [cell_name(noise, n) for noise in g["noise_ug"] for n in g["n_samples"]]
+    return list(GRIDS[grid]["cells"])
+
+
+def runs_cell(grid, config_name, cell):
+    """Whether a method runs on a cell: a `measurement` cell only for methods with that option."""
+    measurement = GRIDS[grid]["cells"][cell]["axes"].get("measurement")
+    return measurement is None or "measurement" in _method_options(config_name)
 
 
 def result_files(grid):
     g = GRIDS[grid]
-    return [f"results/{grid}/identify/{m}/{c}.csv" for m in g["methods"] for c in cells(grid)]
+    return [f"results/{grid}/identify/{config_of(m)}/{c}.csv" for m in g["methods"] for c in cells(grid)
+            if runs_cell(grid, config_of(m), c)]
 
 
 def experiment_dirs(grid):
@@ -62,5 +112,35 @@ def grid_targets(grid):
     return [f"results/{grid}/README.md", f"results/{grid}/mlflow_runs.json"]
 
 
+def dataset_args(wildcards):
+    """make_dataset's command-line overrides of one cell (the plain cells: exactly those of before)."""
+    g = GRIDS[wildcards.grid]
+    cell = g["cells"][wildcards.cell]
+    axes = cell["axes"]
+    args = [f"noise_ug={cell['noise_ug']}", f"n_samples={cell['n_samples']}", f"replicates={g['replicates']}",
+            f"seed={g['seed']}", f"dt_s={axes.get('dt_s', g['dt_s'])}",
+            f"bias_m_s2={axes.get('bias_m_s2', g['bias_m_s2'])}"]
+    for axis, value in axes.items():
+        if axis not in ("dt_s", "bias_m_s2"):
+            text = "[" + ",".join(str(v) for v in value) + "]" if isinstance(value, list) else str(value)
+            args.append(f"scenario.{axis}={text}")
+    named = [a for a in ("dt_s", "bias_m_s2") if a in axes]
+    if named:
+        args.append(f"scenario.axes=[{','.join(named)}]")
+    return " ".join(shlex.quote(a) for a in args)
+
+
 def method_overrides(wildcards):
-    return " ".join(GRIDS[wildcards.grid].get("method_overrides", {}).get(wildcards.method, []))
+    """The grid's extra overrides of this method (keyed by its grid entry or config name) and the cell's
+    measurement axis."""
+    g = GRIDS[wildcards.grid]
+    extra = g.get("method_overrides", {})
+    entries = [e for e in g["methods"] if config_of(e) == wildcards.method]
+    out = list(extra.get(wildcards.method, []))
+    for e in entries:
+        if e != wildcards.method:
+            out += extra.get(e, [])
+    measurement = g["cells"][wildcards.cell]["axes"].get("measurement")
+    if measurement is not None:
+        out.append(f"method.options.measurement={measurement}")
+    return " ".join(shlex.quote(o) for o in out)

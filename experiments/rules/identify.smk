@@ -1,18 +1,18 @@
 # One job per (method, cell), all replicates inside; MLflow logging is left to the serial `track` step.
 rule identify:
     input:
-        "results/{grid}/data/noise{noise}ug_n{n}.npz",
+        "results/{grid}/data/{cell}.npz",
     output:
-        "results/{grid}/identify/{method}/noise{noise}ug_n{n}.csv",
+        "results/{grid}/identify/{method}/{cell}.csv",
     params:
-        run_dir="results/{grid}/runs/{method}/noise{noise}ug_n{n}",
+        run_dir="results/{grid}/runs/{method}/{cell}",
         overrides=method_overrides,
     conda:
         CONDA_ENV
     log:
-        "results/{grid}/logs/identify/{method}/noise{noise}ug_n{n}.log",
+        "results/{grid}/logs/identify/{method}/{cell}.log",
     benchmark:
-        "results/{grid}/benchmarks/identify/{method}/noise{noise}ug_n{n}.tsv"
+        "results/{grid}/benchmarks/identify/{method}/{cell}.tsv"
     shell:
         "python -m experiments.jobs.identify method={wildcards.method} data.dataset={input} out={output}"
         " grid_name={wildcards.grid} tracking.enabled=false hydra.run.dir={params.run_dir}"

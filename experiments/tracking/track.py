@@ -20,7 +20,7 @@ import pandas as pd
 from omegaconf import OmegaConf
 
 from experiments.io import read_npz, write_json
-from experiments.jobs.identify import job_params, run_key
+from experiments.jobs.identify import job_params, run_key, scenario_of
 from experiments.report.summary import job_metrics, summarize
 from experiments.tracking.store import git_commit, log_run
 
@@ -35,7 +35,7 @@ def job_run(grid: str, results_path: Path, commit: str) -> tuple[str, str, bool]
     data = read_npz(cfg.data.dataset)
     table = pd.read_csv(results_path)
     params = job_params(method_cfg, float(data["noise_ug"]), int(data["t_s"].size),
-                        int(table["replicate"].nunique()), int(data["seed"]))
+                        int(table["replicate"].nunique()), int(data["seed"]), scenario_of(data))
     key = run_key(grid, method, params["noise_ug"], params["n_samples"], params)
     params["git_commit"] = commit          # logged, but not part of the key: a new commit is not a new result
     rid, created = log_run(f"grid-{grid}", key, params=params, metrics=job_metrics(summarize(table)),
