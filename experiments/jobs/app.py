@@ -77,6 +77,8 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
                 check(cfg)
             return task(cfg)
         except BAD_INPUT as exc:
+            if _in_sweep():        # one bad trial of a sweep is recorded (error.txt) and the sweep goes on
+                return _record_failure(one_line(exc))
             _remove_empty_run_dir()
             fail(one_line(exc))
 
@@ -98,3 +100,21 @@ def _remove_empty_run_dir() -> None:
     leftovers = [p for p in run_dir.iterdir() if p.name != ".hydra" and p.suffix != ".log"]
     if not leftovers:
         shutil.rmtree(run_dir, ignore_errors=True)
+
+
+def _in_sweep() -> bool:
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN
+
+
+def _record_failure(message: str) -> float:
+    """A failed sweep job: the line on stderr and in ``error.txt`` of its run directory; the worst objective."""
+    from hydra.core.hydra_config import HydraConfig
+
+    from experiments.io import atomic_write_text
+
+    print(f"error: {message}", file=sys.stderr)
+    atomic_write_text(Path(HydraConfig.get().runtime.output_dir) / "error.txt", f"error: {message}\n")
+    return float("inf")

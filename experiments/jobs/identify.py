@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
 from omegaconf import OmegaConf
 
 import methods
@@ -110,7 +111,8 @@ def _progress(total: int, name: str, enabled: bool):
                 mininterval=2.0)
 
 
-def task(cfg) -> None:
+def task(cfg) -> float | None:
+    """Identify every record; in a sweep (``-m``) or when tracking, return the cell's objective."""
     data = load_data(cfg)
     priors = priors_of(cfg, data)
     name = cfg.method.name
@@ -133,10 +135,22 @@ def task(cfg) -> None:
     out = Path(cfg.out) if cfg.out else run_dir / "results.csv"
     atomic_write_text(out, rows_to_csv(rows))
     print(f"wrote {out}")
-    if cfg.tracking.enabled:
+    if cfg.tracking.enabled or HydraConfig.get().mode == RunMode.MULTIRUN:
         import pandas as pd
 
-        log_job(cfg, cell, pd.DataFrame(rows, columns=COLUMNS), out)
+        from experiments.report.summary import summarize
+        from experiments.tuning.objective import cell_objective
+
+        table = pd.DataFrame(rows, columns=COLUMNS)
+        if cfg.tracking.enabled:
+            log_job(cfg, cell, table, out)
+        # A sweeper's objective (any Hydra sweeper minimises what the job returns): log10 of the median
+        # RMSE/CRLB over modes + a failure penalty, as the tuning command (experiments/tuning/objective.py)
+        objective = cell_objective(summarize(table))
+        print(f"objective {objective['value']:.4g} (median RMSE/CRLB {objective['median_rmse_over_crlb']:.3g}, "
+              f"failure rate {objective['failure_rate']:.2f})")
+        return objective["value"]
+    return None
 
 
 def rows_to_csv(rows: list[dict]) -> str:

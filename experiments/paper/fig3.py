@@ -13,6 +13,12 @@ Tables (CSV + Markdown):
   (c) both degrade badly at 100 µg (RMSE at 100 µg at least 3× that at 10 µg in at least two
   modes, or more diverged replicates).
 - ``fig3_crlb``: RMSE/CRLB of both filters on 256-sample records at 10 and 100 µg.
+
+``position_units`` (default ``[m]``): the length unit of the record handed to the filters. The paper
+prints Qd = 1e-4 and Rd = 1e-2 without units; if its positions were in cm or mm, the same numbers mean
+1e4 or 1e6 times less noise relative to the signal than in metres. A record in cm is the acceleration
+× 100 (cm/s²), so both measurement models and every tuning number are read in that unit. Figures for a
+unit other than metres are ``fig3_<measurement>_<unit>``; the tables carry a ``position_unit`` column.
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ from experiments.simulate.plant import PlantConfig, build_plant  # noqa: E402
 from methods import akf, wkf  # noqa: E402
 
 FILTERS = {"akf": akf, "wkf": wkf}
+UNIT_PER_METRE = {"m": 1.0, "cm": 100.0, "mm": 1000.0}    # the record in this unit = metres × factor
 DEGRADE_FACTOR = 3.0          # claim (c): "badly" = RMSE at least this many times larger
 
 
@@ -48,6 +55,7 @@ class Params:
     seed: int = 1                            # noise of the drawn record (not the grid's scoring seed)
     prior_rad_s: list[float] = field(default_factory=lambda: [3.80, 16.00, 26.00, 46.00])   # Table 3
     measurements: list[str] = field(default_factory=lambda: ["position", "acceleration"])
+    position_units: list[str] = field(default_factory=lambda: ["m"])   # length unit of the record: m, cm, mm
     options: dict[str, Any] = field(default_factory=dict)   # over both filters' defaults (paper tuning)
     replicates: int = 20                     # Monte-Carlo replicates for the claims table
     claim_noise_ug: list[float] = field(default_factory=lambda: [10.0, 100.0])
@@ -65,10 +73,13 @@ def run(params: Params, out_dir: Path) -> list[Path]:
     clean = plant.tip_acceleration(n, params.dt_s)
     y = clean + params.noise_ug * UG * replicate_rng(params.seed, params.noise_ug, n, 0).standard_normal(n)
     written = []
-    for measurement in params.measurements:
-        opts = {**params.options, "measurement": measurement}
-        runs = {name: mod.identify(y, params.dt_s, params.prior_rad_s, **opts) for name, mod in FILTERS.items()}
-        written += _draw(params, runs, plant.freq_rad_s, measurement, out_dir / f"fig3_{measurement}")
+    for unit in params.position_units:
+        for measurement in params.measurements:
+            opts = {**params.options, "measurement": measurement}
+            runs = {name: mod.identify(y * UNIT_PER_METRE[unit], params.dt_s, params.prior_rad_s, **opts)
+                    for name, mod in FILTERS.items()}
+            stem = f"fig3_{measurement}" + ("" if unit == "m" else f"_{unit}")
+            written += _draw(params, runs, plant.freq_rad_s, measurement, out_dir / stem, unit)
     claims = _monte_carlo(params, plant, n, params.claim_noise_ug, params.replicates)
     written += write_table(claims, out_dir / "fig3_claims")
     written.append(atomic_write_text(out_dir / "fig3_verdicts.md", _verdicts(claims, params, n)))
@@ -83,6 +94,9 @@ def _check(params: Params) -> None:
     for m in params.measurements:
         if m not in ("position", "acceleration"):
             raise ValueError(f"measurements: '{m}' is not 'position' or 'acceleration'")
+    for u in params.position_units:
+        if u not in UNIT_PER_METRE:
+            raise ValueError(f"position_units: '{u}' is not one of {', '.join(UNIT_PER_METRE)}")
     if params.replicates < 1 or params.crlb_replicates < 1:
         raise ValueError("replicates and crlb_replicates must be at least 1")
 
@@ -98,16 +112,18 @@ def _monte_carlo(params: Params, plant, n: int, noises, replicates: int) -> pd.D
                          n, params.dt_s, sigma)
         records = [clean + sigma * replicate_rng(params.seed, noise_ug, n, r).standard_normal(n)
                    for r in range(replicates)]
-        for measurement in params.measurements:
+        for unit, measurement in ((u, m) for u in params.position_units for m in params.measurements):
             opts = {**params.options, "measurement": measurement}
             for name, mod in FILTERS.items():
-                est = [mod.identify(y, params.dt_s, params.prior_rad_s, **opts) for y in records]
+                est = [mod.identify(y * UNIT_PER_METRE[unit], params.dt_s, params.prior_rad_s, **opts)
+                       for y in records]
                 ok = np.array([e.frequencies for e in est if e.converged]).reshape(-1, len(bound))
                 for j, w in enumerate(truth["freq_rad_s"]):
                     err = ok[:, j] - w
                     rmse = float(np.sqrt(np.mean(err**2))) if err.size else np.nan
                     rows.append({
-                        "measurement": measurement, "method": name, "noise_ug": noise_ug, "n_samples": n,
+                        "position_unit": unit, "measurement": measurement, "method": name,
+                        "noise_ug": noise_ug, "n_samples": n,
                         "mode": j + 1, "true_rad_s": float(w), "prior_rad_s": params.prior_rad_s[j],
                         "replicates": replicates, "failures": replicates - ok.shape[0],
                         "mean_rad_s": float(ok[:, j].mean()) if err.size else np.nan,
@@ -124,8 +140,8 @@ def _verdicts(claims: pd.DataFrame, params: Params, n: int) -> str:
     lo, hi = min(params.claim_noise_ug), max(params.claim_noise_ug)
     lines = [f"# Fig. 3 claims, {params.replicates} replicates, {n} samples ({n * params.dt_s:g} s), "
              f"seed {params.seed}", ""]
-    for measurement in params.measurements:
-        c = claims[claims.measurement == measurement]
+    for unit, measurement in ((u, m) for u in params.position_units for m in params.measurements):
+        c = claims[(claims.measurement == measurement) & (claims.position_unit == unit)]
 
         def rel(method, noise, c=c):
             s = c[(c.method == method) & (c.noise_ug == noise)].sort_values("mode")
@@ -135,7 +151,7 @@ def _verdicts(claims: pd.DataFrame, params: Params, n: int) -> str:
         w_pct, w_abs, w_fail = rel("wkf", lo)
         holds_a = _verdict(a_pct, bool(np.all(a_pct[:3] > a_pct[3])))
         holds_b = _verdict(np.r_[a_abs, w_abs], bool(np.all(w_abs[:3] < a_abs[:3]) and w_abs[3] > a_abs[3]))
-        lines += [f"## {measurement} measurement", "",
+        lines += [f"## {measurement} measurement, record in {unit}", "",
                   f"RMSE at {lo:g} µg (rad/s, modes 1–4): akf {_fmt(a_abs)} ({a_fail} failed), "
                   f"wkf {_fmt(w_abs)} ({w_fail} failed); relative: akf {_fmt(a_pct)} %, wkf {_fmt(w_pct)} %.",
                   "",
@@ -170,7 +186,7 @@ def _fmt(values) -> str:
     return "[" + ", ".join(f"{v:.3g}" for v in values) + "]"
 
 
-def _draw(params: Params, runs: dict, truth, measurement: str, stem: Path) -> list[Path]:
+def _draw(params: Params, runs: dict, truth, measurement: str, stem: Path, unit: str = "m") -> list[Path]:
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
     t = np.arange(max(e.history.shape[0] for e in runs.values() if e.history is not None)) * params.dt_s
     styles = {"akf": dict(ls=":", lw=1.6, color="tab:blue", label="augmented KF (akf)"),
@@ -195,8 +211,8 @@ def _draw(params: Params, runs: dict, truth, measurement: str, stem: Path) -> li
         ax.legend(fontsize=7, loc="best")
     for ax in axes[1]:
         ax.set_xlabel("time (s)")
-    fig.suptitle(f"Fig. 3: {measurement} measurement, {params.noise_ug:g} µg noise, Table 3 priors, "
-                 f"paper tuning (Qd = 1e-4, Rd = 1e-2)")
+    fig.suptitle(f"Fig. 3: {measurement} measurement, record in {unit}, {params.noise_ug:g} µg noise, "
+                 f"Table 3 priors, paper tuning (Qd = 1e-4, Rd = 1e-2 in {unit})")
     fig.tight_layout()
     paths = [save_figure(fig, stem.with_suffix(".png")), save_figure(fig, stem.with_suffix(".svg"))]
     plt.close(fig)

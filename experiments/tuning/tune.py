@@ -1,0 +1,295 @@
+"""Automatic tuning of a method's numeric options: Optuna's TPE sampler over a search space declared in
+``configs/tuning/<method>.yaml``, on cells simulated with a tuning seed that is never a scoring seed.
+
+    OPENBLAS_NUM_THREADS=1 python -m experiments.tuning.tune tuning=akf
+    python -m experiments.tuning.tune tuning=wkf tuning.trials=80 tuning.replicates=10
+
+Objective (``experiments.tuning.objective``): mean over the cells of log10(median over modes of RMSE/CRLB)
++ penalty × failure rate. Writes ``configs/method/<method>_<variant>.yaml`` (``defaults: [<method>,
+_self_]``, ``variant: <variant>``, the tuned options) with the study's provenance in its header; grids name
+it ``<method>:<variant>``. Every trial is an MLflow child run of one study run (experiment ``tuning``). The
+study lives in Optuna's RDB storage (``results/optuna.db``, beside the MLflow store): run the same command
+again and it resumes, running only the trials still missing. Why not hydra-optuna-sweeper: it pins
+optuna < 3, and a sweep of the identify job scores one cell per job, where a trial here scores several.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from hydra import compose
+from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING, OmegaConf
+
+import methods
+from experiments.io import atomic_write_text
+from experiments.jobs.app import CONFIG_DIR, run_app
+from experiments.jobs.config import TrackingConfig, method_of_config, register, variant_label
+from experiments.tuning.space import base_params, check_space, suggest_options
+
+PROJECT = Path(CONFIG_DIR).parent
+
+
+@dataclass
+class CellConfig:
+    noise_ug: float = MISSING
+    n_samples: int = MISSING
+
+
+@dataclass
+class TuningConfig:
+    """One study. ``method`` is a method config (``configs/method/<method>.yaml``) whose options are the
+    starting point; the result is the variant ``<method>:<variant>``."""
+
+    method: str = MISSING
+    variant: str = "tuned"
+    cells: list[CellConfig] = field(default_factory=list)
+    replicates: int = 10                 # tuning replicates per cell
+    seed: int = 1                        # the tuning noise seed; never a grid's scoring seed
+    dt_s: float = 0.02
+    trials: int = 60                     # total trials of the study (a resumed study runs the rest)
+    penalty: float = 4.0                 # decades of RMSE/CRLB per unit failure rate
+    sampler_seed: int = 0                # TPE's own random stream
+    enqueue_base: bool = True            # trial 0 = the base config's values (where inside the space)
+    fixed: dict[str, Any] = field(default_factory=dict)     # options set for every trial
+    space: dict[str, Any] = field(default_factory=dict)     # see experiments/tuning/space.py
+    out: str | None = None               # default configs/method/<method>_<variant>.yaml
+    storage: str | None = None           # default sqlite:///results/optuna.db
+
+
+@dataclass
+class TuneApp:
+    tuning: Any = MISSING
+    tracking: TrackingConfig = field(default_factory=lambda: TrackingConfig(experiment="tuning"))
+
+
+def scoring_seeds() -> dict[int, list[str]]:
+    """The seeds the grids score on (configs/grid/*.yaml ``seed``), with the grids using each."""
+    seeds: dict[int, list[str]] = {}
+    for path in sorted((Path(CONFIG_DIR) / "grid").glob("*.yaml")):
+        seed = OmegaConf.load(path).get("seed")
+        if seed is not None:
+            seeds.setdefault(int(seed), []).append(path.stem)
+    return seeds
+
+
+def check(cfg) -> None:
+    t = cfg.tuning
+    used = scoring_seeds()
+    if int(t.seed) in used:
+        raise ValueError(f"tuning.seed = {t.seed} is the scoring seed of grid(s) {', '.join(used[int(t.seed)])}: "
+                         "tune on another seed")
+    if method_of_config(t.method) is None:
+        raise ValueError(f"tuning.method = '{t.method}' is not a method config; known methods: "
+                         f"{', '.join(methods.names())}")
+    if not t.cells:
+        raise ValueError("tuning.cells is empty: give at least one {noise_ug, n_samples}")
+    for c in t.cells:
+        if not (c.noise_ug > 0 and c.n_samples >= 8):
+            raise ValueError(f"tuning.cells: noise_ug = {c.noise_ug} must be > 0 and n_samples = {c.n_samples} ≥ 8")
+    if t.replicates < 1 or t.trials < 1:
+        raise ValueError(f"tuning.replicates = {t.replicates} and tuning.trials = {t.trials} must be ≥ 1")
+    base = base_method(t.method)
+    options = OmegaConf.to_container(base.options, resolve=True)
+    check_space(OmegaConf.to_container(t.space, resolve=True), set(options), len(base.prior_rad_s), options)
+    unknown = set(t.fixed) - set(options)
+    if unknown:
+        raise ValueError(f"tuning.fixed: {sorted(unknown)} are not options of {t.method}")
+
+
+def base_method(config_name: str):
+    """The composed method config (its prior and options) the study starts from."""
+    from hydra import initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    if GlobalHydra.instance().is_initialized():        # inside the Hydra app
+        return compose(config_name="identify", overrides=[f"method={config_name}"]).method
+    with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):   # the pre-check
+        return compose(config_name="identify", overrides=[f"method={config_name}"]).method
+
+
+def simulate_cells(t) -> list[dict]:
+    from experiments.simulate.datasets import DatasetConfig, make_cell
+
+    return [make_cell(DatasetConfig(noise_ug=float(c.noise_ug), n_samples=int(c.n_samples),
+                                    replicates=int(t.replicates), dt_s=float(t.dt_s), seed=int(t.seed)))
+            for c in t.cells]
+
+
+def evaluate(name: str, label: str, prior, options: dict, cells: list[dict], penalty: float):
+    """Run the method on every replicate of every cell; the objective's parts and the summary table."""
+    import pandas as pd
+
+    from experiments.jobs.identify import run_records
+    from experiments.report.scoring import COLUMNS, replicate_rows
+    from experiments.report.summary import summarize
+    from experiments.tuning.objective import objective
+
+    rows = []
+    for cell in cells:
+        results = run_records(name, cell["accel_m_s2"], float(cell["dt_s"]), prior, options, progress=False)
+        for r, (est, runtime) in enumerate(results):
+            rows += replicate_rows(label, float(cell["noise_ug"]), int(cell["t_s"].size), r, prior,
+                                   cell["truth_freq_rad_s"], cell["crlb_std_rad_s"],
+                                   cell["crlb_offset_std_rad_s"], est, runtime)
+    summary = summarize(pd.DataFrame(rows, columns=COLUMNS))
+    return objective(summary, penalty), summary
+
+
+def study_name(t) -> str:
+    """Name = output config + digest of everything that defines the objective, so that a changed study
+    definition starts a new study instead of mixing incomparable trials."""
+    spec = OmegaConf.to_container(t, resolve=True)
+    for k in ("trials", "out", "storage"):
+        spec.pop(k, None)
+    digest = hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()[:8]
+    return f"{t.method}_{t.variant}-{digest}"
+
+
+def storage_url(t) -> str:
+    if t.storage:
+        return t.storage
+    from experiments.tracking.store import DEFAULT_DB
+
+    DEFAULT_DB.parent.mkdir(parents=True, exist_ok=True)
+    return f"sqlite:///{(DEFAULT_DB.parent / 'optuna.db').resolve()}"
+
+
+def task(cfg) -> None:
+    import optuna
+
+    t = cfg.tuning
+    base = base_method(t.method)
+    name = method_of_config(t.method)
+    label = variant_label(name, t.variant)
+    prior = np.asarray(list(base.prior_rad_s), dtype=float)
+    base_options = {**OmegaConf.to_container(base.options, resolve=True),
+                    **OmegaConf.to_container(t.fixed, resolve=True)}
+    space = OmegaConf.to_container(t.space, resolve=True)
+    cells = simulate_cells(t)
+    sname = study_name(t)
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(study_name=sname, storage=storage_url(t), direction="minimize",
+                                sampler=optuna.samplers.TPESampler(seed=int(t.sampler_seed)),
+                                load_if_exists=True)
+    _fail_stale(study)
+    if t.enqueue_base and not study.trials:
+        study.enqueue_trial(base_params(space, base_options, prior.size), user_attrs={"base": True})
+    parent = _log_study(cfg, sname) if cfg.tracking.enabled else None
+
+    def trial_objective(trial):
+        options = {**base_options, **suggest_options(trial, space, base_options, prior.size)}
+        t0 = time.perf_counter()
+        parts, _ = evaluate(name, label, prior, options, cells, float(t.penalty))
+        for k, v in parts.items():
+            trial.set_user_attr(k, v)
+        print(f"trial {trial.number}: J = {parts['value']:.4g} ({time.perf_counter() - t0:.1f} s)", flush=True)
+        if parent is not None:
+            _log_trial(cfg, sname, parent, trial, options, parts)
+        return parts["value"]
+
+    done = sum(tr.state.is_finished() for tr in study.trials)
+    remaining = max(0, int(t.trials) - done)
+    print(f"study {sname}: {done} trials done, running {remaining}", flush=True)
+    study.optimize(trial_objective, n_trials=remaining, catch=(ValueError, np.linalg.LinAlgError))
+    best = study.best_trial
+    tuned = {**OmegaConf.to_container(t.fixed, resolve=True),
+             **suggest_options(optuna.trial.FixedTrial(best.params), space, base_options, prior.size)}
+    out = Path(t.out) if t.out else PROJECT / "configs" / "method" / f"{t.method}_{t.variant}.yaml"
+    text = config_text(t, name, sname, study, best, tuned)
+    atomic_write_text(out, text)
+    print(f"best trial {best.number}: J = {best.value:.4g}\nwrote {out}")
+    if parent is not None:
+        from experiments.tracking.store import log_run
+
+        log_run(cfg.tracking.experiment, f"tuning/{sname}/best{len(study.trials)}", params=_flat(tuned),
+                metrics={"best_value": best.value, "best_trial": best.number}, artifacts=[out],
+                tags={"mlflow.parentRunId": parent, "kind": "tuning-result"})
+
+
+def _fail_stale(study) -> None:
+    """A trial left RUNNING by a killed process is marked failed (this command runs trials one at a time)."""
+    from optuna.trial import TrialState
+
+    for tr in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
+        study._storage.set_trial_state_values(tr._trial_id, TrialState.FAIL)
+
+
+def _round(value):
+    if isinstance(value, float):
+        return float(f"{value:.4g}")
+    if isinstance(value, list):
+        return [_round(v) for v in value]
+    return value
+
+
+def config_text(t, name: str, sname: str, study, best, tuned: dict) -> str:
+    from experiments.tracking.store import git_commit
+
+    finished = [tr for tr in study.trials if tr.value is not None]
+    base_trials = [tr for tr in finished if tr.user_attrs.get("base")]
+    cells = ", ".join(f"{c.noise_ug:g} µg/{c.n_samples}" for c in t.cells)
+    attrs = best.user_attrs
+    per_cell = "; ".join(
+        f"{k.removesuffix('_value')}: median RMSE/CRLB {attrs[k.replace('_value', '_median_rmse_over_crlb')]:.3g}, "
+        f"failure rate {attrs[k.replace('_value', '_failure_rate')]:.2f}"
+        for k in attrs if k.endswith("_value") and k != "value")
+    lines = [
+        f'# Variant "{variant_label(name, t.variant)}": configs/method/{t.method}.yaml with options tuned by '
+        "experiments.tuning.tune (Optuna TPE).",
+        f"# Objective: mean over cells of log10(median over modes of RMSE/CRLB) + {t.penalty:g} x failure rate"
+        " (experiments/tuning/objective.py).",
+        f"# Cells: {cells}; tuning seed {t.seed} (never a scoring seed), {t.replicates} replicates per cell, "
+        f"dt {t.dt_s:g} s.",
+        f"# Trials: {len(study.trials)} ({len(finished)} complete); best trial #{best.number}, J = {best.value:.4g}"
+        + (f"; base config (trial #{base_trials[0].number}) J = {base_trials[0].value:.4g}" if base_trials else "")
+        + ".",
+        f"# Best trial per cell: {per_cell}.",
+        f"# Study: {sname} in {storage_url(t)}; MLflow experiment 'tuning', run key tuning/{sname}.",
+        f"# Date: {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}; git {git_commit()}.",
+        "# Command: python -m experiments.tuning.tune " + " ".join(sys.argv[1:]),
+        "# Values rounded to 4 significant digits.",
+    ]
+    body = {"defaults": [t.method, "_self_"], "variant": t.variant, "options": _round(tuned)}
+    return "\n".join(lines) + "\n" + OmegaConf.to_yaml(OmegaConf.create(body))
+
+
+def _flat(options: dict) -> dict:
+    return {f"option.{k}": v for k, v in options.items()}
+
+
+def _log_study(cfg, sname: str) -> str:
+    from experiments.tracking.store import git_commit, log_run
+
+    params = {"study": sname, **{f"tuning.{k}": v for k, v in
+                                 OmegaConf.to_container(cfg.tuning, resolve=True).items()}}
+    run_id, _ = log_run(cfg.tracking.experiment, f"tuning/{sname}", params=params,
+                        tags={"kind": "tuning-study", "git_commit": git_commit()})
+    return run_id
+
+
+def _log_trial(cfg, sname: str, parent: str, trial, options: dict, parts: dict) -> None:
+    from experiments.tracking.store import log_run
+
+    log_run(cfg.tracking.experiment, f"tuning/{sname}/trial{trial.number}", params=_flat(options),
+            metrics={k: v for k, v in parts.items() if np.isfinite(v)},
+            tags={"mlflow.parentRunId": parent, "kind": "tuning-trial", "trial": str(trial.number)})
+
+
+def main() -> None:
+    cs = ConfigStore.instance()
+    cs.store(name="tune_schema", node=TuneApp)
+    cs.store(group="tuning", name="tuning_schema", node=TuningConfig)
+    register(with_methods=methods.names())
+    run_app("tune", task, check)
+
+
+if __name__ == "__main__":
+    main()
