@@ -4,7 +4,6 @@ Runs in a scratch working directory with its own MLflow store, so it neither nee
 """
 
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -18,20 +17,9 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.slow
 
 
-def snakemake(workdir, *args):
-    bindir = Path(sys.executable).parent          # the rules call `python -m ...` of this environment
-    env = os.environ | {"PATH": f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}"}
-    env.pop("MLFLOW_TRACKING_URI", None)
-    return subprocess.run([str(bindir / "snakemake"), "-s", str(ROOT / "Snakefile"), "--directory", str(workdir),
-                           "--cores", "2", *args], capture_output=True, text=True, timeout=900, env=env)
-
-
 @pytest.fixture(scope="module")
-def smoke_run(tmp_path_factory):
-    workdir = tmp_path_factory.mktemp("smoke")
-    proc = snakemake(workdir, "smoke")
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    return workdir
+def smoke_run(smoke_workdir):
+    return smoke_workdir
 
 
 def test_smoke_workflow_writes_tables_figures_and_page(smoke_run):
@@ -42,15 +30,17 @@ def test_smoke_workflow_writes_tables_figures_and_page(smoke_run):
     assert set(summary["method"]) == set(grid["methods"])
     assert len(summary) == len(grid["methods"]) * n_cells * 4
     assert (summary["replicates"] == grid["replicates"]).all()
-    for fig in ("rmse_vs_noise", "rmse_vs_length", "winner_map", "failure_map"):
+    for fig in ("rmse_vs_noise", "rmse_vs_length", "winner_map", "failure_map", "coverage"):
         assert (out / "figures" / f"{fig}.png").stat().st_size > 10_000
         assert (out / "figures" / f"{fig}.svg").exists()
     page = (out / "README.md").read_text()
     assert "figures/winner_map.png" in page and "tables/comparison.csv" in page
+    assert "Is each method's reported std honest?" in page
+    assert {"coverage_1std", "coverage_2std", "median_abs_err_over_std"} <= set(summary.columns)
     assert len(list((out / "benchmarks").rglob("*.tsv"))) == len(grid["methods"]) * n_cells
 
 
-def test_mlflow_holds_each_job_once_and_a_rerun_adds_nothing(smoke_run):
+def test_mlflow_holds_each_job_once_and_a_rerun_adds_nothing(smoke_run, snakemake):
     out = smoke_run / "results" / "smoke"
     record = json.loads((out / "mlflow_runs.json").read_text())
     client = mlflow.MlflowClient(f"sqlite:///{smoke_run / 'results' / 'mlflow.db'}")

@@ -3,7 +3,10 @@
     python -m experiments.report.aggregate --grid smoke --out results/smoke results/smoke/identify/*/*.csv
 
 Reads the per-job CSV files (the record; not MLflow) and writes, under ``--out``:
-``tables/comparison.{csv,md}``, ``tables/paper_tables.md``, ``figures/*.{png,svg}`` and ``README.md``,
+``tables/comparison.{csv,md,html}``, ``tables/coverage_by_method.{csv,md,html}`` (how honest each method's
+reported std is), ``tables/paper_tables.{md,html}``, one HTML page of tables per paper reproduction,
+``figures/*.{png,svg}``, a caption ``<name>.rst`` beside every figure and HTML table (from
+experiments/report/captions/, see experiments.report.catalog) for the Snakemake report, and ``README.md``,
 the page that links all of it (written last: its presence means the rest is complete).
 """
 
@@ -18,7 +21,8 @@ import pandas as pd
 import yaml
 
 from experiments.io import atomic_write_text, markdown_table, write_table
-from experiments.report import plots
+from experiments.report import catalog, htmltables, plots
+from experiments.report.coverage import coverage_table, honesty_lines
 from experiments.report.summary import cell_keys, summarize
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -41,21 +45,21 @@ def _cell(summary, method, noise):
     return sub[sub["n_samples"] == n].sort_values("mode"), n
 
 
-def paper_tables(summary: pd.DataFrame, results: pd.DataFrame) -> str:
-    """Tables 3–6 of the paper regenerated beside its printed numbers, from whichever methods ran."""
+def paper_tables(summary: pd.DataFrame, results: pd.DataFrame) -> list[tuple[str, str, pd.DataFrame]]:
+    """Tables 3–6 of the paper regenerated beside its printed numbers, from whichever methods ran.
+
+    Returns one (title, note, table) per table of the paper; ``render_paper_tables`` makes it Markdown.
+    """
     printed = yaml.safe_load(PRINTED.read_text())
     true = np.asarray(printed["true_rad_s"])
-    out = ["# The paper's tables, regenerated", "",
-           "Each table shows the paper's printed numbers beside ours: the mean ± std over the Monte-Carlo "
-           "replicates of the grid at the paper's noise level and the grid's longest record, the CRLB std, "
-           "and the failure rate. Our true frequencies are the eigenfrequencies of the generating model.", ""]
+    out = []
     for key, title in (("table3", "Table 3 (augmented and weighted Kalman filters)"),
                        ("table4", "Table 4/5 (PEM, a-priori frequencies)"),
                        ("table5", "Table 5 (PEM, identified frequencies)"),
                        ("table6", "Table 6 (PLL a-priori frequencies)")):
         spec = printed[key]
         noise = spec["noise_ug"]
-        out += [f"## {title}", ""]
+        notes = []
         rows = {"true (paper), rad/s": true}
         if "prior_rad_s" in spec:
             prior = np.asarray(spec["prior_rad_s"])
@@ -69,7 +73,7 @@ def paper_tables(summary: pd.DataFrame, results: pd.DataFrame) -> str:
         for method in spec["method"]:
             cell, n = _cell(summary, method, noise)
             if n is None or len(cell) != true.size:
-                out.append(f"*{method}: not run at {noise:g} µg in this grid.*")
+                notes.append(f"{method}: not run at {noise:g} µg in this grid.")
                 continue
             n_used = n
             res = results[(results["method"] == method) & (results["noise_ug"] == noise)
@@ -84,11 +88,24 @@ def paper_tables(summary: pd.DataFrame, results: pd.DataFrame) -> str:
         if n_used is not None:
             cell = summary[(summary["noise_ug"] == noise) & (summary["n_samples"] == n_used)]
             rows["CRLB std, rad/s"] = cell.drop_duplicates("mode").sort_values("mode")["crlb_std_rad_s"]
-            out.append(f"Noise {noise:g} µg (1σ), {n_used} samples at the grid's dt.")
+            notes.append(f"Noise {noise:g} µg (1σ), {n_used} samples at the grid's dt.")
         table = pd.DataFrame({"": list(rows)} | {f"mode {i + 1}": [np.asarray(v, dtype=object)[i]
                                                                    for v in rows.values()]
                                                  for i in range(true.size)})
-        out += ["", markdown_table(table), ""]
+        out.append((title, " ".join(notes), table))
+    return out
+
+
+PAPER_TABLES_INTRO = ("Each table shows the paper's printed numbers beside ours: the mean ± std over the Monte-Carlo "
+                      "replicates of the grid at the paper's noise level and the grid's longest record, the CRLB "
+                      "std, and the failure rate. Our true frequencies are the eigenfrequencies of the generating "
+                      "model.")
+
+
+def render_paper_tables(tables) -> str:
+    out = ["# The paper's tables, regenerated", "", PAPER_TABLES_INTRO, ""]
+    for title, note, table in tables:
+        out += [f"## {title}", "", f"*{note}*" if note else "", "", markdown_table(table), ""]
     return "\n".join(out)
 
 
@@ -124,12 +141,26 @@ def main(argv=None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     summary = summarize(results)
+    cov = coverage_table(results, summary)
     out = args.out
-    files = write_table(summary, out / "tables" / "comparison")
-    files.append(atomic_write_text(out / "tables" / "paper_tables.md", paper_tables(summary, results) + "\n"))
-    figs = out / "figures"
+    tables, figs = out / "tables", out / "figures"
     longest = int(summary["n_samples"].max())
     noise_ref = 1000.0 if 1000.0 in set(summary["noise_ug"]) else float(np.median(summary["noise_ug"]))
+    context = {"grid": args.grid, "longest": longest, "noise_ref": f"{noise_ref:g}"}
+
+    files = write_table(summary, tables / "comparison")
+    files.append(htmltables.write(tables / "comparison.html", f"{args.grid}: comparison table",
+                                  [("", summary)]))
+    files += write_table(cov, tables / "coverage_by_method")
+    files.append(htmltables.write(tables / "coverage_by_method.html", f"{args.grid}: coverage of the reported std",
+                                  [("", cov)]))
+    paper = paper_tables(summary, results)
+    files.append(atomic_write_text(tables / "paper_tables.md", render_paper_tables(paper) + "\n"))
+    files.append(htmltables.write(tables / "paper_tables.html", "The paper's tables, regenerated",
+                                  [("", PAPER_TABLES_INTRO)] + [(f"{t}. {n}", d) for t, n, d in paper]))
+    for d in args.experiments:
+        files.append(experiment_tables(d, tables / f"{d.name}.html"))
+
     # the noise x length figures show the plain cells (no scenario axis), if the grid has any
     scenario_cols = cell_keys(summary)[2:]
     plain = summary[summary[scenario_cols].isna().all(axis=1)] if scenario_cols else summary
@@ -140,38 +171,67 @@ def main(argv=None) -> int:
                                     fixed_value=noise_ref)
         files += plots.winner_map(plain, figs / "winner_map")
         files += plots.failure_map(plain, figs / "failure_map")
+    files += plots.coverage(summary, cov, figs / "coverage")
     scenario_text = ""
-    if scenario_cols:
+    if scenario_cols:                      # per-axis figures and the basin of attraction
         from experiments.report import axes
 
         axis_files, scenario_text = axes.figures(summary, results, out)
         files += axis_files
-    text = (page(args.grid, summary, out, [f for f in files if f.parent == figs and not f.stem.startswith(
-        ("axis_", "basin"))], longest, noise_ref) + scenario_text + experiments_section(args.experiments, out))
+
+    files += write_captions(figs, "png", context) + write_captions(tables, "html", context)
+    text = (page(args.grid, summary, cov, out, context) + scenario_text
+            + experiments_section(args.experiments, out))
     atomic_write_text(out / "README.md", text)
-    print(f"wrote {out / 'README.md'} and {len(files)} tables/figures")
+    print(f"wrote {out / 'README.md'} and {len(files)} tables/figures/captions")
     return 0
 
 
-def page(grid, summary, out: Path, files, longest, noise_ref) -> str:
-    rel = [f.relative_to(out).as_posix() for f in files]
-    pngs = [r for r in rel if r.endswith(".png")]
+def experiment_tables(folder: Path, path: Path) -> Path:
+    """All tables (CSV) and notes (Markdown without a CSV twin) of one paper reproduction, as one HTML page."""
+    sections = []
+    for f in sorted(folder.glob("*.csv")):
+        sections.append((f.stem, pd.read_csv(f)))
+    for f in sorted(folder.glob("*.md")):
+        if not f.with_suffix(".csv").exists():
+            sections.append((f.stem, f.read_text(encoding="utf-8")))
+    return htmltables.write(path, f"Paper reproduction {folder.name}", sections)
+
+
+def write_captions(folder: Path, suffix: str, context: dict) -> list[Path]:
+    """``<name>.rst`` beside every ``<name>.<suffix>`` in ``folder`` (anyone's), for the HTML report."""
+    return [atomic_write_text(f.with_suffix(".rst"), catalog.caption_of(f.stem, context))
+            for f in sorted(folder.glob(f"*.{suffix}"))]
+
+
+def _outputs(folder: Path, suffix: str) -> list[str]:
+    return sorted((f.stem for f in folder.glob(f"*.{suffix}")), key=catalog.sort_key)
+
+
+def page(grid, summary, cov, out: Path, context) -> str:
     n_rep = int(summary["replicates"].max())
     lines = [f"# Results of the `{grid}` grid", "",
              f"{summary['method'].nunique()} methods × {summary['noise_ug'].nunique()} noise levels × "
              f"{summary['n_samples'].nunique()} record lengths, {n_rep} Monte-Carlo replicates per cell.",
-             "Generated by `python -m experiments.report.aggregate`; do not edit.", "",
+             "Generated by `python -m experiments.report.aggregate`; do not edit. All of it, with captions, in one "
+             f"HTML file: `snakemake --cores 1 --report results/{grid}/report.html results/{grid}/README.md`.", "",
              "## Headline", "", headline(summary), "",
-             "## Tables", "",
-             "- [comparison table (CSV)](tables/comparison.csv), [Markdown](tables/comparison.md): bias, "
-             "std, RMSE, RMSE/CRLB, failure rate and median runtime per (method, noise, length, mode)",
-             "- [the paper's tables regenerated](tables/paper_tables.md)", "", "## Figures", ""]
-    captions = {"rmse_vs_noise": f"RMSE against noise at {longest} samples",
-                "rmse_vs_length": f"RMSE against record length at {noise_ref:g} µg",
-                "winner_map": "best method per cell", "failure_map": "failure rates"}
-    for p in pngs:
-        lines += [f"### {captions.get(Path(p).stem, Path(p).stem)}", "", f"![{Path(p).stem}]({p}) "
-                  f"([SVG]({p[:-4]}.svg))", ""]
+             "Is each method's reported std honest? (coverage on identifiable cells; "
+             "[table](tables/coverage_by_method.md), [figure](figures/coverage.png))", "",
+             *honesty_lines(cov), "",
+             "## Tables", ""]
+    for name in _outputs(out / "tables", "html"):
+        md = out / "tables" / f"{name}.md"
+        csv = out / "tables" / f"{name}.csv"
+        links = [f"[{f.suffix[1:]}](tables/{f.name})" for f in (md, csv) if f.exists()]
+        lines.append(f"- {catalog.title_of(name)} ({catalog.category_of(name)}): "
+                     f"{', '.join(links) or f'[html](tables/{name}.html)'}")
+    lines += ["", "## Figures", ""]
+    for name in _outputs(out / "figures", "png"):
+        caption = " ".join(catalog.caption_of(name, context).split())
+        svg = f" ([SVG](figures/{name}.svg))" if (out / "figures" / f"{name}.svg").exists() else ""
+        lines += [f"### {catalog.title_of(name)} ({catalog.category_of(name)})", "", f"![{name}](figures/{name}.png)"
+                  f"{svg}", "", caption, ""]
     return "\n".join(lines) + "\n"
 
 

@@ -182,26 +182,27 @@ def basin_edges(rates: pd.DataFrame) -> pd.DataFrame:
 
 
 def figures(summary: pd.DataFrame, results: pd.DataFrame, out: Path) -> tuple[list[Path], str]:
-    """Every axis figure and the basin figure; returns the files and a Markdown section for the page."""
-    files, lines = [], ["## Against the scenario axes", ""]
+    """Every axis figure, the basin figure and table (the grid's page lists the figures with their captions,
+    experiments/report/captions/); returns the files and a Markdown section with the basin's edges."""
+    from experiments.io import write_table
+    from experiments.report import htmltables
+
+    files = []
     for axis in swept_axes(summary):
         files += axis_figure(summary, axis, out / "figures" / f"axis_{axis}")
-        lines += [f"### RMSE/CRLB and failures against {axis}", "",
-                  f"![axis_{axis}](figures/axis_{axis}.png) ([SVG](figures/axis_{axis}.svg))", ""]
-    if any(a in results.columns for a in ("prior_scale", "prior_spread")):
-        rates = basin_table(results)
-        files += basin_figure(rates, out / "figures" / "basin")
-        table = rates.assign(success_rate=(100 * rates["success_rate"]).round(1),
-                             not_converged_rate=(100 * rates["not_converged_rate"]).round(1))
-        table = table.dropna(axis=1, how="all")
-        csv = out / "tables" / "basin"
-        from experiments.io import write_table
-
-        files += write_table(table, csv)
-        lines += ["### Basin of attraction", "",
-                  "A replicate succeeds when every mode converged within tol = min(max(5 σ_CRLB, 0.5 % ω), "
-                  "half the distance to the nearest mode) of the truth (experiments/report/success.py).", "",
-                  "![basin](figures/basin.png) ([SVG](figures/basin.svg)); "
-                  "[success rates per cell (CSV)](tables/basin.csv)", "",
-                  markdown_table(basin_edges(rates)), ""]
-    return files, "\n".join(lines) + "\n"
+    if not any(a in results.columns for a in ("prior_scale", "prior_spread")):
+        return files, ""
+    rates = basin_table(results)
+    files += basin_figure(rates, out / "figures" / "basin")
+    table = rates.assign(success_rate=(100 * rates["success_rate"]).round(1),
+                         not_converged_rate=(100 * rates["not_converged_rate"]).round(1)).dropna(axis=1, how="all")
+    edges = basin_edges(rates)
+    files += write_table(table, out / "tables" / "basin_rates")
+    files.append(htmltables.write(out / "tables" / "basin_rates.html", "Basin of attraction: success rates",
+                                  [("Where success stays at or above 90 %", edges), ("Per cell (%)", table)]))
+    text = ["## Basin of attraction", "",
+            "A replicate succeeds when every mode converged within min(max(5 σ_CRLB, 0.5 % ω), half the distance "
+            "to the nearest mode) of the truth (experiments/report/success.py); "
+            "[success rates per cell](tables/basin_rates.md), [figure](figures/basin.png).", "",
+            markdown_table(edges), ""]
+    return files, "\n".join(text) + "\n"

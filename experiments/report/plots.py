@@ -117,8 +117,9 @@ def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
     noises = sorted(summary["noise_ug"].unique())
     lengths = sorted(summary["n_samples"].unique())
     worst = summary.groupby(["method", "noise_ug", "n_samples"])["failure_rate"].max()
-    fig, axes = plt.subplots(1, len(methods), figsize=(3.4 * len(methods), 0.5 * len(noises) + 2.2),
-                             squeeze=False)
+    # Constrained layout keeps the suptitle above the panel titles and makes room for the colour bar.
+    fig, axes = plt.subplots(1, len(methods), figsize=(3.4 * len(methods), 0.5 * len(noises) + 2.4),
+                             squeeze=False, layout="constrained")
     im = None
     for ax, method in zip(axes[0], methods, strict=True):
         grid = np.full((len(noises), len(lengths)), np.nan)
@@ -133,4 +134,51 @@ def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
         ax.set_title(method)
     fig.colorbar(im, ax=axes[0].tolist(), label="failure rate, worst mode (%)", shrink=0.8)
     fig.suptitle("Failure rate (not converged / no estimate), percent of replicates")
+    return _save(fig, stem)
+
+
+def coverage(summary: pd.DataFrame, table: pd.DataFrame, stem: Path) -> list[Path]:
+    """How honest each method's std is: pooled ±1σ/±2σ coverage and median |error|/σ per identifiable cell."""
+    from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, IDEAL_MEDIAN_Z
+
+    pooled = table[(table["cells"] == "identifiable")].set_index("method")
+    with_std = [m for m in pooled.index if table[(table["method"] == m)]["n_with_std"].max() > 0]
+    without = [m for m in pooled.index if m not in with_std]
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    x = np.arange(len(with_std))
+    for k, (col, label) in enumerate((("coverage_1std", "within ±1σ"), ("coverage_2std", "within ±2σ"))):
+        vals = [100 * pooled.loc[m, col] for m in with_std]
+        colors = [_style(m)[0] for m in with_std]
+        ax1.bar(x + (k - 0.5) * 0.38, np.nan_to_num(vals), 0.36, color=colors, alpha=1.0 if k == 0 else 0.45,
+                edgecolor="k")
+        ax1.bar([0], [0], 0, color="0.3", alpha=1.0 if k == 0 else 0.45, edgecolor="k", label=label)
+        for xi, v in zip(x, vals, strict=True):
+            ax1.text(xi + (k - 0.5) * 0.38, (0 if np.isnan(v) else v) + 1.5,
+                     "no data" if np.isnan(v) else f"{v:.0f}", ha="center", fontsize=7,
+                     rotation=90 if np.isnan(v) else 0)
+    ax1.axhline(100 * IDEAL_1STD, color="k", ls="--", lw=1, label="ideal ±1σ (68.3 %)")
+    ax1.axhline(100 * IDEAL_2STD, color="k", ls=":", lw=1, label="ideal ±2σ (95.4 %)")
+    ax1.set_xticks(x, [f"{m}\n(n = {int(pooled.loc[m, 'n_with_std'])})" for m in with_std])
+    ax1.set_ylim(0, 130)
+    ax1.set_yticks(range(0, 101, 20))
+    ax1.set_ylabel("share of errors within ±kσ (%)")
+    ax1.set_title("coverage, pooled over identifiable (mode, cell) pairs", fontsize=10)
+    ax1.legend(fontsize=7, loc="upper center", ncol=4, handlelength=1.5, columnspacing=1)
+    ident = summary[summary["identifiable"].astype(bool) & (summary["n_with_std"] > 0)]
+    rng = np.random.default_rng(0)      # jitter only, for legibility
+    for i, m in enumerate(with_std):
+        z = ident.loc[ident["method"] == m, "median_abs_err_over_std"].to_numpy(float)
+        color, marker = _style(m)
+        ax2.plot(i + rng.uniform(-0.15, 0.15, z.size), z, marker, color=color, ms=5, alpha=0.8, ls="none")
+    ax2.axhline(IDEAL_MEDIAN_Z, color="k", ls="--", lw=1, label="ideal 0.67")
+    ax2.set_yscale("log")
+    ax2.set_xticks(range(len(with_std)), with_std)
+    ax2.set_xlim(-0.6, len(with_std) - 0.4)
+    ax2.set_ylabel("median |error| / reported σ")
+    ax2.set_title("per identifiable (mode, cell) pair", fontsize=10)
+    ax2.grid(True, which="both", axis="y", alpha=0.3)
+    ax2.legend(fontsize=7)
+    note = f" ({', '.join(without)}: no std reported)" if without else ""
+    fig.suptitle(f"Is each method's reported std honest?{note}", fontsize=11)
+    fig.tight_layout()
     return _save(fig, stem)

@@ -6,12 +6,19 @@ cell, but it means something only where the mode is identifiable (see experiment
 ``crlb`` with the sensor offset known (PHYSICS.md §4) and ``crlb_offset`` with it unknown, which is what a
 method that does not assume a calibrated sensor faces; on short records the second is several times larger
 for the slow mode 1.
+
+Each row also says how honest the method's own 1σ is (experiments.report.coverage): the share of converged
+replicates whose error lies within ±1σ and ±2σ of the reported std (ideal 68 % / 95 %) and the median
+|error|/σ (ideal 0.67); NaN where the method reports no std (fft).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+
+from experiments.report.coverage import COLUMNS as COVERAGE_COLUMNS
+from experiments.report.coverage import coverage
 
 KEYS = ["method", "noise_ug", "n_samples", "mode"]
 
@@ -43,6 +50,7 @@ def _stats(g: pd.DataFrame) -> pd.Series:
         "rmse_over_crlb_offset": rmse / float(g["crlb_offset_std_rad_s"].iloc[0]) if n_ok else np.nan,
         "identifiable": bool(g["identifiable"].iloc[0]),
         "median_runtime_s": float(np.median(g.drop_duplicates("replicate")["runtime_s"])),
+        **coverage(err, g["std_rad_s"].to_numpy(float)[ok]),
     })
 
 
@@ -53,7 +61,7 @@ def summarize(results: pd.DataFrame) -> pd.DataFrame:
         return pd.DataFrame(columns=[*KEYS, "true_rad_s", "replicates", "failures", "failure_rate",
                                      "bias_rad_s", "std_rad_s", "rmse_rad_s", "crlb_std_rad_s", "crlb_offset_std_rad_s",
                                      "rmse_over_crlb", "rmse_over_crlb_offset", "identifiable",
-                                     "median_runtime_s"])
+                                     "median_runtime_s", *COVERAGE_COLUMNS])
     keys = ["method", *cell_keys(results), "mode"]
     out = (results.groupby(keys, sort=True, dropna=False)[results.columns.drop(keys)]
            .apply(_stats).reset_index())

@@ -1,9 +1,33 @@
+# The HTML report (`snakemake --report report.html <grid target>`): every figure and table of a grid, in
+# categories, with captions. Each output <name> is described by experiments/report/captions/<name>.rst
+# (category, title, caption; see experiments/report/catalog.py); the aggregate writes the filled-in caption
+# beside the output, and the caption templates below include it. Anything written into a grid's figures/
+# (PNG) or tables/ (HTML) folder is picked up.
+from experiments.report import catalog
+
+report: "../report/captions/workflow.rst"
+
+
 rule aggregate:
     input:
         results=lambda wc: result_files(wc.grid),
         experiments=lambda wc: experiment_dirs(wc.grid),
     output:
-        "results/{grid}/README.md",
+        page="results/{grid}/README.md",
+        figures=report(
+            directory("results/{grid}/figures"),
+            patterns=["{name}.png"],
+            caption="../report/captions/_figure.rst",
+            category=lambda wc: catalog.category_of(wc.name),
+            labels=lambda wc: {"name": wc.name, "title": catalog.title_of(wc.name)},
+        ),
+        tables=report(
+            directory("results/{grid}/tables"),
+            patterns=["{name}.html"],
+            caption="../report/captions/_table.rst",
+            category=lambda wc: catalog.category_of(wc.name),
+            labels=lambda wc: {"name": wc.name, "title": catalog.title_of(wc.name)},
+        ),
     conda:
         CONDA_ENV
     log:
@@ -29,7 +53,13 @@ rule track:
 
 rule reproduce:
     output:
-        directory("results/{grid}/paper/{experiment}"),
+        report(
+            directory("results/{grid}/paper/{experiment}"),
+            patterns=["{name}.png"],
+            caption="../report/captions/_paper_experiment.rst",
+            category="paper reproductions",
+            subcategory="{experiment}",
+        ),
     conda:
         CONDA_ENV
     log:
