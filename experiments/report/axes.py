@@ -200,7 +200,7 @@ def figures(summary: pd.DataFrame, results: pd.DataFrame, out: Path) -> tuple[li
     files += write_table(table, out / "tables" / "basin_rates")
     files.append(htmltables.write(out / "tables" / "basin_rates.html", "Basin of attraction: success rates",
                                   [("Where success stays at or above 90 %", edges), ("Per cell (%)", table)]))
-    text = ["## Basin of attraction", "",
+    text = ["## Basin of attraction: where success stays at or above 90 %", "",
             "A replicate succeeds when every mode converged within min(max(5 σ_CRLB, 0.5 % ω), half the distance "
             "to the nearest mode) of the truth (experiments/report/success.py); "
             "[success rates per cell](tables/basin_rates.md), [figure](figures/basin.png).", "",
