@@ -11,6 +11,12 @@ include: "experiments/rules/identify.smk"
 include: "experiments/rules/report.smk"
 
 
+localrules:
+    paper,
+    smoke,
+    full,
+
+
 rule paper:
     input:
         grid_targets("paper"),

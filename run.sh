@@ -3,6 +3,7 @@
 #   ./run.sh reproduce     the paper reproduction: the paper grid, tables, figures (snakemake paper)
 #   ./run.sh test          lint, workflow lint, and the test suite (with the smoke workflow end to end)
 #   ./run.sh smoke | full  the CI grid / the R = 100 grid up to 2048 samples
+#   ./run.sh tracking-server postgresql+psycopg://USER:PASSWORD@HOST/DB   a shared MLflow server (README)
 #   ./run.sh snakemake ... / python ...   anything else, inside the environment
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -32,11 +33,22 @@ case "${1:-}" in
   reproduce|paper) shift; unlock_if_stale; exec snakemake --cores "$CORES" paper "$@" ;;
   smoke)           shift; unlock_if_stale; exec snakemake --cores "$CORES" smoke "$@" ;;
   full)            shift; unlock_if_stale; exec snakemake --cores "$CORES" full "$@" ;;
+  tracking-server)
+    # mlflow server on a PostgreSQL backend store; artifacts are uploaded through the server into
+    # results/mlflow-artifacts (or --artifacts-destination). Later options override: --host, --port, ...
+    shift
+    case "${1:-}" in
+      postgresql*://*) ;;
+      *) echo "error: tracking-server needs the PostgreSQL URL first, e.g. postgresql+psycopg://USER:PASSWORD@HOST/DB (got '${1:-}')" >&2; exit 2 ;;
+    esac
+    db=$1; shift
+    exec mlflow server --backend-store-uri "$db" --artifacts-destination "$PWD/results/mlflow-artifacts" \
+      --host 0.0.0.0 --port 5000 "$@" ;;
   test)
     shift
     ruff check .
     snakemake --lint
     exec python -m pytest "$@" ;;
-  "" | -h | --help) sed -n '2,6p' "$0" ;;
+  "" | -h | --help) sed -n '2,7p' "$0" ;;
   *) exec "$@" ;;
 esac

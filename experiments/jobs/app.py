@@ -14,10 +14,13 @@ from collections.abc import Callable
 from pathlib import Path
 
 import hydra
-from hydra import compose, initialize_config_dir
+from hydra import compose, initialize_config_module
 from omegaconf import DictConfig, OmegaConf
 
-CONFIG_DIR = str(Path(__file__).resolve().parents[2] / "configs")
+# configs/ travels with the code as the package data `experiments.configs` (experiments/configs links to it in
+# the repository; a wheel holds a copy), so Hydra finds it from any working directory, installed or not.
+CONFIG_MODULE = "experiments.configs"
+CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "configs")   # for code that reads a YAML file directly
 EXIT_BAD_INPUT = 2
 BAD_INPUT = (ValueError, FileNotFoundError, KeyError)
 
@@ -63,7 +66,7 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
     args = sys.argv[1:]
     if not any(a in ("-m", "--multirun") or a.startswith("-") for a in args):
         try:
-            with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):
+            with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
                 cfg = compose(config_name=config_name, overrides=args)
             OmegaConf.resolve(cfg)
             if check is not None:
@@ -82,7 +85,7 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
             _remove_empty_run_dir()
             fail(one_line(exc))
 
-    hydra.main(config_path=CONFIG_DIR, config_name=config_name, version_base="1.3")(guarded)()
+    hydra.main(config_path=f"pkg://{CONFIG_MODULE}", config_name=config_name, version_base="1.3")(guarded)()
 
 
 def _remove_empty_run_dir() -> None:

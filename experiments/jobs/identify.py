@@ -205,6 +205,11 @@ def log_job(cfg, cell: dict, table, results_path: Path) -> None:
             artifacts=[results_path], tags={"git_commit": git_commit(), "grid": cfg.grid_name})
 
 
-if __name__ == "__main__":
+def main() -> None:
+    """The console script ``modal-id-identify`` (pyproject.toml), same as ``python -m experiments.jobs.identify``."""
     register(with_methods=methods_named_on(sys.argv[1:]))
     run_app("identify", task, check)
+
+
+if __name__ == "__main__":
+    main()

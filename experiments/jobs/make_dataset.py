@@ -25,6 +25,11 @@ def task(cfg) -> None:
     print(f"wrote {path}")
 
 
-if __name__ == "__main__":
+def main() -> None:
+    """The console script ``modal-id-make-dataset`` (pyproject.toml) = ``python -m experiments.jobs.make_dataset``."""
     register(dataset=True)
     run_app("dataset", task, check)
+
+
+if __name__ == "__main__":
+    main()

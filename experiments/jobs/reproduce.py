@@ -57,6 +57,11 @@ def flatten(tree: dict, prefix: str) -> dict:
     return out
 
 
-if __name__ == "__main__":
+def main() -> None:
+    """The console script ``modal-id-reproduce`` (pyproject.toml), same as ``python -m experiments.jobs.reproduce``."""
     register(experiments=EXPERIMENTS)
     run_app("reproduce", task)
+
+
+if __name__ == "__main__":
+    main()

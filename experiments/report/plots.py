@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import zlib
 from pathlib import Path
 
 import matplotlib
@@ -25,8 +26,24 @@ def _save(fig, stem: Path) -> list[Path]:
     return paths
 
 
+# A variant (``akf:tuned``) keeps its method's hue, shaded by its name, so paper and tuned rows pair up by eye.
+VARIANT_SHADES = {"paper": 0.55, "tuned": 1.0}
+
+
 def _style(method):
-    return METHOD_STYLE.get(method, ("k", "x"))
+    base, _, variant = method.partition(":")
+    color, marker = METHOD_STYLE.get(base, ("k", "x"))
+    if not variant:
+        return color, marker
+    rgb = np.array(matplotlib.colors.to_rgb(color))
+    shade = VARIANT_SHADES.get(variant, 0.4 + 0.1 * (zlib.crc32(variant.encode()) % 5))
+    # below 1 darken towards black, else lighten halfway towards white
+    rgb = rgb * shade if shade < 1 else rgb + 0.45 * (1 - rgb)
+    return matplotlib.colors.to_hex(rgb), marker
+
+
+def _line(method) -> str:
+    return "-." if ":" in method else "-"
 
 
 def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed_value) -> list[Path]:
@@ -39,7 +56,8 @@ def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed
         for method, g in sm.groupby("method", sort=True):
             ok = g["failure_rate"] <= MAX_FAILURE_RATE
             color, marker = _style(method)
-            ax.plot(g.loc[ok, x], g.loc[ok, "rmse_rad_s"], marker=marker, color=color, label=method, lw=1.4)
+            ax.plot(g.loc[ok, x], g.loc[ok, "rmse_rad_s"], marker=marker, color=color, label=method, lw=1.4,
+                    ls=_line(method))
         crlb = sm.drop_duplicates(x)
         ax.plot(crlb[x], crlb["crlb_std_rad_s"], "k--", lw=1.2, label="CRLB")
         ax.plot(crlb[x], crlb["crlb_offset_std_rad_s"], "k:", lw=1.2, label="CRLB, offset unknown")
@@ -117,11 +135,18 @@ def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
     noises = sorted(summary["noise_ug"].unique())
     lengths = sorted(summary["n_samples"].unique())
     worst = summary.groupby(["method", "noise_ug", "n_samples"])["failure_rate"].max()
-    # Constrained layout keeps the suptitle above the panel titles and makes room for the colour bar.
-    fig, axes = plt.subplots(1, len(methods), figsize=(3.4 * len(methods), 0.5 * len(noises) + 2.4),
+    # Up to five panels a row; constrained layout keeps the suptitle above the panel titles and makes room
+    # for the colour bar.
+    ncols = min(len(methods), 5)
+    nrows = -(-len(methods) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.4 * ncols, (0.5 * len(noises) + 2.0) * nrows + 0.4),
                              squeeze=False, layout="constrained")
     im = None
-    for ax, method in zip(axes[0], methods, strict=True):
+    for k, ax in enumerate(axes.flat):
+        if k >= len(methods):
+            ax.set_axis_off()
+            continue
+        method = methods[k]
         grid = np.full((len(noises), len(lengths)), np.nan)
         for i, noise in enumerate(noises):
             for j, n in enumerate(lengths):
@@ -130,9 +155,9 @@ def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
                     ax.text(j, i, f"{grid[i, j]:.0f}", ha="center", va="center", fontsize=7,
                             color="white" if grid[i, j] > 60 else "black")
         im = ax.imshow(grid, cmap="Reds", vmin=0, vmax=100, aspect="auto", origin="lower")
-        _cell_axes(ax, noises, lengths, ylabel=ax is axes[0][0])
+        _cell_axes(ax, noises, lengths, ylabel=k % ncols == 0)
         ax.set_title(method)
-    fig.colorbar(im, ax=axes[0].tolist(), label="failure rate, worst mode (%)", shrink=0.8)
+    fig.colorbar(im, ax=axes.ravel().tolist(), label="failure rate, worst mode (%)", shrink=0.8)
     fig.suptitle("Failure rate (not converged / no estimate), percent of replicates")
     return _save(fig, stem)
 

@@ -2,12 +2,14 @@
 # helpers that turn a grid into file names. A grid's cells (noise x length x scenario axes) and their names
 # come from experiments/simulate/scenarios.py.
 import glob
+import math
 import os
 import shlex
 import sys
 
 import jsonschema
 import yaml
+from snakemake.settings.types import DeploymentMethod
 from snakemake.utils import validate
 
 sys.path.insert(0, workflow.basedir)
@@ -20,6 +22,14 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 CONDA_ENV = "../../configs/conda/pipeline.yaml"
+
+# Each job's `python` is the interpreter running Snakemake, whose environment has the project installed. Its
+# directory goes first on the jobs' PATH, so a job never depends on the PATH of the shell that submitted it
+# (a SLURM job starts in whatever shell the node gives, and the plugin re-runs this file there with the same
+# interpreter). Under --use-conda the job's conda environment provides `python` instead. "set -euo pipefail"
+# is Snakemake's default prefix, kept.
+if DeploymentMethod.CONDA not in workflow.deployment_settings.deployment_method:
+    shell.prefix(f"set -euo pipefail; export PATH={shlex.quote(os.path.dirname(sys.executable))}:\"$PATH\"; ")
 GRID_SCHEMA = os.path.join(workflow.basedir, "configs", "grid", "schema.yaml")
 METHOD_DIR = os.path.join(workflow.basedir, "configs", "method")
 
@@ -144,3 +154,19 @@ def method_overrides(wildcards):
     if measurement is not None:
         out.append(f"method.options.measurement={measurement}")
     return " ".join(shlex.quote(o) for o in out)
+
+# Resources (threads, mem_mb, runtime in minutes) that a cluster executor requests per job; a local run only
+# uses threads. Measured with Snakemake's benchmark files (smoke grid) and /usr/bin/time on one N = 2048, R = 4
+# cell (2026-11-22): every job is one process on one core; peak RSS 92-122 MB in the smoke grid, 95 MB
+# (dataset) to 145 MB (pem) at N = 2048; CPU time = ~1.5 s of imports + a cost per replicate x sample,
+# largest for pem: 29 s for 8192 samples, 0.0035 s each (fft/akf/pll <= 0.0002, wkf 0.0002, dataset 0.0001).
+# Requests: 1000 MB (~7x the peak); identify 4x the pem cost of its cell, at least 2 minutes (a smoke job takes
+# ~2 s of CPU, ~17 s wall on a machine loaded 8x); dataset 5 minutes (20 s of CPU at N = 2048, R = 100).
+MEM_MB_JOB = 1000
+CPU_S_PER_SAMPLE = 0.0035
+
+
+def identify_runtime(wildcards, attempt):
+    """Minutes for one identify job: 4x the measured cost of its cell, at least 2 min, doubled per retry."""
+    work = GRIDS[wildcards.grid]["replicates"] * int(GRIDS[wildcards.grid]["cells"][wildcards.cell]["n_samples"])
+    return attempt * max(2, math.ceil(4 * CPU_S_PER_SAMPLE * work / 60))

@@ -3,6 +3,12 @@ rule dataset:
         "results/{grid}/data/{cell}.npz",
     params:
         args=dataset_args,
+    threads: 1
+    resources:
+        mem_mb=MEM_MB_JOB,
+        runtime=5,
+    group:
+        "cells"
     conda:
         CONDA_ENV
     log:

@@ -7,6 +7,12 @@ rule identify:
     params:
         run_dir="results/{grid}/runs/{method}/{cell}",
         overrides=method_overrides,
+    threads: 1
+    resources:
+        mem_mb=MEM_MB_JOB,
+        runtime=identify_runtime,
+    group:
+        "cells"
     conda:
         CONDA_ENV
     log:

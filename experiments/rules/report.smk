@@ -1,3 +1,10 @@
+# aggregate and track are light and serial (track is the one writer of the MLflow store): they run on the
+# machine that runs Snakemake, never as cluster jobs.
+localrules:
+    aggregate,
+    track,
+
+
 # The HTML report (`snakemake --report report.html <grid target>`): every figure and table of a grid, in
 # categories, with captions. Each output <name> is described by experiments/report/captions/<name>.rst
 # (category, title, caption; see experiments/report/catalog.py); the aggregate writes the filled-in caption
@@ -60,6 +67,10 @@ rule reproduce:
             category="paper reproductions",
             subcategory="{experiment}",
         ),
+    threads: 1
+    resources:
+        mem_mb=MEM_MB_JOB,
+        runtime=30,
     conda:
         CONDA_ENV
     log:

@@ -227,6 +227,8 @@ def _round(value):
         return float(f"{value:.4g}")
     if isinstance(value, list):
         return [_round(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _round(v) for k, v in value.items()}
     return value
 
 
@@ -252,13 +254,19 @@ def config_text(t, name: str, sname: str, study, best, tuned: dict) -> str:
         + (f"; base config (trial #{base_trials[0].number}) J = {base_trials[0].value:.4g}" if base_trials else "")
         + ".",
         f"# Best trial per cell: {per_cell}.",
-        f"# Study: {sname} in {storage_url(t)}; MLflow experiment 'tuning', run key tuning/{sname}.",
+        f"# Study: {sname} in {_shown(storage_url(t))}; MLflow experiment 'tuning', run key tuning/{sname}.",
         f"# Date: {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}; git {git_commit()}.",
         "# Command: python -m experiments.tuning.tune " + " ".join(sys.argv[1:]),
         "# Values rounded to 4 significant digits.",
     ]
     body = {"defaults": [t.method, "_self_"], "variant": t.variant, "options": _round(tuned)}
     return "\n".join(lines) + "\n" + OmegaConf.to_yaml(OmegaConf.create(body))
+
+
+def _shown(url: str) -> str:
+    """A storage URL inside the project shown relative to it (the header must not name a checkout)."""
+    prefix = f"sqlite:///{PROJECT}/"
+    return "sqlite:///" + url.removeprefix(prefix) if url.startswith(prefix) else url
 
 
 def _flat(options: dict) -> dict:

@@ -48,7 +48,7 @@ def _chromium() -> str:
         pytest.skip("chromium is not installed and installing Debian's package needs root (apt-get install -y "
                     "chromium)")
     env = os.environ | {"DEBIAN_FRONTEND": "noninteractive"}
-    install = ["apt-get", "install", "-y", "--no-install-recommends", "chromium"]
+    install = ["apt-get", "install", "-y", "chromium"]
     if subprocess.run(install, capture_output=True, env=env, timeout=900).returncode != 0:
         subprocess.run(["apt-get", "update"], capture_output=True, env=env, timeout=600)   # stale package lists
         proc = subprocess.run(install, capture_output=True, text=True, env=env, timeout=900)

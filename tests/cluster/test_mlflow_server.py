@@ -1,0 +1,124 @@
+"""The workflow logs to a shared MLflow server on PostgreSQL (`./run.sh tracking-server`) with no code change.
+
+A private PostgreSQL (Debian's package; installed with apt-get when missing, as root) holds the server's
+backend store; the server is started by the documented command. The smoke grid's results (the shared local
+run) are logged by the workflow's own tracking step with MLFLOW_TRACKING_URI pointing at the server. Checks:
+every run of the grid is on the server once; a rerun of the tracking step adds nothing; two copies of the grid
+logging at the same time from two folders (no shared file lock: only the server sees both) lose nothing and
+duplicate nothing; and the runs read back through MlflowClient equal those of the local SQLite store (run
+keys, parameters, metrics, and the tags that are not about when or where a run was made).
+"""
+
+import os
+import shutil
+import signal
+import subprocess
+import time
+import urllib.request
+from pathlib import Path
+
+import mlflow
+import pytest
+from _postgres import Postgres, free_port, unavailable
+from _smoke import ROOT, snakemake, start_snakemake
+
+pytestmark = pytest.mark.slow
+GRID = "smoke"
+# tags that say when/where/by whom a run was made, or which file holds it: they differ between two stores
+PLACE_TAGS = ("mlflow.user", "mlflow.source.name", "mlflow.runName", "mlflow.log-model.history",
+              "mlflow.parentRunId")
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    reason = unavailable()
+    if reason:
+        pytest.skip(reason)
+    pg = Postgres().start()
+    port = free_port()
+    artifacts = tmp_path_factory.mktemp("artifacts")
+    log = open(tmp_path_factory.mktemp("server") / "server.log", "w+")
+    proc = subprocess.Popen(["bash", str(ROOT / "run.sh"), "tracking-server", pg.url, "--host", "127.0.0.1",
+                             "--port", str(port), "--workers", "2", "--artifacts-destination", str(artifacts)],
+                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    uri = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 600
+        while True:
+            try:
+                if urllib.request.urlopen(f"{uri}/health", timeout=5).status == 200:
+                    break
+            except OSError:
+                pass
+            log.seek(0)
+            assert proc.poll() is None and time.monotonic() < deadline, log.read()[-3000:]
+            time.sleep(1)
+        yield uri
+    finally:
+        os.killpg(proc.pid, signal.SIGTERM)
+        proc.wait(timeout=60)
+        pg.stop()
+
+
+def copy_without_tracking(run: Path, workdir: Path) -> Path:
+    """A finished smoke run without its tracking outputs and store: the workflow will log it again."""
+    shutil.copytree(run, workdir, symlinks=True)
+    for name in ("mlflow_runs.json", "README.md"):
+        (workdir / "results" / GRID / name).unlink(missing_ok=True)
+    (workdir / "results" / "mlflow.db").unlink(missing_ok=True)
+    return workdir
+
+
+def runs_by_key(uri):
+    client = mlflow.MlflowClient(uri)
+    exp = client.get_experiment_by_name(f"grid-{GRID}")
+    runs = client.search_runs([exp.experiment_id], max_results=5000)
+    by_key = {}
+    for r in runs:
+        by_key.setdefault(r.data.tags["run_key"], []).append(r)
+    return runs, by_key
+
+
+def content(run):
+    tags = {k: v for k, v in run.data.tags.items() if k not in PLACE_TAGS}
+    return run.data.params, run.data.metrics, tags, run.info.status
+
+
+@pytest.fixture(scope="module")
+def logged(server, local_smoke, tmp_path_factory):
+    """Two folders holding the same finished grid log it to the fresh server at the same time."""
+    env = {"MLFLOW_TRACKING_URI": server}
+    procs = [start_snakemake(copy_without_tracking(local_smoke, tmp_path_factory.mktemp(name) / "w"),
+                             "--cores", "1", GRID, env=env) for name in ("one", "two")]
+    for p in procs:
+        assert p.wait(timeout=900) == 0, Path(p.args[p.args.index("--directory") + 1], "snakemake.out").read_text()
+    return runs_by_key(server)
+
+
+def sqlite_runs(local_smoke):
+    return runs_by_key(f"sqlite:///{local_smoke / 'results' / 'mlflow.db'}")
+
+
+def test_two_grids_logging_at_once_lose_nothing_and_duplicate_nothing(logged, local_smoke):
+    runs, by_key = logged
+    local_runs, local_by_key = sqlite_runs(local_smoke)
+    assert len(local_runs) == 5 * 4 + 1                       # 20 jobs and the grid's parent run
+    assert by_key.keys() == local_by_key.keys()
+    assert [k for k, v in by_key.items() if len(v) > 1] == []
+    assert len(runs) == len(local_runs)
+
+
+def test_runs_on_the_server_equal_the_sqlite_store(logged, local_smoke):
+    _, by_key = logged
+    _, local_by_key = sqlite_runs(local_smoke)
+    for key, (run,) in by_key.items():
+        assert content(run) == content(local_by_key[key][0]), key
+
+
+def test_a_rerun_adds_nothing(logged, server, local_smoke, tmp_path):
+    before, _ = logged
+    proc = snakemake(copy_without_tracking(local_smoke, tmp_path / "w"), "--cores", "1", GRID,
+                     env={"MLFLOW_TRACKING_URI": server})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    runs, by_key = runs_by_key(server)
+    assert len(runs) == len(before) and all(len(v) == 1 for v in by_key.values())
