@@ -4,11 +4,24 @@ Every method is a module exposing ``identify(y, dt, prior, **options) -> Estimat
 dataclass (its keyword options with the paper's settings as defaults). ``get(name)`` finds it by name.
 Adding a method: write ``methods/<name>.py`` and add one line to ``_REGISTRY``. Nothing here imports
 the experiments, Hydra, MLflow or the file system.
+
+**Methods from other packages.** An installed distribution that declares an entry point in the group
+``spacecraft_modal_id.methods`` (:data:`ENTRY_POINT_GROUP`), e.g. in its pyproject.toml::
+
+    [project.entry-points."spacecraft_modal_id.methods"]
+    mymethod = "my_package.my_method"      # a module with identify() and Options
+
+joins the registry under that name (``names()``, ``get()``, ``options_class()``) and runs in any grid
+without an edit here. A module may set ``PRIOR_RAD_S`` (its default a-priori frequencies); built-in names
+cannot be replaced by a plugin.
 """
 
 from __future__ import annotations
 
+import functools
 import importlib
+import importlib.util
+from importlib.metadata import entry_points
 
 from methods.estimate import Estimate, check_inputs, failed
 
@@ -20,20 +33,61 @@ _REGISTRY: dict[str, str] = {
     "wkf": "methods.wkf",
     "pem": "methods.pem",
     "pll": "methods.pll",
+    # the field's established identifiers (optional extra .[peers]; methods/README_peers.md)
+    "era": "methods.era",
+    "n4sid": "methods.n4sid",
+    "ssi_cov": "methods.ssi_cov",
+    "ssi_data": "methods.ssi_data",
+    "lsce": "methods.lsce",
+    "hdmd": "methods.hdmd",
+    "bopdmd": "methods.bopdmd",
 }
 
-__all__ = ["Estimate", "check_inputs", "failed", "get", "names", "options_class"]
+# The library each peer method needs (the optional extra .[peers]); checked before a job starts.
+_REQUIRES: dict[str, str] = {
+    "era": "control", "n4sid": "nfoursid", "ssi_cov": "strid", "ssi_data": "strid", "lsce": "sdypy.EMA",
+    "hdmd": "pydmd", "bopdmd": "pydmd",
+}
+
+ENTRY_POINT_GROUP = "spacecraft_modal_id.methods"
+
+__all__ = ["ENTRY_POINT_GROUP", "Estimate", "check_inputs", "failed", "get", "names", "options_class",
+           "plugins", "require"]
+
+
+@functools.cache
+def plugins() -> dict[str, str]:
+    """Methods of other installed packages: entry-point name -> module path (group ENTRY_POINT_GROUP)."""
+    return {ep.name: ep.module for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name not in _REGISTRY}
+
+
+def _all() -> dict[str, str]:
+    return _REGISTRY | plugins()
 
 
 def names() -> list[str]:
-    """Names of the registered methods."""
-    return list(_REGISTRY)
+    """Names of the registered methods: the built-in ones, then those of installed plugins."""
+    return list(_all())
+
+
+def require(name: str) -> None:
+    """Raise ``ValueError`` (one line) if method ``name`` is unknown or its optional library is missing."""
+    if name not in _all():
+        raise ValueError(f"unknown method '{name}'; known methods: {', '.join(_all())}")
+    lib = _REQUIRES.get(name)
+    if lib is not None:
+        try:
+            found = importlib.util.find_spec(lib) is not None
+        except ModuleNotFoundError:           # the parent package of a dotted name is missing
+            found = False
+        if not found:
+            raise ValueError(f"method '{name}' needs the library '{lib}', which is not installed "
+                             f"(pip install -e '.[peers]')")
 
 
 def _module(name: str):
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown method '{name}'; known methods: {', '.join(_REGISTRY)}")
-    return importlib.import_module(_REGISTRY[name])
+    require(name)
+    return importlib.import_module(_all()[name])
 
 
 def get(name: str):

@@ -24,18 +24,22 @@ and the loss of eq. (30) is V(θ) = (1/N) Σ ε(k)². The unknowns θ are, in th
 the m damping ratios ζ, the initial state x₀ (2m) and the offset b; a *free mask* selects the ones the
 search estimates (the others are held at the value passed in).
 
-The recursion is unrolled symbolically (CasADi SX) and differentiated exactly, once per shape; the
-``casadi.Function`` objects are cached per (N, m, free mask, with/without gain) — a pure-function cache.
-φ is exact (no Euler step), so a noise-free sum of damped sinusoids is reproduced to rounding.
+Two evaluators of ε and its exact Jacobian: :class:`ClosedForm` for the output-error predictor (K = 0:
+ε is a closed-form sum of damped sinusoids, numpy, O(N·m), no build), and :class:`Recursive` for the
+Kalman predictor (CasADi: one step function repeated with ``mapaccum`` and differentiated algorithmically;
+the graph's size does not depend on N; the functions are cached per (N, m, free mask, gain) — a
+pure-function cache). φ is exact (no Euler step), so a noise-free sum of damped sinusoids is reproduced
+to rounding.
 """
 
 from __future__ import annotations
 
 import functools
 
-import casadi as ca
 import numpy as np
-import scipy.linalg
+
+# casadi and scipy.linalg are imported where the Kalman predictor needs them: the default (output-error)
+# path uses neither, and a pipeline job that only runs it should not pay for their import.
 
 
 def n_params(n_modes: int) -> int:
@@ -87,6 +91,8 @@ def kalman_gain(omega, zeta, dt: float, tip_shape, qd: float, rd: float) -> np.n
     K_paper = φPCᵀ(CPCᵀ + Rd)⁻¹ is the gain on the innovation in x(k+1) = φx(k) + Ke(k); here K = T⁻¹K_paper.
     (The paper used MATLAB's LQE with Qd = 0.001, Rd = 0.4, §4.3.)
     """
+    import scipy.linalg
+
     phi, C, T = paper_state_space(omega, zeta, dt, tip_shape)
     n = phi.shape[0]
     P = scipy.linalg.solve_discrete_are(phi.T, C.T, qd * np.eye(n), np.array([[rd]]))
@@ -94,37 +100,138 @@ def kalman_gain(omega, zeta, dt: float, tip_shape, qd: float, rd: float) -> np.n
     return np.linalg.solve(T, k_paper).ravel()
 
 
-def _predictor_graph(n_samples: int, n_modes: int, with_gain: bool):
-    """Symbols and the unrolled prediction errors ε(θ) (SX)."""
+_BLOCK = 512
+
+
+def _powers(logp: np.ndarray, n: int) -> np.ndarray:
+    """e^{k·logpᵢ} for k < n, shape (n, m) (logp = sΔt): as e^{jB·logp}·e^{r·logp} (k = jB + r), one
+    complex product per entry instead of one complex exponential (which dominated the closed form's cost on
+    long records); each factor is exact to rounding, so the product is too."""
+    if n <= 2 * _BLOCK:
+        return np.exp(np.multiply.outer(np.arange(n), logp))
+    head = np.exp(np.multiply.outer(np.arange(_BLOCK), logp))                 # r < B
+    steps = np.exp(np.multiply.outer(np.arange(-(-n // _BLOCK)) * _BLOCK, logp))      # jB
+    return (steps[:, None, :] * head[None, :, :]).reshape(-1, logp.size)[:n]
+
+
+class ClosedForm:
+    """The output-error predictor (K = 0) in closed form, with its exact Jacobian: no recursion at all.
+
+    With K = 0 the predictor output is the sum of damped sinusoids of the module docstring,
+
+        ŷ(k) = Σᵢ e^{−σᵢt}(Aᵢ cos ω_dᵢt + Bᵢ sin ω_dᵢt) + b,   t = kΔt,   ε = y − ŷ,
+
+    so ε and every column of ∂ε/∂θ are elementwise expressions in t (O(N·m), nothing to unroll, nothing
+    compiled): with gᵢ = e^{−σᵢt}(Aᵢ cos + Bᵢ sin) and hᵢ = e^{−σᵢt}(Bᵢ cos − Aᵢ sin) (the derivative with
+    respect to the phase), ∂ŷ/∂σᵢ = −t gᵢ, ∂ŷ/∂ω_dᵢ = t hᵢ, and by the chain rule
+
+        ∂ŷ/∂ωᵢ = −ζᵢ t gᵢ + √(1 − ζᵢ²) t hᵢ,    ∂ŷ/∂ζᵢ = −ωᵢ t gᵢ − ωᵢζᵢ/√(1 − ζᵢ²) t hᵢ,
+
+    ∂ŷ/∂Aᵢ = e^{−σᵢt} cos ω_dᵢt, ∂ŷ/∂Bᵢ = e^{−σᵢt} sin ω_dᵢt, ∂ŷ/∂b = 1. This replaces the CasADi graph
+    unrolled per record length (cold first call 0.3–2.8 s at N = 256, 1.9 s and 118 MB at N = 2048, no
+    finish at 10⁶): here a first call costs what a later one does and time and memory grow as N.
+    It equals the recursion (:class:`Recursive` with K = 0) to rounding (test), and is more accurate for
+    long records (no accumulation of the rotation's rounding over N steps).
+    """
+
+    def __init__(self, y: np.ndarray, dt: float, n_modes: int, free: tuple[bool, ...]):
+        m = n_modes
+        if len(free) != n_params(m):
+            raise ValueError(f"free mask has {len(free)} entries, expected {n_params(m)}")
+        self.y = np.ascontiguousarray(y, dtype=float)
+        self.t = np.arange(self.y.size) * float(dt)
+        self.dt = float(dt)
+        self.m = m
+        self.free_idx = np.flatnonzero(free)
+        lin = self.free_idx[self.free_idx >= 2 * m]
+        self.n_linear = lin.size
+        self._lin_cols = lin - 2 * m                 # columns of the basis [A₁, B₁, …, b] that are free
+        self._key = None
+
+    def basis(self, theta: np.ndarray) -> np.ndarray:
+        """Φ with ŷ = Φ·(x₀, b): columns e^{−σᵢt} cos ω_dᵢt, e^{−σᵢt} sin ω_dᵢt (i = 1…m), then 1."""
+        m = self.m
+        key = theta[:2 * m].tobytes()
+        if key != self._key:                        # the search asks twice at an accepted point
+            w, z = theta[:m], theta[m:2 * m]
+            rot = _powers((-z * w + 1j * (w * np.sqrt(1.0 - z * z))) * self.dt, self.t.size)
+            phi = np.empty((self.t.size, 2 * m + 1))
+            phi[:, 0:2 * m:2] = rot.real
+            phi[:, 1:2 * m:2] = rot.imag
+            phi[:, 2 * m] = 1.0
+            self._key, self._phi = key, phi
+        return self._phi
+
+    def residual(self, theta: np.ndarray) -> np.ndarray:
+        return self.y - self.basis(theta) @ theta[2 * self.m:]
+
+    def linear_part(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """ε(θ) and G = ∂ε/∂c_free = −Φ[:, free linear columns] (ε is affine in x₀ and b)."""
+        return self.residual(theta), -self.basis(theta)[:, self._lin_cols]
+
+    def residual_jacobian(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """ε(θ) and the exact ∂ε/∂θ_free, shape (N, p_free), free columns in θ order."""
+        m = self.m
+        w, z = theta[:m], theta[m:2 * m]
+        phi = self.basis(theta)
+        ec, es = phi[:, 0:2 * m:2], phi[:, 1:2 * m:2]
+        a, b = theta[2 * m:4 * m:2], theta[2 * m + 1:4 * m:2]
+        tg = (ec * a + es * b) * self.t[:, None]
+        th = (ec * b - es * a) * self.t[:, None]
+        root = np.sqrt(1.0 - z * z)
+        free = self.free_idx
+        n_w, n_z = np.count_nonzero(free < m), np.count_nonzero(free < 2 * m)
+        J = np.empty((self.t.size, free.size))
+        J[:, :n_w] = (z * tg - root * th)[:, free[:n_w]]                             # −∂ŷ/∂ω
+        J[:, n_w:n_z] = (w * tg + (w * z / root) * th)[:, free[n_w:n_z] - m]         # −∂ŷ/∂ζ
+        np.negative(phi[:, free[n_z:] - 2 * m], out=J[:, n_z:])                     # −∂ŷ/∂(x₀, b)
+        e = self.y - phi @ theta[2 * m:]
+        return e, J
+
+
+@functools.lru_cache(maxsize=32)
+def _step_function(n_modes: int, with_gain: bool, columns: tuple[int, ...]):
+    """One step of the predictor and of its forward sensitivities S = ∂x̂/∂θ_columns, a graph of fixed size:
+
+        (x̂(k), S(k), y(k), θ, K, Δt) ↦ (x̂(k+1), S(k+1), ε(k), ∂ε(k)/∂θ_columns),
+        S(k+1) = (∂x̂(k+1)/∂x̂(k)) S(k) + ∂x̂(k+1)/∂θ,   ∂ε(k)/∂θ = −C S(k) − ∂b/∂θ.
+
+    Differentiating one step symbolically (SX) and repeating it with ``mapaccum`` costs the same for every
+    N; differentiating the repeated map instead (MX) took 2 s to build and 160 ms to evaluate at N = 256."""
+    import casadi as ca
+
     m = n_modes
+    p = len(columns)
+    x = ca.SX.sym("x", 2 * m)
+    S = ca.SX.sym("S", 2 * m, p)
+    yk = ca.SX.sym("yk")
     theta = ca.SX.sym("theta", n_params(m))
-    y = ca.SX.sym("y", n_samples)
     K = ca.SX.sym("K", 2 * m)
     dt = ca.SX.sym("dt")
-    w, z = theta[:m], theta[m:2 * m]
-    b = theta[4 * m]
-    phi = [_modal_transition(w[i], z[i], dt, ca) for i in range(m)]
-    x = [theta[2 * m + j] for j in range(2 * m)]
-    eps = []
-    for k in range(n_samples):
-        e_k = y[k] - b
-        for i in range(m):
-            e_k = e_k - x[2 * i]                       # Cᵢ = [1 0]
-        eps.append(e_k)
-        nxt = []
-        for i in range(m):
-            q, v = x[2 * i], x[2 * i + 1]
-            p11, p12, p21, p22 = phi[i]
-            nxt += [p11 * q + p12 * v, p21 * q + p22 * v]
-        if with_gain:
-            nxt = [nxt[j] + K[j] * e_k for j in range(2 * m)]
-        x = nxt
-    return theta, y, K, dt, ca.vertcat(*eps)
+    w, z, b = theta[:m], theta[m:2 * m], theta[4 * m]
+    e_k = yk - b - sum(x[2 * i] for i in range(m))               # Cᵢ = [1 0]
+    nxt = []
+    for i in range(m):
+        p11, p12, p21, p22 = _modal_transition(w[i], z[i], dt, ca)
+        q, v = x[2 * i], x[2 * i + 1]
+        nxt += [p11 * q + p12 * v, p21 * q + p22 * v]
+    nxt = ca.vertcat(*nxt)
+    if with_gain:
+        nxt = nxt + K * e_k
+    th_cols = ca.vertcat(*[theta[j] for j in columns]) if p else ca.SX(0, 1)
+    de = ca.jacobian(e_k, x) @ S + (ca.jacobian(e_k, th_cols) if p else ca.SX(1, 0))
+    S_next = ca.jacobian(nxt, x) @ S + (ca.jacobian(nxt, th_cols) if p else ca.SX(2 * m, 0))
+    return ca.Function("pem_step", [ca.vertcat(x, ca.vec(S)), yk, theta, K, dt],
+                       [ca.vertcat(nxt, ca.vec(S_next)), e_k, ca.densify(de.T)])
 
 
 @functools.lru_cache(maxsize=32)
 def predictor(n_samples: int, n_modes: int, free: tuple[bool, ...], with_gain: bool):
     """Cached CasADi functions for one shape, all (θ, y, K, dt) ↦ …, exact (algorithmic) derivatives.
+
+    The recursion is :func:`_step_function` repeated N times with ``Function.mapaccum`` (state x̂ and its
+    sensitivities carried along): the graph has a fixed size whatever N is (the unrolled SX graph this
+    replaces grew with N: 1.9 s to build at N = 2048), so a new record length costs milliseconds.
 
     Returns
     -------
@@ -135,24 +242,37 @@ def predictor(n_samples: int, n_modes: int, free: tuple[bool, ...], with_gain: b
     linear_part : casadi.Function
         ↦ (ε, ∂ε/∂c_free) with c = (x₀, b) the unknowns that enter ε affinely; columns in θ order.
     """
-    if len(free) != n_params(n_modes):
-        raise ValueError(f"free mask has {len(free)} entries, expected {n_params(n_modes)}")
-    theta, y, K, dt, eps = _predictor_graph(n_samples, n_modes, with_gain)
-    free_idx = [j for j in range(theta.numel()) if free[j]]
-    theta_free = ca.vertcat(*[theta[j] for j in free_idx])
-    c_free = ca.vertcat(*[theta[j] for j in free_idx if j >= 2 * n_modes])
+    import casadi as ca
+
+    m = n_modes
+    if len(free) != n_params(m):
+        raise ValueError(f"free mask has {len(free)} entries, expected {n_params(m)}")
+    theta = ca.MX.sym("theta", n_params(m))
+    y = ca.MX.sym("y", n_samples)
+    K = ca.MX.sym("K", 2 * m)
+    dt = ca.MX.sym("dt")
     args = [theta, y, K, dt]
     names = ["theta", "y", "K", "dt"]
-    # dense outputs: the buffer interface writes the structural nonzeros only
-    jac = ca.densify(ca.jacobian(eps, theta_free))
-    jac_c = ca.densify(ca.jacobian(eps, c_free))
+
+    def errors_and_jacobian(columns):
+        run = _step_function(m, with_gain, tuple(columns)).mapaccum("pem_run", n_samples)
+        S0 = np.zeros((2 * m, len(columns)))              # x̂(0) = x₀: ∂x̂(0)/∂x₀ⱼ = eⱼ
+        for k, j in enumerate(columns):
+            if 2 * m <= j < 4 * m:
+                S0[j - 2 * m, k] = 1.0
+        _, eps, de = run(ca.vertcat(theta[2 * m:4 * m], ca.DM(S0.ravel(order="F"))), y.T, theta, K, dt)
+        return eps.T, de.T
+
+    free_idx = [j for j in range(n_params(m)) if free[j]]
+    eps, jac = errors_and_jacobian(free_idx)
+    _, jac_c = errors_and_jacobian([j for j in free_idx if j >= 2 * m])
     return (ca.Function("pem_residual", args, [eps], names, ["eps"]),
             ca.Function("pem_residual_jacobian", args, [eps, jac], names, ["eps", "jac"]),
             ca.Function("pem_linear_part", args, [eps, jac_c], names, ["eps", "jac_c"]))
 
 
-class Evaluator:
-    """Zero-copy evaluation of the cached predictor functions for one record.
+class Recursive:
+    """The predictor run as a recursion (CasADi, any K): zero-copy evaluation of the cached functions.
 
     CasADi's buffer interface reads the arguments from, and writes the results into, numpy arrays owned
     here (a plain call converts every argument and result, which costs more than the evaluation itself at
@@ -166,6 +286,7 @@ class Evaluator:
         self._theta = np.zeros(n_params(n_modes))
         self._args = [self._theta, np.ascontiguousarray(y, dtype=float),
                       np.ascontiguousarray(K, dtype=float), np.array([float(dt)])]
+        self.y = self._args[1]
         self._e = np.empty(n_samples)
         self._jt = np.empty((int(sum(free)), n_samples))      # column-major N × p_free, as CasADi writes it
         self._gt = np.empty((self.n_linear, n_samples))
@@ -198,3 +319,13 @@ class Evaluator:
         self._theta[:] = theta
         self._lin[1]()
         return self._e.copy(), self._gt.T.copy()
+
+
+def make_evaluator(y: np.ndarray, dt: float, n_modes: int, free: tuple[bool, ...], K: np.ndarray | None):
+    """The evaluator for one record: closed form without a gain (output error), the recursion with one."""
+    if K is None:
+        return ClosedForm(y, dt, n_modes, free)
+    return Recursive(y.size, n_modes, free, True, y, K, dt)
+
+
+Evaluator = Recursive      # the name the search used before the closed form existed

@@ -95,10 +95,20 @@ def match_to_prior(omega: np.ndarray, zeta: np.ndarray, prior: np.ndarray, defau
     return freq, damp
 
 
+PENCIL_WINDOW = 4096   # samples the start looks at: its cost is then bounded whatever N is
+
+
 def pencil_start(y: np.ndarray, dt: float, prior: np.ndarray, *, extra_order: int, default_zeta: float,
-                 max_zeta: float = 0.3):
-    """A start (ω, ζ) in prior order from the matrix pencil of order 2m + 1 + extra_order."""
+                 max_zeta: float = 0.3, window: int = PENCIL_WINDOW):
+    """A start (ω, ζ) in prior order from the matrix pencil of order 2m + 1 + extra_order.
+
+    Only the first ``window`` samples are used: the pencil's SVD is O(rows·L²) and its Vandermonde fit
+    O(rows·M²), so on the whole of a 10⁶-sample record it would cost seconds and a gigabyte, while a start
+    only has to land in the basin of the search on the full record. (A damped mode's energy is in the
+    record's beginning anyway; the basin in ω is ~2π/(NΔt) wide, the windowed pencil's error ~ its CRLB at
+    ``window`` samples — far smaller for the grid's noise levels.)"""
     prior = np.asarray(prior, dtype=float)
+    y = np.asarray(y, dtype=float)[:window]
     z, amp = matrix_pencil(y, 2 * prior.size + 1 + extra_order)
     omega, zeta, _ = modes_from_poles(z, amp, y.size, dt)
     ok = (omega < np.pi / dt) & (zeta > -0.05) & (zeta < max_zeta)

@@ -5,7 +5,7 @@ The identification model is eq. (8) without the frequency states, with the tip a
 frequencies, the initial state (as MATLAB's ``pem`` estimates it), optionally the damping ratios and a
 sensor offset. The loss V(θ) = (1/N) Σ ε(k)² is minimised by Gauss–Newton, eq. (30),
 
-    θ⁽ⁱ⁺¹⁾ = θ⁽ⁱ⁾ − μ (JᵀJ)⁻¹ Jᵀε,    J = ∂ε/∂θ (exact, from CasADi),
+    θ⁽ⁱ⁺¹⁾ = θ⁽ⁱ⁾ − μ (JᵀJ)⁻¹ Jᵀε,    J = ∂ε/∂θ (exact: closed form, or CasADi for the Kalman predictor),
 
 with μ = 1 halved until the loss decreases (the paper's rule), optionally Levenberg–Marquardt damped and
 with the initial state and offset re-solved exactly at every trial point (:mod:`methods._pem_search`).
@@ -19,7 +19,8 @@ Local minima (the paper's first complaint): several starts — a data-driven one
 :mod:`methods.damped_sinusoids`, matched to the prior), the prior, seeded perturbations of the prior — the
 lowest loss wins, then modes the record does not determine are restarted from the prior's frequency ratios
 (:func:`_repaired_start`); ``extra["n_agree"]`` says how many starts reached the answer. "Demanding
-calculation" (the second): exact derivatives compiled once per record shape.
+calculation" (the second): the output-error predictor and its Jacobian in closed form, O(N), nothing built
+per record shape; one BLAS thread inside the fit (small matrices; OpenBLAS threads only slow it down).
 
 The defaults of :class:`Options` are the measured best setting; the paper's is :data:`PAPER_OPTIONS`.
 See methods/README_pem.md for the choices and the measured numbers.
@@ -27,6 +28,7 @@ See methods/README_pem.md for the choices and the measured numbers.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass, field
 
@@ -99,6 +101,20 @@ def identify(y, dt, prior, **options) -> Estimate:
     y, dt, prior = check_inputs(y, dt, prior)
     opts = make_options(Options, options, "pem")
     _check_options(opts, prior)
+    # One BLAS thread inside the fit: its matrices are small (p ≤ 4m + 1 columns), and OpenBLAS's own
+    # threads made it 2.6–5× slower on 2 cores (measured: experiments.benchmarks.pem_speed --parts warm blas).
+    with _blas().limit(limits=1, user_api="blas"):
+        return _identify(y, dt, prior, opts)
+
+
+@functools.cache
+def _blas():
+    from threadpoolctl import ThreadpoolController  # inspects the loaded libraries: once per process
+
+    return ThreadpoolController()
+
+
+def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Estimate:
     m, n = prior.size, y.size
     free = _free_mask(m, opts)
     n_free = int(sum(free))
@@ -108,12 +124,17 @@ def identify(y, dt, prior, **options) -> Estimate:
         y = y - y.mean()
     shape = np.asarray(opts.tip_mode_shape if len(opts.tip_mode_shape) == m else np.ones(m), float)
     bounds = search.search_bounds(prior, dt, opts)
-    fits = []
+    fits, join = [], None
     for label, w0, z0 in _starts(y, dt, prior, opts):
-        fit = search.fit_one_start(y, dt, w0, z0, shape, free, opts, bounds)
+        fit = search.fit_one_start(y, dt, w0, z0, shape, free, opts, bounds, join)
         fit["start"] = label
         fits.append(fit)
-    ok = [f for f in fits if np.isfinite(f["loss"])]
+        if join is None and fit["converged"] and np.isfinite(fit["loss"]):
+            std = search.lstsq_step(fit["J"], fit["e"])[1]
+            if np.all(std[:m] <= search.IDENTIFIED_REL_STD * fit["theta"][:m]):   # every mode determined
+                join = (fit["theta"], std)
+    # a start that joined an earlier fit stopped short of the common minimum: it never wins
+    ok = [f for f in fits if np.isfinite(f["loss"]) and not f["joined"]]
     if not ok:
         reasons = "; ".join(f"{f['start']}: {f['message']}" for f in fits)
         return failed(prior, f"every start failed: {reasons}")
@@ -228,7 +249,12 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free) -> Estimate
     # The answer stands when a search that reached it (within 3 std in every determined mode) stopped on
     # a tolerance, even if the lowest-loss one ran into the iteration limit.
     converged = bool(best["converged"] or agree_converged)
+    # per mode: the search stopped on a tolerance and the record locates the mode (a finite, non-zero std
+    # within 10 % of ω); no located mode — an all-zero or constant record — is no answer at all
+    per_mode = converged & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
+    converged = converged and bool(per_mode.any())
     extra = {
+        "converged_per_mode": per_mode,
         "damping": damp, "damping_std": damp_std, "identified": identified,
         "offset_m_s2": float(best["theta"][-1]), "loss": float(best["loss"]),
         "n_starts": len(fits), "n_agree": agree, "best_start": best["start"],

@@ -30,7 +30,7 @@ def test_smoke_workflow_writes_tables_figures_and_page(smoke_run):
     assert set(summary["method"]) == set(grid["methods"])
     assert len(summary) == len(grid["methods"]) * n_cells * 4
     assert (summary["replicates"] == grid["replicates"]).all()
-    for fig in ("rmse_vs_noise", "rmse_vs_length", "winner_map", "failure_map", "coverage"):
+    for fig in ("rmse_vs_noise", "rmse_vs_length", "winner_map", "failure_map", "coverage", "pareto"):
         assert (out / "figures" / f"{fig}.png").stat().st_size > 10_000
         assert (out / "figures" / f"{fig}.svg").exists()
     page = (out / "README.md").read_text()

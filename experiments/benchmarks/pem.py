@@ -1,9 +1,12 @@
 """Accuracy (RMSE/CRLB per mode and cell), failure rates and speed of the prediction-error method.
 
     python -m experiments.benchmarks.pem                      # everything, R = 100 (about 20 min on 2 cores)
-    python -m experiments.benchmarks.pem --part speed         # speed only (about 1 min)
+    python -m experiments.benchmarks.pem --part speed         # speed: experiments/benchmarks/pem_speed.py
+    python -m experiments.benchmarks.pem --part speed-old     # one-start fits and GN vs FD least_squares
     python -m experiments.benchmarks.pem --part accuracy --replicates 20 --jobs 2
     python -m experiments.benchmarks.pem --part starts --replicates 50 # which start finds the answer
+    python -m experiments.benchmarks.pem --part grid --out results/bench/pem_grid_new.npz \
+        [--compare results/bench/pem_grid_old.npz]    # pem alone on the full grid's 56 cells (seed 1)
 
 Accuracy: the truth plant's tip acceleration + white noise on the grid noise ∈ {0.1 … 100 000} µg ×
 N ∈ {20, 32, 64, 128, 256}, Δt = 0.02 s, Table 4 priors, replicate r's noise from
@@ -32,6 +35,7 @@ import argparse  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
 from concurrent.futures import ProcessPoolExecutor  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import scipy.optimize  # noqa: E402
@@ -102,6 +106,84 @@ def accuracy(replicates: int, seed: int, jobs: int, settings: list[str]) -> None
         cells_over = sum(w > 1.2 for w in worst)
         print(f"\nidentifiable (mode, cell) pairs: {len(worst)}; RMSE/CRLB > 1.2 in {cells_over}; "
               f"largest {max(worst):.3g}")
+
+
+def grid(replicates: int, seed: int, jobs: int, out: str, compare: str | None, max_n: int | None = None) -> None:
+    """pem (default options) alone on the full grid's cells (configs/grid/full.yaml), seed ``seed``: the
+    errors of every replicate saved to ``out`` (.npz); with ``compare``, a table of both runs side by side.
+
+    This is how "accuracy unchanged" is checked when the implementation changes: run it with the old code
+    (e.g. a checkout of main on ``PYTHONPATH``) and the new, same machine, same seed, then compare."""
+    from omegaconf import OmegaConf
+
+    from experiments import io
+
+    full = OmegaConf.load(Path(__file__).resolve().parents[2] / "configs" / "grid" / "full.yaml")
+    cells = [("default", float(noise), int(n), replicates, seed) for n in full.n_samples for noise in full.noise_ug
+             if max_n is None or n <= max_n]
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        results = list(pool.map(run_cell, cells))
+    print(f"pem over {len(cells)} cells x R = {replicates}: {time.perf_counter() - t0:.0f} s wall, {jobs} workers")
+    arrays = {"noise_ug": np.array([c[1] for c in cells]), "n": np.array([c[2] for c in cells]),
+              "errors": np.stack([r["errors"] for r in results]),
+              "converged": np.stack([r["converged"] for r in results]),
+              "times": np.stack([r["times"] for r in results])}
+    io.write_npz(out, arrays)
+    if compare:
+        _compare_grids(io.read_npz(compare), arrays)
+
+
+def _grid_scores(run: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """RMSE/CRLB (cells x modes), identifiable mask and failure rate per cell (NaN: nothing identifiable)."""
+    plant = build_plant()
+    truth = (plant.freq_rad_s, plant.damping, plant.modal_amplitude, plant.modal_phase)
+    ratio, ident, fail = [], [], []
+    for noise, n, err, conv in zip(run["noise_ug"], run["n"], run["errors"], run["converged"], strict=True):
+        bound = crlb_std(*truth, int(n), DT_S, noise * UG)
+        idt = identifiable(plant.freq_rad_s, bound)
+        rmse = np.sqrt(np.mean(np.where(np.isfinite(err), err, np.inf) ** 2, axis=0))
+        bad = ~conv[:, None] | ~np.isfinite(err) | (np.abs(err) > FAIL_CRLB * bound)
+        ratio.append(rmse / bound)
+        ident.append(idt)
+        fail.append(bad[:, idt].any(axis=1).mean() if idt.any() else np.nan)
+    return np.array(ratio), np.array(ident), np.array(fail)
+
+
+def _compare_grids(old: dict, new: dict) -> None:
+    """Old vs new per cell: RMSE/CRLB of the identifiable modes, failure and not-converged rates, and
+    whether the difference is within Monte-Carlo scatter (RMSE: 3 x sqrt(1/(2R)) relative, the standard
+    error of an RMSE from R draws; rates: 3 binomial standard errors)."""
+    r_old, ident, f_old = _grid_scores(old)
+    r_new, _, f_new = _grid_scores(new)
+    R = old["errors"].shape[1]
+    print(f"\n## pem on the full grid's cells, old (main) / new, R = {R}: RMSE/CRLB (identifiable modes only), "
+          "failures, not converged, median ms")
+    print("| N | noise µg | mode 1 | mode 2 | mode 3 | mode 4 | failures | not converged | median ms "
+          "| within scatter |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    outside = 0
+    for c in range(len(old["n"])):
+        cols, ok = [], True
+        for i in range(4):
+            if ident[c, i]:
+                a, b = r_old[c, i], r_new[c, i]
+                ok &= bool(abs(b - a) <= 3 * np.sqrt(1 / (2 * R)) * max(a, b))
+                cols.append(f"{a:.3g} / {b:.3g}")
+            else:
+                cols.append("")
+        nc_old, nc_new = 1 - old["converged"][c].mean(), 1 - new["converged"][c].mean()
+        for p, q in ((f_old[c], f_new[c]), (nc_old, nc_new)):
+            if np.isfinite(p):
+                pbar = max((p + q) / 2, 1 / R)
+                ok &= bool(abs(p - q) <= 3 * np.sqrt(2 * pbar * (1 - pbar) / R) + 1e-12)
+        outside += not ok
+        print(f"| {old['n'][c]} | {old['noise_ug'][c]:g} | " + " | ".join(cols) +
+              f" | {f_old[c]:.2f} / {f_new[c]:.2f} | {nc_old:.2f} / {nc_new:.2f} | "
+              f"{1e3 * np.median(old['times'][c]):.1f} / {1e3 * np.median(new['times'][c]):.1f} | "
+              f"{'yes' if ok else 'NO'} |")
+    print(f"\ncells outside Monte-Carlo scatter: {outside} of {len(old['n'])}; total fit time old "
+          f"{old['times'].sum():.0f} s, new {new['times'].sum():.0f} s")
 
 
 def starts(replicates: int, seed: int) -> None:
@@ -218,19 +300,28 @@ def _versus_least_squares(plant, repeats: int, seed: int) -> None:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=["all", "accuracy", "speed", "starts"], default="all")
+    parser.add_argument("--part", choices=["all", "accuracy", "speed", "speed-old", "starts", "grid"],
+                        default="all")
     parser.add_argument("--replicates", type=int, default=100)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--repeats", type=int, default=21)
     parser.add_argument("--settings", nargs="+", choices=list(SETTINGS), default=list(SETTINGS))
+    parser.add_argument("--out", default="results/bench/pem_grid.npz", help="--part grid: where to save")
+    parser.add_argument("--compare", default=None, help="--part grid: an earlier run's .npz to compare with")
+    parser.add_argument("--max-n", type=int, default=None, help="--part grid: only cells with N <= this")
     args = parser.parse_args(argv)
     if args.seed == 20261121:
         raise SystemExit("seed 20261121 is the grid's scoring seed: benchmark and tune on other seeds")
     if args.part in ("all", "speed"):
+        from experiments.benchmarks import pem_speed  # the issue-12 targets, with comparison columns
+        pem_speed.main(["--repeats", str(args.repeats)])
+    if args.part == "speed-old":
         speed(args.repeats, args.seed)
     if args.part in ("all", "starts"):
         starts(min(args.replicates, 50), args.seed)
+    if args.part == "grid":
+        grid(args.replicates, args.seed, args.jobs, args.out, args.compare, args.max_n)
     if args.part in ("all", "accuracy"):
         accuracy(args.replicates, args.seed, args.jobs, args.settings)
 

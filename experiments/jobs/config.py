@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from hydra.core.config_store import ConfigStore
@@ -51,15 +52,31 @@ class ReproduceConfig:
     tracking: TrackingConfig = field(default_factory=lambda: TrackingConfig(experiment="paper"))
 
 
-def method_schema(name: str):
+def method_schema(name: str, prior=MISSING):
     """The config node of method ``name``: its name, its prior, and its Options."""
     options_cls = methods.options_class(name)
     return dataclasses.make_dataclass(
         f"{name}_method",
         [("name", str, field(default=name)),
          ("variant", str, field(default="default")),
-         ("prior_rad_s", list[float], field(default=MISSING)),
+         ("prior_rad_s", list[float], field(default_factory=lambda: prior) if prior is not MISSING
+          else field(default=MISSING)),
          ("options", options_cls, field(default_factory=options_cls))])
+
+
+METHOD_CONFIGS = Path(__file__).resolve().parents[2] / "configs" / "method"
+PLUGIN_PRIOR_FROM = "akf"     # a plugin without its own prior gets Table 3's (configs/method/akf.yaml)
+
+
+def plugin_prior(name: str) -> list[float]:
+    """The default prior of an installed plugin method: its module's ``PRIOR_RAD_S``, else Table 3's."""
+    import yaml
+
+    module = importlib.import_module(methods.plugins()[name])
+    prior = getattr(module, "PRIOR_RAD_S", None)
+    if prior is None:
+        prior = yaml.safe_load((METHOD_CONFIGS / f"{PLUGIN_PRIOR_FROM}.yaml").read_text())["prior_rad_s"]
+    return [float(w) for w in prior]
 
 
 def experiment_schema(name: str, module: str):
@@ -118,7 +135,17 @@ def register(*, dataset: bool = False, with_methods: list[str] | None = None,
     for name in with_methods or []:
         if name not in methods.names():
             continue            # reported by Hydra as an unknown option of the group, with the known names
+        try:
+            methods.require(name)   # ValueError (one line) when an optional library is missing
+        except ValueError:
+            if len(with_methods) == 1:
+                raise
+            continue            # a sweep over every method: those that cannot run are not offered
         node = method_schema(name)
         cs.store(group="method", name=f"{name}_schema", node=node)
+        if name in methods.plugins() and not (METHOD_CONFIGS / f"{name}.yaml").exists():
+            # a method of another installed package: its config is its schema with a default prior, so that
+            # `method=<name>` works (and any grid can name it) without a YAML file in this repository
+            cs.store(group="method", name=name, node=method_schema(name, plugin_prior(name)))
     for name, module in (experiments or {}).items():
         cs.store(group="experiment", name=f"{name}_schema", node=experiment_schema(name, module))

@@ -23,7 +23,7 @@ from omegaconf import OmegaConf
 
 import methods
 from experiments.io import atomic_write_text, read_npz, write_json
-from experiments.jobs.app import run_app
+from experiments.jobs.app import fail, run_app
 from experiments.jobs.config import methods_named_on, register, variant_label
 from experiments.report.scoring import COLUMNS, replicate_rows
 from experiments.simulate.scenarios import AXES, result_columns
@@ -207,7 +207,10 @@ def log_job(cfg, cell: dict, table, results_path: Path) -> None:
 
 def main() -> None:
     """The console script ``modal-id-identify`` (pyproject.toml), same as ``python -m experiments.jobs.identify``."""
-    register(with_methods=methods_named_on(sys.argv[1:]))
+    try:
+        register(with_methods=methods_named_on(sys.argv[1:]))
+    except ValueError as exc:          # a method whose optional library is not installed
+        fail(str(exc))
     run_app("identify", task, check)
 
 

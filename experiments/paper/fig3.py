@@ -203,10 +203,11 @@ def _draw(params: Params, runs: dict, truth, measurement: str, stem: Path, unit:
         ax.set_ylim(lo, hi)
         out = [e.history[:, j] for e in runs.values()
                if e.history is not None and np.any((e.history[:, j] < lo) | (e.history[:, j] > hi))]
-        if out:
-            ax.text(0.02, 0.03, f"estimates leave the plot (range {min(h.min() for h in out):.3g} to "
-                    f"{max(h.max() for h in out):.3g} rad/s)", transform=ax.transAxes, fontsize=7)
-        ax.set_title(f"({'abcd'[j]}) mode {j + 1}, prior {params.prior_rad_s[j]:.2f} rad/s")
+        title = f"({'abcd'[j]}) mode {j + 1}, prior {params.prior_rad_s[j]:.2f} rad/s"
+        if out:        # in the title: a note inside the axes can sit under the legend
+            title += (f"\nestimates leave the plot (range {min(h.min() for h in out):.3g} to "
+                      f"{max(h.max() for h in out):.3g} rad/s)")
+        ax.set_title(title, fontsize=10)
         ax.set_ylabel("frequency estimate (rad/s)")
         ax.legend(fontsize=7, loc="best")
     for ax in axes[1]:

@@ -16,7 +16,13 @@ from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 from experiments.io import save_figure  # noqa: E402
 
 METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab:cyan", "D"),
-                "pem": ("tab:red", "^"), "pll": ("tab:green", "v")}
+                "pem": ("tab:red", "^"), "pll": ("tab:green", "v"),
+                # the peers (methods/README_peers.md)
+                "era": ("tab:orange", "P"), "n4sid": ("tab:purple", "X"), "ssi_cov": ("tab:brown", "<"),
+                "ssi_data": ("tab:pink", ">"), "lsce": ("tab:olive", "h"), "hdmd": ("gold", "*"),
+                "bopdmd": ("navy", "p")}
+# Any other method (a plugin) gets a colour from this list by a hash of its name, and the marker x.
+EXTRA_COLOURS = ["darkgreen", "teal", "maroon", "indigo", "darkorange", "slategray", "crimson", "olive"]
 MAX_FAILURE_RATE = 0.5   # a (method, cell) that failed more often than this is not drawn as a point
 
 
@@ -32,7 +38,7 @@ VARIANT_SHADES = {"paper": 0.55, "tuned": 1.0}
 
 def _style(method):
     base, _, variant = method.partition(":")
-    color, marker = METHOD_STYLE.get(base, ("k", "x"))
+    color, marker = METHOD_STYLE.get(base, (EXTRA_COLOURS[zlib.crc32(base.encode()) % len(EXTRA_COLOURS)], "x"))
     if not variant:
         return color, marker
     rgb = np.array(matplotlib.colors.to_rgb(color))
@@ -121,11 +127,12 @@ def winner_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
         ax.set_title(f"mode {mode}")
     handles = [plt.Rectangle((0, 0), 1, 1, color=_style(m)[0]) for m in methods]
     fig.legend(handles + [plt.Rectangle((0, 0), 1, 1, fc="white", ec="k")], methods + ["none ≤ 10 % fail"],
-               loc="lower center", ncol=len(methods) + 1, fontsize=8)
+               loc="lower center", ncol=min(len(methods) + 1, 7), fontsize=8)
     fig.suptitle("Best method per cell (lowest RMSE among methods failing ≤ 10 %); number = its RMSE/CRLB; "
                  "pale, in brackets: the mode is not identifiable there (CRLB > 1 % of ω or > 10 % of the spacing)",
                  fontsize=9)
-    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
+    legend_rows = -(-(len(methods) + 1) // 7)
+    fig.tight_layout(rect=(0, 0.04 + 0.05 * legend_rows, 1, 0.95))
     return _save(fig, stem)
 
 

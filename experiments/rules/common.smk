@@ -9,12 +9,14 @@ import sys
 
 import jsonschema
 import yaml
+from snakemake.exceptions import WorkflowError
 from snakemake.settings.types import DeploymentMethod
 from snakemake.utils import validate
 
-sys.path.insert(0, workflow.basedir)
-from experiments.simulate import scenarios as _scenarios  # noqa: E402
-from experiments.simulate.plant import PlantConfig  # noqa: E402
+import methods
+from experiments.jobs.config import method_of_config
+from experiments.simulate import scenarios as _scenarios
+from experiments.simulate.plant import PlantConfig
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
 # filters only makes them fight (wkf measured 4x slower per replicate on 2 busy cores).
@@ -31,7 +33,27 @@ CONDA_ENV = "../../configs/conda/pipeline.yaml"
 if DeploymentMethod.CONDA not in workflow.deployment_settings.deployment_method:
     shell.prefix(f"set -euo pipefail; export PATH={shlex.quote(os.path.dirname(sys.executable))}:\"$PATH\"; ")
 GRID_SCHEMA = os.path.join(workflow.basedir, "configs", "grid", "schema.yaml")
-METHOD_DIR = os.path.join(workflow.basedir, "configs", "method")
+METHOD_CONFIGS = os.path.join(workflow.basedir, "configs", "method")
+
+
+def method_config(entry):
+    """The Hydra method config of a grid's methods entry: `pem` -> pem, `pem:paper` -> pem_paper."""
+    return entry.replace(":", "_")
+
+
+def _check_methods(path, grid):
+    """Each method a grid names must have a config (or be an installed plugin) and its library."""
+    for entry in grid["methods"]:
+        config = method_config(entry)
+        method = method_of_config(config)
+        has_config = os.path.exists(os.path.join(METHOD_CONFIGS, f"{config}.yaml"))
+        if method is None or not (has_config or (config in methods.plugins())):
+            raise WorkflowError(f"error: {path}: unknown method '{entry}' (no configs/method/{config}.yaml "
+                                f"and no installed plugin of that name)")
+        try:
+            methods.require(method)
+        except ValueError as exc:
+            raise WorkflowError(f"error: {path}: {exc}") from None
 
 
 def _plant_config():
@@ -41,14 +63,12 @@ def _plant_config():
     return PlantConfig(**values)
 
 
-def config_of(entry):
-    """A grid's method entry -> its Hydra config name (and result folder): akf -> akf, akf:tuned -> akf_tuned."""
-    return entry.replace(":", "_")
-
-
 def _method_options(config_name):
     """The option names a method config sets (following its `defaults:` chain), without importing it."""
-    with open(os.path.join(METHOD_DIR, f"{config_name}.yaml")) as f:
+    path = os.path.join(METHOD_CONFIGS, f"{config_name}.yaml")
+    if not os.path.exists(path):
+        return set()                      # an installed plugin without a config: its defaults
+    with open(path) as f:
         cfg = yaml.safe_load(f) or {}
     keys = set((cfg.get("options") or {}).keys())
     for parent in cfg.get("defaults") or []:
@@ -75,9 +95,7 @@ def _load_grid(path):
     expected = os.path.splitext(os.path.basename(path))[0]
     if grid["name"] != expected:
         _refuse(path, f"name '{grid['name']}' must match the file name '{expected}'")
-    for entry in grid["methods"]:
-        if not os.path.exists(os.path.join(METHOD_DIR, f"{config_of(entry)}.yaml")):
-            _refuse(path, f"method '{entry}' has no config configs/method/{config_of(entry)}.yaml")
+    _check_methods(path, grid)
     try:
         grid["cells"] = _scenarios.check_grid(grid, _plant_config())
     except ValueError as exc:
@@ -110,8 +128,8 @@ def runs_cell(grid, config_name, cell):
 
 def result_files(grid):
     g = GRIDS[grid]
-    return [f"results/{grid}/identify/{config_of(m)}/{c}.csv" for m in g["methods"] for c in cells(grid)
-            if runs_cell(grid, config_of(m), c)]
+    return [f"results/{grid}/identify/{method_config(m)}/{c}.csv" for m in g["methods"] for c in cells(grid)
+            if runs_cell(grid, method_config(m), c)]
 
 
 def experiment_dirs(grid):
@@ -145,7 +163,7 @@ def method_overrides(wildcards):
     measurement axis."""
     g = GRIDS[wildcards.grid]
     extra = g.get("method_overrides", {})
-    entries = [e for e in g["methods"] if config_of(e) == wildcards.method]
+    entries = [e for e in g["methods"] if method_config(e) == wildcards.method]
     out = list(extra.get(wildcards.method, []))
     for e in entries:
         if e != wildcards.method:

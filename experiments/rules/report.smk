@@ -9,7 +9,8 @@ localrules:
 # categories, with captions. Each output <name> is described by experiments/report/captions/<name>.rst
 # (category, title, caption; see experiments/report/catalog.py); the aggregate writes the filled-in caption
 # beside the output, and the caption templates below include it. Anything written into a grid's figures/
-# (PNG) or tables/ (HTML) folder is picked up.
+# (PNG) or tables/ (HTML) folder is picked up. One label per result: with two, Snakemake's report app takes
+# a label with two values for an on/off toggle and a category of two results fails to open.
 from experiments.report import catalog
 
 report: "../report/captions/workflow.rst"
@@ -26,14 +27,14 @@ rule aggregate:
             patterns=["{name}.png"],
             caption="../report/captions/_figure.rst",
             category=lambda wc: catalog.category_of(wc.name),
-            labels=lambda wc: {"name": wc.name, "title": catalog.title_of(wc.name)},
+            labels=lambda wc: {"result": f"{catalog.title_of(wc.name)} ({wc.name}.png)"},
         ),
         tables=report(
             directory("results/{grid}/tables"),
             patterns=["{name}.html"],
             caption="../report/captions/_table.rst",
             category=lambda wc: catalog.category_of(wc.name),
-            labels=lambda wc: {"name": wc.name, "title": catalog.title_of(wc.name)},
+            labels=lambda wc: {"result": f"{catalog.title_of(wc.name)} ({wc.name}.html)"},
         ),
     conda:
         CONDA_ENV

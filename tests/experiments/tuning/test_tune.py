@@ -66,9 +66,11 @@ def test_scoring_seed_is_refused(tmp_path):
 
 
 @pytest.mark.slow
-def test_tiny_study_writes_a_config_that_composes_and_never_simulates_the_scoring_seed(tmp_path, monkeypatch):
+def test_tiny_study_writes_a_config_that_composes_and_never_simulates_the_scoring_seed(tmp_path, monkeypatch,
+                                                                                        mlflow_uri):
     """2 trials on one tiny cell: configs/method/akf_tiny.yaml is written, composes with Hydra as the variant
-    akf:tiny over akf, carries its provenance, and every simulated cell used the tuning seed."""
+    akf:tiny over akf, carries its provenance, every simulated cell used the tuning seed, and the trials are
+    MLflow child runs of the study's run."""
     import experiments.simulate.datasets as datasets
     from experiments.tuning import tune
 
@@ -81,9 +83,18 @@ def test_tiny_study_writes_a_config_that_composes_and_never_simulates_the_scorin
     monkeypatch.setattr(sys, "argv", [
         "tune", "tuning=akf", "tuning.variant=tiny", "tuning.trials=2", "tuning.replicates=2", "tuning.seed=11",
         "tuning.cells=[{noise_ug:1000,n_samples:32}]", f"tuning.out={out}",
-        f"tuning.storage=sqlite:///{tmp_path / 'optuna.db'}", "tracking.enabled=false"])
+        f"tuning.storage=sqlite:///{tmp_path / 'optuna.db'}"])
     tune.main()
     assert seeds and set(seeds) == {11}
+    import mlflow
+
+    client = mlflow.MlflowClient(mlflow_uri)
+    runs = client.search_runs([client.get_experiment_by_name("tuning").experiment_id])
+    kinds = {r.data.tags["kind"]: r for r in runs}
+    study = kinds["tuning-study"].info.run_id
+    trials = [r for r in runs if r.data.tags["kind"] == "tuning-trial"]
+    assert len(trials) == 2 and all(r.data.tags["mlflow.parentRunId"] == study for r in trials)
+    assert all("value" in r.data.metrics for r in trials)
     text = out.read_text()
     for fragment in ("tuning seed 11", "Trials: 2", "1000 µg/32", "best trial", "Command:"):
         assert fragment in text, text

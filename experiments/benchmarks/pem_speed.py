@@ -1,0 +1,201 @@
+"""Speed of ``pem`` (issue 12): warm and cold fits, scaling in N, BLAS threads — side by side in one run.
+
+    python -m experiments.benchmarks.pem --part speed              # runs this module
+    python -m experiments.benchmarks.pem_speed [--repeats 21] [--sizes 256 4096 65536 1000000]
+
+Every row is a median over ``--repeats`` calls in this one process (a shared machine: quote ratios). The
+record is the Table 5 cell (truth plant, 1000 µg, Table 4 prior, replicate 0 of seed 1). Comparison columns:
+
+- ``scipy.optimize.least_squares`` (``method='lm'``) on the *same problem* — the closed-form output-error
+  residual in all 17 unknowns (ω, ζ, x₀, b) — from the *same starts* ``pem`` uses (pencil, prior, one seeded
+  perturbation; x₀ and b at their least-squares values), the lowest cost wins: with 2-point finite-difference
+  and with the analytic Jacobian (:class:`methods._pem_predictor.ClosedForm`).
+- ``pem`` through the recursive CasADi predictor (``Recursive``, K = 0: the reference path, same search).
+- the peer identifiers that reach the bound on some records (issue 10): ``methods.era``, ``methods.hdmd``,
+  ``methods.n4sid`` with their default options, and ``control.era`` called directly (order 2m + 1,
+  64 × 64 Hankel blocks); their errors are printed beside the times.
+
+BLAS threads: part ``blas`` (default) runs the warm-fit table twice, each in a fresh child: with the
+machine's default OpenBLAS threads (``OPENBLAS_NUM_THREADS`` unset, as a user calls it) and with one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+import tracemalloc
+
+import numpy as np
+import scipy.optimize
+
+from experiments.benchmarks import median_seconds
+from experiments.simulate.datasets import UG, replicate_rng
+from experiments.simulate.plant import build_plant
+from methods import _pem_predictor as pp
+from methods import _pem_search as search
+from methods import pem
+
+PRIOR = np.array([2.65, 16.73, 17.32, 52.91])        # Table 4
+DT_S = 0.02
+
+
+def record(n: int, noise_ug: float = 1000.0, seed: int = 1) -> np.ndarray:
+    noise = noise_ug * UG * replicate_rng(seed, noise_ug, n, 0).standard_normal(n)
+    return build_plant().tip_acceleration(n, DT_S) + noise
+
+
+def _scipy_fit(y, jac: bool):
+    """least_squares from pem's own starts on the same residual (all unknowns), lowest cost wins."""
+    m, opts = PRIOR.size, pem.Options()
+    free = pem._free_mask(m, opts)
+    ev = pp.ClosedForm(y, DT_S, m, free)
+    best = None
+    for _, w0, z0 in pem._starts(y, DT_S, PRIOR, opts):
+        theta0 = search.solve_linear(ev, np.r_[w0, z0, np.zeros(2 * m + 1)], m)[0]
+        sol = scipy.optimize.least_squares(
+            ev.residual, theta0, method="lm", xtol=1e-10, ftol=1e-10,
+            jac=(lambda th: ev.residual_jacobian(th)[1]) if jac else "2-point")
+        if best is None or sol.cost < best.cost:
+            best = sol
+    return np.sort(best.x[:m])
+
+
+def _reference_fit(y):
+    """pem with the recursive CasADi predictor (K = 0) instead of the closed form: same search."""
+    closed = pp.make_evaluator
+    pp.make_evaluator = lambda y_, dt, m, free, K: pp.Recursive(y_.size, m, free, False, y_, np.zeros(2 * m), dt)
+    try:
+        return pem.identify(y, DT_S, PRIOR).frequencies
+    finally:
+        pp.make_evaluator = closed
+
+
+def _era_fit(y):
+    import control
+    sysd, _ = control.era(y[None, None, :], 2 * PRIOR.size + 1, m=64, n=64, dt=DT_S)
+    s = np.log(np.linalg.eigvals(sysd.A).astype(complex)) / DT_S
+    return np.sort(np.abs(s[s.imag > 0]))[:PRIOR.size]
+
+
+def warm(repeats: int) -> None:
+    y = record(256)
+    truth = build_plant().freq_rad_s
+    rows = {"pem (default: output error, ζ and offset estimated, 3 starts)":
+            lambda: pem.identify(y, DT_S, PRIOR).frequencies,
+            "pem through the recursive CasADi predictor (reference path)": lambda: _reference_fit(y),
+            "least_squares lm, analytic Jacobian, same starts": lambda: _scipy_fit(y, True),
+            "least_squares lm, 2-point finite differences, same starts": lambda: _scipy_fit(y, False),
+            "pem paper setting (Kalman predictor, GN, 1 start)":
+            lambda: pem.identify(y, DT_S, PRIOR, **pem.PAPER_OPTIONS).frequencies}
+    import importlib
+    for peer in ("era", "hdmd", "n4sid"):                   # the project's peer methods (issue 10), defaults
+        try:
+            mod = importlib.import_module(f"methods.{peer}")
+            mod.identify(y, DT_S, PRIOR)
+            rows[f"{peer} (methods/{peer}.py, default options) — peer"] = \
+                lambda mod=mod: mod.identify(y, DT_S, PRIOR).frequencies
+        except (ImportError, ValueError) as exc:
+            print(f"(no {peer} row: {exc})")
+    try:
+        import control  # noqa: F401
+        rows["ERA (control.era directly, order 9, 64 x 64 blocks) — peer library"] = lambda: _era_fit(y)
+    except ImportError:
+        print("(python-control not installed: no ERA row)")
+    print(f"\n## Warm fit, 4 modes, N = 256, 1000 µg (median of {repeats}; OPENBLAS_NUM_THREADS="
+          f"{os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}; load average {os.getloadavg()[0]:.1f} on "
+          f"{os.cpu_count()} cores)")
+    print("| fit | median ms | / pem | max error (rad/s) |")
+    print("|---|---|---|---|")
+    base = None
+    for name, fn in rows.items():
+        fn()                                                        # warm: caches, imports
+        ms = 1e3 * median_seconds(fn, repeats)
+        base = base or ms
+        err = np.max(np.abs(np.sort(fn()) - truth))
+        print(f"| {name} | {ms:.2f} | {ms / base:.1f} | {err:.2g} |")
+
+
+def cold() -> None:
+    """First fit of a new record shape in a fresh interpreter (imports excluded)."""
+    code = ("import time, numpy as np; from experiments.benchmarks.pem_speed import record, PRIOR, DT_S; "
+            "from methods import pem; y = record({n}); t0 = time.perf_counter(); "
+            "pem.identify(y, DT_S, PRIOR{opts}); print(1e3 * (time.perf_counter() - t0))")
+    print("\n## Cold first fit of a record shape (fresh interpreter, imports excluded)")
+    print("| N | setting | first fit ms |")
+    print("|---|---|---|")
+    for n in (256, 1000, 2048):
+        for label, opts in (("default", ""), ("paper (Kalman)", ", **pem.PAPER_OPTIONS")):
+            out = subprocess.run([sys.executable, "-c", code.format(n=n, opts=opts)], capture_output=True,
+                                 text=True, check=True).stdout
+            print(f"| {n} | {label} | {float(out):.0f} |")
+
+
+def scaling(sizes: list[int], out: str) -> None:
+    """Time and peak traced memory of one default fit against N; log-log slopes and a plot."""
+    print("\n## Scaling in N (one default fit each, 1000 µg; peak memory traced by tracemalloc)")
+    print("| N | s | peak MB | iterations | max |error| rad/s |")
+    print("|---|---|---|---|---|")
+    truth = build_plant().freq_rad_s
+    times, mems = [], []
+    for n in sizes:
+        y = record(n)
+        tracemalloc.start()
+        t0 = time.perf_counter()
+        est = pem.identify(y, DT_S, PRIOR)
+        times.append(time.perf_counter() - t0)
+        mems.append(tracemalloc.get_traced_memory()[1] / 1e6)
+        tracemalloc.stop()
+        print(f"| {n} | {times[-1]:.3g} | {mems[-1]:.3g} | {est.extra['total_iterations']} | "
+              f"{np.max(np.abs(est.frequencies - truth)):.2g} |")
+    big = np.asarray(sizes) >= 4096
+    if big.sum() >= 2:
+        st = np.polyfit(np.log(np.asarray(sizes)[big]), np.log(np.asarray(times)[big]), 1)[0]
+        sm = np.polyfit(np.log(np.asarray(sizes)[big]), np.log(np.asarray(mems)[big]), 1)[0]
+        print(f"\nlog-log slope for N >= 4096: time {st:.2f}, memory {sm:.2f} (1 = linear)")
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from experiments import io
+    fig, ax = plt.subplots(figsize=(5.5, 4))
+    ax.loglog(sizes, times, "o-", label="time per fit (s)")
+    ax.loglog(sizes, np.asarray(mems) / 1e3, "s-", label="peak memory (GB)")
+    ref = np.asarray(sizes, float)
+    ax.loglog(ref, times[-1] * ref / ref[-1], "k:", label="∝ N")
+    ax.set_xlabel("record length N (samples)")
+    ax.set_title("pem, default options, 4 modes")
+    ax.legend()
+    ax.grid(True, which="both", alpha=0.3)
+    print(f"plot: {io.save_figure(fig, out)}")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=21)
+    ap.add_argument("--sizes", type=int, nargs="+", default=[256, 1024, 4096, 16384, 65536, 262144, 1000000])
+    ap.add_argument("--plot", default="results/bench/pem_scaling.png")
+    ap.add_argument("--parts", nargs="+", default=["blas", "cold", "scaling"],
+                    choices=["warm", "blas", "cold", "scaling"])
+    args = ap.parse_args(argv)
+    if "warm" in args.parts:
+        warm(args.repeats)
+    if "blas" in args.parts:
+        # as a user calls it (the machine's default BLAS threads) and with one thread, each in a fresh child
+        # (the variable must be set before numpy loads OpenBLAS)
+        for threads in (None, "1"):
+            env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+            if threads:
+                env["OPENBLAS_NUM_THREADS"] = threads
+            subprocess.run([sys.executable, "-m", "experiments.benchmarks.pem_speed", "--parts", "warm",
+                            "--repeats", str(args.repeats)], env=env, check=True)
+    if "cold" in args.parts:
+        cold()
+    if "scaling" in args.parts:
+        scaling(args.sizes, args.plot)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,60 @@
+"""Hankel (delay-embedded) dynamic mode decomposition (``pydmd.HankelDMD``).
+
+A scalar record has no spatial snapshots; DMD works on its delay embedding: ``pydmd.HankelDMD`` stacks d
+delayed copies of the record as snapshots, fits the best linear map between successive snapshots in the
+subspace of the truncated SVD (rank = the model order) and returns its eigenvalues z, the discrete-time
+poles; s = log(z)/Δt and :func:`methods.modal_poles.pick_modes` picks the m modes. (This is ERA's
+realisation up to the choice of basis; the libraries differ in how they truncate and solve.)
+
+Settings (methods/README_peers.md): rank 2m + 1 + ``extra_order``; d = ``delays_fraction``·N delays
+(at least the rank), chosen on tuning seed 1 (never the scoring seed). No uncertainty: ``std`` is NaN.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from methods.estimate import check_inputs, failed, make_options
+from methods.modal_poles import check_common, continuous_poles, order_rule, to_estimate
+
+
+@dataclass
+class Options:
+    order: int | None = None         # SVD rank; None: 2m + 1 + extra_order
+    extra_order: int = 1             # spare states beyond modes and offset (tuned on seed 1)
+    delays_fraction: float = 0.5     # delays d / N (the snapshots are N − d + 1)
+    band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
+    min_damping: float = -0.02       # mode picker: accepted damping ratios
+    max_damping: float = 0.2
+
+
+def delays_and_order(n: int, m: int, opts) -> tuple[int, int]:
+    """The delay count d and the rank, clipped so that the d × (N − d + 1) embedding has that rank."""
+    if not 0 < opts.delays_fraction < 1:
+        raise ValueError(f"delays_fraction = {opts.delays_fraction} must be in (0, 1)")
+    order = opts.order if opts.order is not None else order_rule(m, opts.extra_order)
+    d = min(max(int(round(opts.delays_fraction * n)), order), n - order - 1)
+    return d, min(order, d, n - d)
+
+
+def identify(y, dt, prior, **options):
+    """Frequencies of the m most energetic physical poles of a Hankel DMD of the record."""
+    y, dt, prior = check_inputs(y, dt, prior)
+    opts = make_options(Options, options, "hdmd")
+    check_common(opts, y.size)
+    d, order = delays_and_order(y.size, prior.size, opts)
+    if order < 2 * prior.size:
+        return failed(prior, f"record of {y.size} samples too short for {prior.size} modes by Hankel DMD",
+                      converged_per_mode=[False] * prior.size)
+    from pydmd import HankelDMD  # optional extra (.[peers])
+
+    dmd = HankelDMD(svd_rank=order, d=d)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")              # pydmd warns about ill-conditioned snapshot matrices
+        dmd.fit(y[None, :])
+    s = continuous_poles(np.asarray(dmd.eigs), dt)
+    return to_estimate(s, y, dt, prior, band=opts.band, min_damping=opts.min_damping,
+                       max_damping=opts.max_damping, order=order, delays=d)

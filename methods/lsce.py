@@ -1,0 +1,58 @@
+"""Least-squares complex exponential (``sdypy-ema``: ``EMA.Model(...).get_poles(method="lsce")``).
+
+LSCE fits the impulse response with a linear-prediction polynomial of order 2n by least squares and takes
+its roots as poles. sdypy-EMA's LSCE takes frequency response functions and returns to the time domain by
+an inverse real FFT; the adapter hands it the record's real FFT (the free decay is the impulse response of
+the initial state), so the library's inverse FFT gives back the record itself. Two details of the
+library's API: it drops the bin at its ``upper`` limit, so the adapter appends one empty bin above
+Nyquist; and its inverse FFT has an even length, so an odd record loses its last sample.
+
+sdypy-EMA computes every order 1…n (its stabilisation diagram); the adapter takes the poles of order n and
+:func:`methods.modal_poles.pick_modes` picks the m modes. Settings (methods/README_peers.md): n =
+⌈(2m + 1 + ``extra_order``)/2⌉ pole pairs, capped by the library's requirement N > 4n; ``extra_order``
+chosen on tuning seed 1 (never the scoring seed). No uncertainty: ``std`` is NaN.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from methods.estimate import check_inputs, failed, make_options
+from methods.modal_poles import check_common, order_rule, to_estimate
+
+
+@dataclass
+class Options:
+    order: int | None = None         # number of poles 2n; None: 2m + 1 + extra_order (rounded up to even)
+    extra_order: int = 31            # spare poles beyond modes and offset (tuned on seed 1)
+    band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
+    min_damping: float = -0.02       # mode picker: accepted damping ratios
+    max_damping: float = 0.2
+
+
+def identify(y, dt, prior, **options):
+    """Frequencies of the m most energetic physical poles of sdypy-EMA's LSCE fit of the record."""
+    y, dt, prior = check_inputs(y, dt, prior)
+    opts = make_options(Options, options, "lsce")
+    check_common(opts, y.size)
+    from sdypy import EMA  # optional extra (.[peers])
+
+    rec = y[: y.size - y.size % 2]                   # the library's irfft has an even length
+    order = opts.order if opts.order is not None else order_rule(prior.size, opts.extra_order)
+    pairs = min(-(-order // 2), (rec.size - 1) // 4)  # sdypy-EMA asserts N > 4n
+    if 2 * pairs < 2 * prior.size:
+        return failed(prior, f"record of {y.size} samples too short for {prior.size} modes by LSCE",
+                      converged_per_mode=[False] * prior.size)
+    spectrum = np.append(np.fft.rfft(rec), 0.0)      # + one empty bin above Nyquist (dropped by the library)
+    freq = np.arange(spectrum.size) / (rec.size * dt)
+    model = EMA.Model(frf=spectrum, freq=freq, dt=dt, lower=0.0, upper=float(freq[-1]),
+                      pol_order_high=int(pairs), frf_form="accelerance")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")              # numpy warnings on rejected poles
+        model.get_poles(method="lsce", show_progress=False)
+    s = np.asarray(model.all_poles[-1], dtype=complex)
+    return to_estimate(s, rec, dt, prior, band=opts.band, min_damping=opts.min_damping,
+                       max_damping=opts.max_damping, order=2 * pairs)

@@ -1,0 +1,193 @@
+"""From a model's poles to the m physical modes: the step every peer identifier shares.
+
+A subspace, ERA, LSCE or DMD fit returns the poles of a model of some order: the structural modes, the
+sensor offset (a real pole at s = 0), and poles that only fit the noise. A practitioner picks the physical
+ones by eye on a stabilisation diagram: oscillatory, stable, lightly damped, below Nyquist, carrying the
+signal's energy, near where the modes were expected. :func:`pick_modes` writes that judgement down once, so
+that every peer is scored on the same rule and the library alone decides the poles:
+
+1. **Physical poles.** Continuous-time poles sₖ = σₖ + iωdₖ (a discrete pole z becomes s = log(z)/Δt).
+   Kept: oscillatory (ωd > 0; conjugates are one mode, the one with ωd > 0 is kept), below Nyquist
+   (|s| < π/Δt), damping ζ = −σ/|s| within ``damping_bounds``. The lower bound is slightly negative
+   (−0.02 by default): the modes here have ζ = 0.005, and on a short noisy record an estimate of such a
+   lightly damped mode straddles zero; a clearly growing pole is not physical.
+2. **Energy.** The record is fitted by least squares with the candidates' damped sinusoids and a constant
+   (the offset): y(tₖ) ≈ c + Σⱼ Re(aⱼ e^{sⱼ tₖ}); the energy of pole j is Σₖ |Re(aⱼ e^{sⱼ tₖ})|², its
+   share of the record. Noise poles carry little; the modes carry most (scipy.linalg.lstsq).
+3. **Assignment.** The ``m`` most energetic candidates within the search band of some prior
+   (|log(ω/priorᵢ)| ≤ log(1 + band)) are matched to the prior by ``scipy.optimize.linear_sum_assignment``
+   on the distance |log ωⱼ − log priorᵢ|; a pair farther apart than the band is no match. A prior mode with
+   no match gets NaN and ``converged_per_mode`` False ("too few physical poles").
+
+Frequencies returned are the undamped natural frequencies |sⱼ| (what the benchmark scores: |λ| of the
+plant's eigenvalues), with ζⱼ = −Re sⱼ/|sⱼ|.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+
+@dataclass(frozen=True)
+class Picked:
+    """The physical modes picked from a model's poles, in prior order.
+
+    Attributes
+    ----------
+    frequencies, damping : ndarray, shape (m,)
+        Natural frequency |s| (rad/s) and damping ratio of the pole assigned to each prior mode; NaN where
+        none was.
+    found : ndarray of bool, shape (m,)
+        Whether a physical pole was assigned to each prior mode.
+    n_candidates : int
+        How many poles passed step 1 (oscillatory, stable enough, below Nyquist).
+    energy : ndarray, shape (m,)
+        The least-squares energy (m²/s⁴ summed over samples) of each assigned pole; NaN where none was.
+    """
+
+    frequencies: np.ndarray
+    damping: np.ndarray
+    found: np.ndarray
+    n_candidates: int
+    energy: np.ndarray = field(default_factory=lambda: np.array([]))
+
+    @property
+    def message(self) -> str:
+        missing = int((~self.found).sum())
+        if missing == 0:
+            return f"{self.found.size} modes picked from {self.n_candidates} physical poles"
+        return f"too few physical poles: {missing} of {self.found.size} modes missing ({self.n_candidates} candidates)"
+
+
+def continuous_poles(z, dt: float) -> np.ndarray:
+    """Continuous-time poles s = log(z)/Δt of discrete-time poles z (z = 0 has none and is dropped)."""
+    z = np.asarray(z, dtype=complex).reshape(-1)
+    z = z[np.abs(z) > 0]
+    return np.log(z) / dt
+
+
+def physical(s, dt: float, damping_bounds=(-0.02, 0.2)) -> np.ndarray:
+    """The oscillatory, stable-enough poles below Nyquist of continuous-time poles ``s``, one per conjugate
+    pair (the one with positive imaginary part), sorted by frequency.
+
+    A pole given only with a negative imaginary part (its conjugate missing) still counts once.
+    """
+    s = np.asarray(s, dtype=complex).reshape(-1)
+    s = s[np.isfinite(s)]
+    s = s.real + 1j * np.abs(s.imag)                   # a conjugate pair folds onto one pole
+    w = np.abs(s)
+    keep = (s.imag > 0) & (w < np.pi / dt)
+    s, w = s[keep], w[keep]
+    zeta = -s.real / w
+    s = s[(zeta >= damping_bounds[0]) & (zeta <= damping_bounds[1])]
+    s = np.sort_complex(s)
+    # fold conjugate duplicates: after |Im|, a pair is two equal entries
+    if s.size > 1:
+        dup = np.r_[False, np.abs(np.diff(s)) <= 1e-9 * np.abs(s[1:])]
+        s = s[~dup]
+    return s
+
+
+def energies(s, y, dt: float) -> np.ndarray:
+    """Energy of each pole's least-squares component in the record (step 2 of the module docstring).
+
+    Columns e^{σt}cos(ωd t), e^{σt}sin(ωd t) per pole and a constant; the fitted component of pole j is
+    Vⱼ cⱼ and its energy ‖Vⱼ cⱼ‖².
+    """
+    s = np.asarray(s, dtype=complex)
+    y = np.asarray(y, dtype=float)
+    if s.size == 0:
+        return np.zeros(0)
+    t = np.arange(y.size) * dt
+    env = np.exp(np.outer(t, s.real))
+    cols = [np.ones((y.size, 1)), env * np.cos(np.outer(t, s.imag)), env * np.sin(np.outer(t, s.imag))]
+    V = np.hstack(cols)
+    coef = scipy.linalg.lstsq(V, y, lapack_driver="gelsd")[0]
+    k = s.size
+    comp = V[:, 1:1 + k] * coef[1:1 + k] + V[:, 1 + k:] * coef[1 + k:]
+    return np.sum(comp**2, axis=0)
+
+
+def pick_modes(s, y, dt: float, prior, *, band: float = 0.5, damping_bounds=(-0.02, 0.2)) -> Picked:
+    """Pick one physical pole per prior mode (module docstring: physical poles, energy, assignment).
+
+    Parameters
+    ----------
+    s : array of complex
+        Continuous-time poles of the identified model (rad/s); use :func:`continuous_poles` for z-poles.
+    y : ndarray, shape (N,)
+        The record the model was fitted to (for the poles' least-squares energies).
+    dt : float
+        Sample interval, s (Nyquist π/Δt).
+    prior : array, shape (m,)
+        A-priori frequencies, rad/s.
+    band : float
+        A pole may match prior ωᵢ when |log(ω/ωᵢ)| ≤ log(1 + band) (0.5: within ωᵢ·1.5^±1, the PEM's band).
+    damping_bounds : (float, float)
+        Accepted damping ratios ζ = −Re s/|s|.
+    """
+    prior = np.asarray(prior, dtype=float).reshape(-1)
+    m = prior.size
+    cand = physical(s, dt, damping_bounds)
+    freq, zeta, energy = np.full(m, np.nan), np.full(m, np.nan), np.full(m, np.nan)
+    found = np.zeros(m, dtype=bool)
+    if cand.size:
+        e = energies(cand, y, dt)
+        w = np.abs(cand)
+        dist = np.abs(np.log(w)[:, None] - np.log(prior)[None, :])      # candidates × prior
+        limit = np.log1p(band)
+        in_band = np.flatnonzero((dist <= limit).any(axis=1))
+        top = in_band[np.argsort(-e[in_band], kind="stable")[:m]]
+        if top.size:
+            cost = np.where(dist[top] <= limit, dist[top], 1e6)   # out of band: no match
+            rows, cols = scipy.optimize.linear_sum_assignment(cost)
+            for r, c in zip(rows, cols, strict=True):
+                if cost[r, c] < 1e6:
+                    j = top[r]
+                    freq[c], zeta[c], energy[c], found[c] = w[j], -cand[j].real / w[j], e[j], True
+    return Picked(freq, zeta, found, int(cand.size), energy)
+
+
+def estimate_extra(picked: Picked, **more) -> dict:
+    """The ``Estimate.extra`` entries every peer reports: per-mode convergence, damping, candidates."""
+    return {"converged_per_mode": picked.found.tolist(), "damping": picked.damping.tolist(),
+            "n_physical_poles": picked.n_candidates, **more}
+
+
+def order_rule(m: int, extra: int) -> int:
+    """The model order a peer fits by default: one state per mode pair (2m), one for the sensor offset (a
+    real pole at z = 1), and ``extra`` spare states that take up the noise (chosen per peer on a tuning
+    seed; methods/README_peers.md)."""
+    return 2 * m + 1 + max(int(extra), 0)
+
+
+def to_estimate(s, y, dt: float, prior, *, band: float, min_damping: float, max_damping: float,
+                order: int, std=None, **extra):
+    """Pick the modes from continuous-time poles ``s`` and wrap them as an Estimate.
+
+    ``std`` is NaN unless the library itself gives an uncertainty (the Cramér–Rao bound at the estimate is
+    not a method's uncertainty and is never used as one).
+    """
+    from methods.estimate import Estimate
+
+    prior = np.asarray(prior, dtype=float)
+    picked = pick_modes(s, y, dt, prior, band=band, damping_bounds=(min_damping, max_damping))
+    std = np.full(prior.size, np.nan) if std is None else np.where(picked.found, std, np.nan)
+    return Estimate(picked.frequencies, std, converged=bool(picked.found.all()), iterations=0,
+                    message=picked.message, extra=estimate_extra(picked, order=int(order), **extra))
+
+
+def check_common(opts, n_samples: int) -> None:
+    """Validate the options every peer shares; ``ValueError`` naming the bad value."""
+    if not opts.band > 0:
+        raise ValueError(f"band = {opts.band} must be positive (relative search band around each prior)")
+    if not opts.min_damping < opts.max_damping:
+        raise ValueError(f"min_damping = {opts.min_damping} must be below max_damping = {opts.max_damping}")
+    if opts.order is not None and opts.order < 1:
+        raise ValueError(f"order = {opts.order} must be a positive model order")
+    if opts.extra_order < 0:
+        raise ValueError(f"extra_order = {opts.extra_order} must be ≥ 0")

@@ -1,0 +1,73 @@
+"""The peer identifiers (methods/era.py … bopdmd.py) through the one face.
+
+Physics/maths checked: a noise-free record of the plant's four modes (exactly four damped sinusoids, the
+paper's frequencies) is realised exactly by a model of order 2m + 1 + spare, so every library must return
+the true eigenfrequencies |λ| to 1e-4 relative; with white noise the estimates stay near the truth; bad
+options get a ValueError naming the value; a record too short for the model says so per mode.
+"""
+
+import numpy as np
+import pytest
+
+import methods
+from tests.methods._signals import DT, other_plant
+
+PEERS = ["era", "n4sid", "ssi_cov", "ssi_data", "lsce", "hdmd", "bopdmd"]
+PRIOR = np.array([3.80, 16.00, 26.00, 46.00])       # Table 3 (configs/method/<peer>.yaml)
+
+
+@pytest.fixture(scope="module")
+def truth(plant):
+    return np.sort(np.abs(plant.truth()["freq_rad_s"]))
+
+
+@pytest.mark.parametrize("name", PEERS)
+def test_noise_free_record_gives_the_true_frequencies(name, plant, truth):
+    y = plant.tip_acceleration(256, DT)
+    est = methods.get(name)(y, DT, PRIOR)
+    assert est.converged, est.message
+    np.testing.assert_allclose(est.frequencies, truth, rtol=1e-4)
+    assert est.extra["converged_per_mode"] == [True] * 4
+    assert np.all(np.isnan(est.std))                 # no peer has an uncertainty by default
+
+
+@pytest.mark.parametrize("name", PEERS)
+def test_noisy_record_stays_near_the_truth(name, noisy_record, truth):
+    """1000 µg, 256 samples, seed 3: modes 1, 2 and 4 within 1 % (mode 3 sits 1.76 rad/s from mode 2)."""
+    est = methods.get(name)(noisy_record(256, 1000.0, seed=3), DT, PRIOR)
+    ok = np.isfinite(est.frequencies)
+    assert ok.sum() >= 3, est.message
+    assert np.all(np.abs(est.frequencies[ok] - truth[ok]) / truth[ok] < 0.03), est.frequencies
+
+
+@pytest.mark.parametrize("name", ["era", "hdmd", "lsce"])
+def test_other_plants_and_a_bias(name):
+    """Two and five modes, a sensor offset of 0.5 m/s²: the offset is a real pole, never a mode."""
+    for m in (2, 5):
+        freq, y = other_plant(m, 512, bias=0.5)
+        est = methods.get(name)(y, DT, freq * 1.15)
+        np.testing.assert_allclose(est.frequencies, freq, rtol=1e-4)
+
+
+@pytest.mark.parametrize("name", PEERS)
+def test_bad_options_name_the_value(name):
+    y = np.cos(5 * np.arange(128) * DT)
+    with pytest.raises(ValueError, match="band"):
+        methods.get(name)(y, DT, [5.0], band=-1.0)
+    with pytest.raises(ValueError, match="no_such_option"):
+        methods.get(name)(y, DT, [5.0], no_such_option=1)
+
+
+@pytest.mark.parametrize("name", ["n4sid", "ssi_data"])
+def test_too_short_record_fails_per_mode(name, plant):
+    """20 samples cannot hold these libraries' Hankel matrices for 4 modes: NaN, not converged, no crash."""
+    est = methods.get(name)(plant.tip_acceleration(20, DT), DT, PRIOR)
+    assert not est.converged and np.all(np.isnan(est.frequencies))
+    assert est.extra["converged_per_mode"] == [False] * 4
+
+
+@pytest.mark.slow
+def test_bopdmd_bagging_gives_the_librarys_spread(noisy_record):
+    est = methods.get("bopdmd")(noisy_record(64, 1000.0, seed=4), DT, PRIOR, num_trials=5)
+    assert np.all(np.isfinite(est.std[np.isfinite(est.frequencies)]))
+    assert np.all(est.std[np.isfinite(est.frequencies)] > 0)
