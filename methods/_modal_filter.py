@@ -294,10 +294,35 @@ def run_filter(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings, *
         if reason:
             return failed(prior, f"diverged at sample {k}: {reason}", iterations=k + 1,
                           history=history[: k + 1])
+    determined, share = _determined(std_history[-1], y.size, s)
     std_history = np.sqrt(np.clip(std_history, 0.0, None))
-    return Estimate(history[-1].copy(), std_history[-1].copy(), history=history, converged=True,
-                    iterations=y.size, message=f"{y.size} samples filtered ({s.measurement} measurement)",
-                    extra={"std_history": std_history, "final_state": ekf.x[:, 0].copy()})
+    std = std_history[-1].copy()
+    std[~determined & (std == 0.0)] = np.nan     # a frequency held fixed (P0 = Qd = 0) has no 1σ to give
+    message = f"{y.size} samples filtered ({s.measurement} measurement)"
+    if not determined.all():
+        message += "; not determined by the record (frequency variance still above half of the prior's): " + \
+            ", ".join(f"mode {i + 1} ({prior[i]:g} rad/s, {share[i]:.2f})" for i in np.flatnonzero(~determined))
+    return Estimate(history[-1].copy(), std, history=history, converged=True,
+                    iterations=y.size, message=message,
+                    extra={"std_history": std_history, "final_state": ekf.x[:, 0].copy(),
+                           "converged_per_mode": determined.tolist(), "variance_share": share})
+
+
+# A frequency counts as determined by the record when its final filter variance is at most this share of the
+# variance it would have with no measurement at all, P0 + (n − 1)·Qd (the prior's, grown by the random walk of
+# eq. 21). For a Gaussian update, posterior/prior variance = 1/(1 + I·P0): at 1/2 the record carries as much
+# information I on that frequency as the prior did. Below it the estimate is the prior's, not the record's.
+DETERMINED_VARIANCE_SHARE = 0.5
+
+
+def _determined(var_w: np.ndarray, n: int, s: FilterSettings) -> tuple[np.ndarray, np.ndarray]:
+    """Per mode: whether the record determined the frequency, and the share of its no-information variance
+    left (``DETERMINED_VARIANCE_SHARE``). ``run_filter`` reports the overall ``converged`` as "did not
+    diverge" and this per mode, in ``extra["converged_per_mode"]``."""
+    no_info = s.p0_frequency_var + (n - 1) * s.qd_frequency
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = np.where(no_info > 0, var_w / no_info, np.nan)
+    return share <= DETERMINED_VARIANCE_SHARE, share
 
 
 def _build_filter(z, y, dt, prior, lay: _Layout, s: FilterSettings):

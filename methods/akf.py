@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from methods._modal_filter import run_filter, settings_from
-from methods.estimate import Estimate, check_inputs, make_options
+from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
 
 
 @dataclass
@@ -84,5 +84,15 @@ def identify(y, dt, prior, **options) -> Estimate:
         ``converged=False`` with the reason when the filter diverges.
     """
     y, dt, prior = check_inputs(y, dt, prior)
-    opts = make_options(Options, options, "akf")
+    opts = check_options(prior, dt, **options)
+    flat = flat_record(y)
+    if flat:
+        return failed(prior, flat)
     return run_filter(y, dt, prior, settings_from(opts, prior, "akf"))
+
+
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods` (validated without a record, before any work)."""
+    opts = make_options(Options, options, "akf")
+    settings_from(opts, prior, "akf")
+    return opts

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, make_options
+from methods.estimate import check_inputs, failed, flat_record, make_options
 from methods.hdmd import delays_and_order
 from methods.modal_poles import check_common, to_estimate
 
@@ -41,13 +41,21 @@ class Options:
     max_damping: float = 0.2
 
 
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods`: every check that needs no record, before any work."""
+    opts = make_options(Options, options, "bopdmd")
+    check_common(opts)
+    if opts.num_trials < 0:
+        raise ValueError(f"num_trials = {opts.num_trials} must be ≥ 0")
+    return opts
+
+
 def identify(y, dt, prior, **options):
     """Frequencies of the m most energetic physical poles of an optimized DMD of the record."""
     y, dt, prior = check_inputs(y, dt, prior)
-    opts = make_options(Options, options, "bopdmd")
-    check_common(opts, y.size)
-    if opts.num_trials < 0:
-        raise ValueError(f"num_trials = {opts.num_trials} must be ≥ 0")
+    opts = check_options(prior, dt, **options)
+    if why := flat_record(y):
+        return failed(prior, why, converged_per_mode=[False] * prior.size)
     d, order = delays_and_order(y.size, prior.size, opts)
     if order < 2 * prior.size:
         return failed(prior, f"record of {y.size} samples too short for {prior.size} modes by BOPDMD",

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, make_options
+from methods.estimate import check_inputs, failed, flat_record, make_options
 from methods.modal_poles import check_common, continuous_poles, order_rule, to_estimate
 
 
@@ -31,13 +31,21 @@ class Options:
     max_damping: float = 0.2
 
 
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods`: every check that needs no record, before any work."""
+    opts = make_options(Options, options, "era")
+    check_common(opts)
+    if not 0 < opts.rows_fraction < 1:
+        raise ValueError(f"rows_fraction = {opts.rows_fraction} must be in (0, 1)")
+    return opts
+
+
 def identify(y, dt, prior, **options):
     """Frequencies of the m most energetic physical poles of an ERA realisation of the record."""
     y, dt, prior = check_inputs(y, dt, prior)
-    opts = make_options(Options, options, "era")
-    check_common(opts, y.size)
-    if not 0 < opts.rows_fraction < 1:
-        raise ValueError(f"rows_fraction = {opts.rows_fraction} must be in (0, 1)")
+    opts = check_options(prior, dt, **options)
+    if why := flat_record(y):
+        return failed(prior, why, converged_per_mode=[False] * prior.size)
     import control  # imported here: python-control is an optional extra (.[peers])
 
     usable = y.size - 1

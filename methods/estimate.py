@@ -54,18 +54,32 @@ class Estimate:
 
 
 def failed(prior: np.ndarray, message: str, *, iterations: int = 0, history=None, **extra) -> Estimate:
-    """An Estimate for a run that produced no usable answer: NaN frequencies, ``converged=False``."""
+    """An Estimate for a run that produced no usable answer: NaN frequencies, ``converged=False``, and
+    ``extra["converged_per_mode"]`` False for every mode."""
     nan = np.full(np.shape(prior), np.nan)
+    extra.setdefault("converged_per_mode", [False] * nan.size)
     return Estimate(nan, nan, history=history, converged=False, iterations=iterations,
                     message=message, extra=dict(extra))
+
+
+# Largest |sample| accepted, m/s²: ±10⁵ g, the range of the largest shock accelerometers. A tip acceleration
+# beyond it is a units or parsing error, not a measurement, and values near 1e300 overflow to inf in the
+# methods' sums of squares (the filters' covariances hold products of y⁴).
+MAX_ABS_ACCEL_M_S2 = 1e6
 
 
 def check_inputs(y, dt, prior) -> tuple[np.ndarray, float, np.ndarray]:
     """Validate and convert the three common arguments; raise ``ValueError`` naming the bad value.
 
     Returns ``y`` as a 1-D float array, ``dt`` as float and ``prior`` as a 1-D float array.
+
+    Rules: ``y`` holds at least 8 real (not boolean, complex or text), finite samples with
+    |y| ≤ :data:`MAX_ABS_ACCEL_M_S2`; ``dt`` is a positive real number; ``prior`` holds one positive
+    frequency per mode, below the Nyquist frequency π/dt and **strictly increasing**: estimates come back in
+    prior order, and the i-th prior names the i-th mode counted from the lowest (the order the scorer
+    matches them to the truth in), so a repeated or out-of-order prior would silently swap modes.
     """
-    y = np.asarray(y, dtype=float)
+    y = _real_array(y, "y", "a 1-D record of samples in m/s²")
     if y.ndim != 1:
         raise ValueError(f"y must be a 1-D record of samples, got shape {y.shape}")
     if y.size < 8:
@@ -73,10 +87,24 @@ def check_inputs(y, dt, prior) -> tuple[np.ndarray, float, np.ndarray]:
     if not np.all(np.isfinite(y)):
         bad = int(np.flatnonzero(~np.isfinite(y))[0])
         raise ValueError(f"y[{bad}] = {y[bad]} is not a finite number")
+    big = np.abs(y) > MAX_ABS_ACCEL_M_S2
+    if big.any():
+        bad = int(np.flatnonzero(big)[0])
+        raise ValueError(f"y[{bad}] = {y[bad]:g} m/s² is not a physical acceleration (|y| must be at most "
+                         f"{MAX_ABS_ACCEL_M_S2:g} m/s², 1e5 g): check the units of the record")
+    dt, prior = check_prior(dt, prior)
+    return y, dt, prior
+
+
+def check_prior(dt, prior) -> tuple[float, np.ndarray]:
+    """The checks of :func:`check_inputs` on ``dt`` and ``prior`` alone (no record needed)."""
+    dt = _real_array(dt, "dt", "a sample interval in s")
+    if dt.ndim != 0:
+        raise ValueError(f"sample interval dt must be one number in s, got shape {dt.shape}")
     dt = float(dt)
     if not (np.isfinite(dt) and dt > 0):
         raise ValueError(f"sample interval dt = {dt} s must be a positive number")
-    prior = np.atleast_1d(np.asarray(prior, dtype=float))
+    prior = np.atleast_1d(_real_array(prior, "prior", "a list of frequencies in rad/s"))
     if prior.ndim != 1 or prior.size == 0:
         raise ValueError(f"prior must be a non-empty list of frequencies in rad/s, got {prior.tolist()}")
     nyquist = np.pi / dt
@@ -86,7 +114,46 @@ def check_inputs(y, dt, prior) -> tuple[np.ndarray, float, np.ndarray]:
         if w >= nyquist:
             raise ValueError(f"prior[{i}] = {w} rad/s is above the Nyquist frequency {nyquist:.4g} rad/s "
                              f"(dt = {dt:.6g} s)")
-    return y, dt, prior
+        if i > 0 and not w > prior[i - 1]:
+            raise ValueError(f"prior {prior.tolist()}: prior[{i}] = {w:g} rad/s is not above prior[{i - 1}] = "
+                             f"{prior[i - 1]:g} rad/s; give one frequency per mode, in increasing order")
+    return dt, prior
+
+
+# A record whose samples all equal their mean to within this fraction of the largest |sample| (a thousand
+# times double-precision round-off of the mean) carries no oscillation: all zero, or a constant bias.
+FLAT_RELATIVE_SPREAD = 1e-12
+
+
+def flat_record(y: np.ndarray) -> str:
+    """Why the record carries no information on any frequency, or ``''`` when it may.
+
+    A method returns :func:`failed` (every mode ``converged_per_mode = False``) for such a record instead of
+    its prior with a meaningless uncertainty.
+    """
+    scale = float(np.max(np.abs(y)))
+    spread = float(np.max(np.abs(y - np.mean(y))))
+    if scale == 0.0:
+        return "the record is identically zero: no oscillation to identify"
+    if spread <= FLAT_RELATIVE_SPREAD * scale:
+        return f"the record is constant ({float(np.mean(y)):.6g} m/s² in every sample): no oscillation to identify"
+    return ""
+
+
+def _real_array(value, name: str, what: str) -> np.ndarray:
+    """``value`` as a float array if it holds real numbers only (not booleans, complex numbers, text,
+    None or a mapping); else ``ValueError`` naming the argument."""
+    if isinstance(value, (dict, str, bytes)) or value is None:
+        raise ValueError(f"{name} must be {what}, got {type(value).__name__} {value!r:.60}")
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError) as exc:          # ragged nested lists
+        raise ValueError(f"{name} must be {what}: {exc}") from None
+    if arr.dtype.kind not in "iuf":
+        kinds = {"b": "booleans", "c": "complex numbers", "U": "text", "S": "text", "O": "non-numbers"}
+        raise ValueError(f"{name} must be {what}, got {kinds.get(arr.dtype.kind, arr.dtype.name)} "
+                         f"({type(value).__name__})")
+    return arr.astype(float, copy=False)
 
 
 def make_options(options_cls, options: dict, method: str):

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, make_options
+from methods.estimate import check_inputs, failed, flat_record, make_options
 from methods.modal_poles import check_common, continuous_poles, order_rule, to_estimate
 
 
@@ -40,11 +40,19 @@ def delays_and_order(n: int, m: int, opts) -> tuple[int, int]:
     return d, min(order, d, n - d)
 
 
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods`: every check that needs no record, before any work."""
+    opts = make_options(Options, options, "hdmd")
+    check_common(opts)
+    return opts
+
+
 def identify(y, dt, prior, **options):
     """Frequencies of the m most energetic physical poles of a Hankel DMD of the record."""
     y, dt, prior = check_inputs(y, dt, prior)
-    opts = make_options(Options, options, "hdmd")
-    check_common(opts, y.size)
+    opts = check_options(prior, dt, **options)
+    if why := flat_record(y):
+        return failed(prior, why, converged_per_mode=[False] * prior.size)
     d, order = delays_and_order(y.size, prior.size, opts)
     if order < 2 * prior.size:
         return failed(prior, f"record of {y.size} samples too short for {prior.size} modes by Hankel DMD",

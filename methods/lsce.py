@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, make_options
+from methods.estimate import check_inputs, failed, flat_record, make_options
 from methods.modal_poles import check_common, order_rule, to_estimate
 
 
@@ -33,11 +33,19 @@ class Options:
     max_damping: float = 0.2
 
 
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods`: every check that needs no record, before any work."""
+    opts = make_options(Options, options, "lsce")
+    check_common(opts)
+    return opts
+
+
 def identify(y, dt, prior, **options):
     """Frequencies of the m most energetic physical poles of sdypy-EMA's LSCE fit of the record."""
     y, dt, prior = check_inputs(y, dt, prior)
-    opts = make_options(Options, options, "lsce")
-    check_common(opts, y.size)
+    opts = check_options(prior, dt, **options)
+    if why := flat_record(y):
+        return failed(prior, why, converged_per_mode=[False] * prior.size)
     from sdypy import EMA  # optional extra (.[peers])
 
     rec = y[: y.size - y.size % 2]                   # the library's irfft has an even length

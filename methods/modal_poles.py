@@ -14,7 +14,12 @@ that every peer is scored on the same rule and the library alone decides the pol
 2. **Energy.** The record is fitted by least squares with the candidates' damped sinusoids and a constant
    (the offset): y(tₖ) ≈ c + Σⱼ Re(aⱼ e^{sⱼ tₖ}); the energy of pole j is Σₖ |Re(aⱼ e^{sⱼ tₖ})|², its
    share of the record. Noise poles carry little; the modes carry most (scipy.linalg.lstsq).
-3. **Assignment.** The ``m`` most energetic candidates within the search band of some prior
+3. **Detection.** A candidate counts only if its energy stands out of the noise: Eⱼ/σ̂² > 2 ln(N/2α) with
+   σ̂² the residual variance of that least-squares fit and α = 1 %. For white noise alone the largest of
+   the N/2 independent (cos, sin) projections has energy/σ² ~ χ²₂, so P(max > x) ≈ (N/2) e^{−x/2}: the
+   threshold is the level pure noise exceeds with probability α (the fft's peak test, the same rule). A
+   record without a mode — all zero, a constant, white noise — yields no candidate, hence no mode.
+4. **Assignment.** The ``m`` most energetic candidates within the search band of some prior
    (|log(ω/priorᵢ)| ≤ log(1 + band)) are matched to the prior by ``scipy.optimize.linear_sum_assignment``
    on the distance |log ωⱼ − log priorᵢ|; a pair farther apart than the band is no match. A prior mode with
    no match gets NaN and ``converged_per_mode`` False ("too few physical poles").
@@ -44,7 +49,7 @@ class Picked:
     found : ndarray of bool, shape (m,)
         Whether a physical pole was assigned to each prior mode.
     n_candidates : int
-        How many poles passed step 1 (oscillatory, stable enough, below Nyquist).
+        How many poles passed steps 1 and 3 (physical, and standing out of the noise).
     energy : ndarray, shape (m,)
         The least-squares energy (m²/s⁴ summed over samples) of each assigned pole; NaN where none was.
     """
@@ -92,16 +97,28 @@ def physical(s, dt: float, damping_bounds=(-0.02, 0.2)) -> np.ndarray:
     return s
 
 
-def energies(s, y, dt: float) -> np.ndarray:
-    """Energy of each pole's least-squares component in the record (step 2 of the module docstring).
+FALSE_ALARM = 0.01      # α of the detection test (step 3)
 
-    Columns e^{σt}cos(ωd t), e^{σt}sin(ωd t) per pole and a constant; the fitted component of pole j is
-    Vⱼ cⱼ and its energy ‖Vⱼ cⱼ‖².
-    """
+
+def energies(s, y, dt: float) -> np.ndarray:
+    """Energy of each pole's least-squares component in the record (step 2 of the module docstring)."""
+    return _least_squares_components(s, y, dt)[0]
+
+
+def detected(s, y, dt: float, alpha: float = FALSE_ALARM) -> tuple[np.ndarray, np.ndarray]:
+    """Energies of the poles ``s`` in the record and whether each stands out of the noise (step 3)."""
+    e, sigma2 = _least_squares_components(s, y, dt)
+    threshold = 2.0 * np.log(np.size(y) / (2.0 * alpha))
+    return e, (e > 0) & (e > threshold * sigma2)
+
+
+def _least_squares_components(s, y, dt: float) -> tuple[np.ndarray, float]:
+    """Columns e^{σt}cos(ωd t), e^{σt}sin(ωd t) per pole and a constant, fitted by least squares: the
+    energy ‖Vⱼ cⱼ‖² of each pole's component, and the residual variance RSS/(N − p)."""
     s = np.asarray(s, dtype=complex)
     y = np.asarray(y, dtype=float)
     if s.size == 0:
-        return np.zeros(0)
+        return np.zeros(0), float(np.var(y))
     t = np.arange(y.size) * dt
     env = np.exp(np.outer(t, s.real))
     cols = [np.ones((y.size, 1)), env * np.cos(np.outer(t, s.imag)), env * np.sin(np.outer(t, s.imag))]
@@ -109,7 +126,8 @@ def energies(s, y, dt: float) -> np.ndarray:
     coef = scipy.linalg.lstsq(V, y, lapack_driver="gelsd")[0]
     k = s.size
     comp = V[:, 1:1 + k] * coef[1:1 + k] + V[:, 1 + k:] * coef[1 + k:]
-    return np.sum(comp**2, axis=0)
+    rss = float(np.sum((y - V @ coef) ** 2))
+    return np.sum(comp**2, axis=0), rss / max(y.size - V.shape[1], 1)
 
 
 def pick_modes(s, y, dt: float, prior, *, band: float = 0.5, damping_bounds=(-0.02, 0.2)) -> Picked:
@@ -136,7 +154,9 @@ def pick_modes(s, y, dt: float, prior, *, band: float = 0.5, damping_bounds=(-0.
     freq, zeta, energy = np.full(m, np.nan), np.full(m, np.nan), np.full(m, np.nan)
     found = np.zeros(m, dtype=bool)
     if cand.size:
-        e = energies(cand, y, dt)
+        e, real = detected(cand, y, dt)
+        cand, e = cand[real], e[real]
+    if cand.size:
         w = np.abs(cand)
         dist = np.abs(np.log(w)[:, None] - np.log(prior)[None, :])      # candidates × prior
         limit = np.log1p(band)
@@ -181,7 +201,7 @@ def to_estimate(s, y, dt: float, prior, *, band: float, min_damping: float, max_
                     message=picked.message, extra=estimate_extra(picked, order=int(order), **extra))
 
 
-def check_common(opts, n_samples: int) -> None:
+def check_common(opts) -> None:
     """Validate the options every peer shares; ``ValueError`` naming the bad value."""
     if not opts.band > 0:
         raise ValueError(f"band = {opts.band} must be positive (relative search band around each prior)")

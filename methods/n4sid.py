@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, make_options
+from methods.estimate import check_inputs, failed, flat_record, make_options
 from methods.modal_poles import check_common, continuous_poles, order_rule, to_estimate
 
 
@@ -30,13 +30,21 @@ class Options:
     max_damping: float = 0.2
 
 
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods`: every check that needs no record, before any work."""
+    opts = make_options(Options, options, "n4sid")
+    check_common(opts)
+    if not 0 < opts.rows_fraction < 0.5:
+        raise ValueError(f"rows_fraction = {opts.rows_fraction} must be in (0, 0.5)")
+    return opts
+
+
 def identify(y, dt, prior, **options):
     """Frequencies of the m most energetic physical poles of an N4SID model of the record."""
     y, dt, prior = check_inputs(y, dt, prior)
-    opts = make_options(Options, options, "n4sid")
-    check_common(opts, y.size)
-    if not 0 < opts.rows_fraction < 0.5:
-        raise ValueError(f"rows_fraction = {opts.rows_fraction} must be in (0, 0.5)")
+    opts = check_options(prior, dt, **options)
+    if why := flat_record(y):
+        return failed(prior, why, converged_per_mode=[False] * prior.size)
     import pandas as pd  # nfoursid takes a DataFrame
     from nfoursid.nfoursid import NFourSID  # optional extra (.[peers])
 

@@ -149,7 +149,7 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         if not fit["loss"] < best["loss"]:
             break
         best = fit
-    return _estimate(best, fits, prior, free)
+    return _estimate(best, fits, prior, free, n, dt)
 
 
 def _repaired_start(best: dict, free, prior: np.ndarray, opts: Options):
@@ -206,6 +206,14 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
 
 
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods` (validated without a record, before any work). Issue 9:
+    keep this function (or its equivalent) when rewriting the module; ``identify`` runs the same checks."""
+    opts = make_options(Options, options, "pem")
+    _check_options(opts, np.atleast_1d(np.asarray(prior, dtype=float)))
+    return opts
+
+
 def _free_mask(m: int, opts: Options) -> tuple[bool, ...]:
     """Which entries of θ = [ω, ζ, x₀, b] the search estimates."""
     return tuple([True] * m + [opts.estimate_damping] * m + [True] * (2 * m) + [opts.bias == "estimate"])
@@ -231,7 +239,19 @@ def _starts(y, dt, prior, opts: Options):
     return starts[:opts.n_starts]
 
 
-def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free) -> Estimate:
+def detection_std(n: int, dt: float, alpha: float = 0.01) -> float:
+    """The largest std(ω) of a mode the record detects, at false-alarm rate ``alpha``.
+
+    A sinusoid of energy E in white noise σ over N samples has std(ω) ≈ √(6σ²/E)/(N·Δt) (its Fisher
+    information; damping only raises it). Pure noise exceeds E/σ² = 2 ln(N/2α) with probability α (the
+    largest of N/2 χ²₂ projections, the rule of the fft's peak test and methods.modal_poles), so a mode whose
+    std is above √(3/ln(N/2α))/(N·Δt) — about a tenth of the Fourier resolution 2π/(NΔt) — is not told
+    apart from noise.
+    """
+    return float(np.sqrt(3.0 / np.log(n / (2.0 * alpha))) / (n * dt))
+
+
+def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float) -> Estimate:
     """The winning fit as an Estimate, its modes labelled with the prior entries (:func:`_label_modes`)."""
     m = prior.size
     w, w_std, z, z_std = _mode_table(best, free, m)
@@ -250,9 +270,12 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free) -> Estimate
     # a tolerance, even if the lowest-loss one ran into the iteration limit.
     converged = bool(best["converged"] or agree_converged)
     # per mode: the search stopped on a tolerance and the record locates the mode (a finite, non-zero std
-    # within 10 % of ω); no located mode — an all-zero or constant record — is no answer at all
-    per_mode = converged & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
+    # within 10 % of ω) and detects it (below); no such mode — an all-zero, constant or pure-noise record
+    # — is no answer at all
+    per_mode = (converged & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
+                & (std <= detection_std(n, dt)))
     converged = converged and bool(per_mode.any())
+    std = np.where(np.isfinite(std), std, np.nan)   # a column the record does not move: no std, not inf
     extra = {
         "converged_per_mode": per_mode,
         "damping": damp, "damping_std": damp_std, "identified": identified,

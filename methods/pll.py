@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.signal
 
-from methods.estimate import Estimate, check_inputs, failed, make_options
+from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
 from methods.pll_design import (
     VCO_LOWPASS_TIMES_OMEGA_L,
     LoopParameters,
@@ -119,21 +119,13 @@ def identify(y, dt, prior, **options) -> Estimate:
     """
     y, dt, prior = check_inputs(y, dt, prior)
     opts = make_options(Options, options, "pll")
-    loops = _loop_parameters(opts, prior, dt)
-    centres = prior if opts.filter_centre_rad_s is None else _per_loop(
-        opts.filter_centre_rad_s, prior.size, "filter_centre_rad_s")
-    if opts.filter_bandwidth_rad_s is not None:
-        bandwidths = _per_loop(opts.filter_bandwidth_rad_s, prior.size, "filter_bandwidth_rad_s")
-    elif opts.input_filter:
-        bandwidths = default_filter_bandwidth(centres, dt)
-    else:
-        bandwidths = np.full(prior.size, np.nan)
+    loops, centres, bandwidths = _design(opts, prior, dt)
+    flat = flat_record(y)
+    if flat:
+        return failed(prior, flat, iterations=y.size)
     n = y.size
     if opts.remove_mean:
         y = y - y.mean()
-    scale = float(np.max(np.abs(y)))
-    if scale == 0.0:
-        return failed(prior, "the record is identically zero: nothing to lock onto", iterations=n)
 
     window = _window_samples(opts, n, dt)
     history = np.empty((n, prior.size))
@@ -156,7 +148,33 @@ def identify(y, dt, prior, **options) -> Estimate:
     return est
 
 
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods` (validated without a record, before any work): the loops
+    and input filters are designed, as :func:`identify` designs them."""
+    opts = make_options(Options, options, "pll")
+    _design(opts, prior, dt)
+    return opts
+
+
 # --------------------------------------------------------------------------------------------------------
+
+def _design(opts: Options, prior: np.ndarray, dt: float):
+    """Each loop's parameters, input-filter centres and bandwidths (NaN without input filters); raises
+    ``ValueError`` naming an impossible option."""
+    loops = _loop_parameters(opts, prior, dt)
+    centres = prior if opts.filter_centre_rad_s is None else _per_loop(
+        opts.filter_centre_rad_s, prior.size, "filter_centre_rad_s")
+    if opts.filter_bandwidth_rad_s is not None:
+        bandwidths = _per_loop(opts.filter_bandwidth_rad_s, prior.size, "filter_bandwidth_rad_s")
+    elif opts.input_filter:
+        bandwidths = default_filter_bandwidth(centres, dt)
+    else:
+        bandwidths = np.full(prior.size, np.nan)
+    if opts.input_filter:       # a band that does not fit below Nyquist, a bad order or ripple
+        for j in range(prior.size):
+            input_filter_sos(centres[j], bandwidths[j], dt, opts.filter_order, opts.filter_ripple_db)
+    return loops, centres, bandwidths
+
 
 def _per_loop(values, m: int, name: str) -> np.ndarray:
     v = np.asarray(values, dtype=float).reshape(-1)

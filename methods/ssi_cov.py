@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, make_options
+from methods.estimate import check_inputs, failed, flat_record, make_options
 from methods.modal_poles import check_common, continuous_poles, order_rule, to_estimate
 
 
@@ -33,13 +33,26 @@ class Options:
     max_damping: float = 0.2
 
 
+def check_strid_options(options_cls, options: dict, method: str):
+    """The options check of ``ssi_cov`` and ``ssi_data`` (no record needed)."""
+    opts = make_options(options_cls, options, method)
+    check_common(opts)
+    if not 0 < opts.rows_fraction < 0.5:
+        raise ValueError(f"rows_fraction = {opts.rows_fraction} must be in (0, 0.5)")
+    return opts
+
+
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods` (no record needed)."""
+    return check_strid_options(Options, options, "ssi_cov")
+
+
 def run_strid(kind: str, y, dt, prior, options, method: str, options_cls):
     """Shared by ``ssi_cov`` and ``ssi_data``: fit strid's ``kind`` SSI and pick the modes."""
     y, dt, prior = check_inputs(y, dt, prior)
-    opts = make_options(options_cls, options, method)
-    check_common(opts, y.size)
-    if not 0 < opts.rows_fraction < 0.5:
-        raise ValueError(f"rows_fraction = {opts.rows_fraction} must be in (0, 0.5)")
+    opts = check_strid_options(options_cls, options, method)
+    if why := flat_record(y):
+        return failed(prior, why, converged_per_mode=[False] * prior.size)
     import strid  # optional extra (.[peers])
 
     order = opts.order if opts.order is not None else order_rule(prior.size, opts.extra_order)

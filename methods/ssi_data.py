@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from methods.ssi_cov import run_strid
+from methods.ssi_cov import check_strid_options, run_strid
 
 
 @dataclass
@@ -21,6 +21,11 @@ class Options:
     band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
     min_damping: float = -0.02       # mode picker: accepted damping ratios
     max_damping: float = 0.2
+
+
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods` (no record needed)."""
+    return check_strid_options(Options, options, "ssi_data")
 
 
 def identify(y, dt, prior, **options):

@@ -16,7 +16,7 @@ from scipy.signal import cont2discrete
 
 from methods import akf
 from methods._modal_filter import Weighting, run_filter, settings_from
-from methods.estimate import Estimate, check_inputs, make_options
+from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
 
 
 @dataclass
@@ -79,6 +79,16 @@ def identify(y, dt, prior, **options) -> Estimate:
         As :func:`methods.akf.identify`: last frequency states, their filter std, the per-sample history.
     """
     y, dt, prior = check_inputs(y, dt, prior)
+    opts = check_options(prior, dt, **options)
+    flat = flat_record(y)
+    if flat:
+        return failed(prior, flat)
+    wf = weighting_filter(opts.weight_gain, opts.weight_omega0_rad_s, opts.weight_damping, dt)
+    return run_filter(y, dt, prior, settings_from(opts, prior, "wkf", weighting=wf, r_f=float(opts.r_f)))
+
+
+def check_options(prior, dt, **options) -> Options:
+    """The options contract of :mod:`methods` (validated without a record, before any work)."""
     opts = make_options(Options, options, "wkf")
     for name in ("weight_gain", "weight_omega0_rad_s", "weight_damping"):
         val = getattr(opts, name)
@@ -86,5 +96,5 @@ def identify(y, dt, prior, **options) -> Estimate:
             raise ValueError(f"wkf: {name} = {val} must be a positive number")
     if not (np.isfinite(opts.r_f) and opts.r_f >= 0):
         raise ValueError(f"wkf: r_f = {opts.r_f} must be a non-negative number")
-    wf = weighting_filter(opts.weight_gain, opts.weight_omega0_rad_s, opts.weight_damping, dt)
-    return run_filter(y, dt, prior, settings_from(opts, prior, "wkf", weighting=wf, r_f=float(opts.r_f)))
+    settings_from(opts, prior, "wkf")
+    return opts

@@ -71,13 +71,26 @@ def scenario_of(cell) -> dict:
 
 
 def check(cfg) -> None:
-    """Everything that can be known wrong before any work: data readable, prior sensible."""
+    """Everything that can be known wrong before any work: data readable, every record and the prior
+    sensible, the method's options possible (``methods.check_options``, the contract of methods/__init__.py)."""
     data = load_data(cfg)
-    for prior in np.unique(priors_of(cfg, data), axis=0):
+    priors = priors_of(cfg, data)
+    for prior in np.unique(priors, axis=0):
         if data["truth"] is not None and prior.size != data["truth"]["truth_freq_rad_s"].size:
             raise ValueError(f"prior {prior.tolist()} has {prior.size} entries; the dataset has "
                              f"{data['truth']['truth_freq_rad_s'].size} modes")
-        methods.check_inputs(data["y"][0], data["dt"], prior)   # prior > 0, below Nyquist, record ≥ 8
+    for r, rec in enumerate(data["y"]):   # samples finite and physical, prior > 0, increasing, below Nyquist
+        try:
+            methods.check_inputs(rec, data["dt"], priors[r])
+        except ValueError as exc:
+            raise ValueError(f"{data['source']}: {exc}" if r == 0 else
+                             f"{data['source']}, replicate {r}: {exc}") from None
+    methods.check_options(cfg.method.name, priors[0], data["dt"],
+                          OmegaConf.to_container(cfg.method.options, resolve=True))
+
+
+# A single record this long gets an info line (the progress bar counts records, and there is one).
+LONG_RECORD_SAMPLES = 100_000
 
 
 def run_records(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict, progress: bool):
@@ -86,7 +99,11 @@ def run_records(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options:
     identify = methods.get(name)
     priors = np.broadcast_to(np.asarray(prior, dtype=float), (len(y), np.shape(prior)[-1]))
     out = []
-    bar = _progress(len(y), name, progress)
+    bar = None
+    long_single = progress and len(y) == 1 and y.shape[1] >= LONG_RECORD_SAMPLES
+    if long_single:
+        print(f"info: {name} on one record of {y.shape[1]} samples ({y.shape[1] * dt:.6g} s)...",
+              file=sys.stderr, flush=True)
     for r, rec in enumerate(y):
         prior = priors[r]
         t0 = time.perf_counter()
@@ -99,8 +116,13 @@ def run_records(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options:
         except Exception as exc:  # noqa: BLE001 - a method bug must not stop the grid; it is recorded
             est = methods.failed(prior, f"{type(exc).__name__}: {exc}")
         out.append((est, time.perf_counter() - t0))
+        if bar is None:            # after the first record: no bar fragment before a bad-input error
+            bar = _progress(len(y), name, progress)
         bar.update(1)
-    bar.close()
+    if bar is not None:
+        bar.close()
+    if long_single:
+        print(f"info: {name} done in {out[0][1]:.3g} s", file=sys.stderr, flush=True)
     return out
 
 
@@ -167,12 +189,15 @@ def rows_to_csv(rows: list[dict]) -> str:
 
 
 def report_measurement(name: str, prior, est, run_dir: Path) -> None:
+    per_mode = est.extra.get("converged_per_mode", [est.converged] * len(prior))
     for i, (w, s) in enumerate(zip(est.frequencies, est.std, strict=True)):
-        print(f"mode {i + 1}: {w:.6g} rad/s ± {s:.3g} (prior {prior[i]:g})")
+        note = "" if per_mode[i] else " — not determined by the record"
+        print(f"mode {i + 1}: {w:.6g} rad/s ± {s:.3g} (prior {prior[i]:g}){note}")
     print(f"converged: {est.converged} ({est.message})")
     path = write_json(run_dir / "estimate.json", {
         "method": name, "frequencies_rad_s": est.frequencies, "std_rad_s": est.std,
-        "converged": bool(est.converged), "message": est.message, "prior_rad_s": prior})
+        "converged": bool(est.converged), "converged_per_mode": [bool(c) for c in per_mode],
+        "message": est.message, "prior_rad_s": prior})
     print(f"wrote {path}")
 
 

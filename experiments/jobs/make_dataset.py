@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 from omegaconf import OmegaConf
 
 from experiments.jobs.app import run_app
@@ -16,8 +17,30 @@ def to_config(cfg) -> DatasetConfig:
     return OmegaConf.to_object(cfg)
 
 
+# Largest cell accepted, bytes of float64 held at once: the R noisy records plus about 64 working columns of
+# N samples (the clean response, the Cramér–Rao bound's N × 17 Jacobian and its SVD). 2 GiB leaves room for
+# the job on a small machine; the full grid's largest cell (R = 100, N = 2048) needs 2.7 MB.
+MAX_CELL_BYTES = 2 * 2**30
+
+
+def cell_bytes(replicates: int, n_samples: int) -> int:
+    """Memory a cell of ``replicates`` × ``n_samples`` needs while it is simulated (see MAX_CELL_BYTES)."""
+    return 8 * int(n_samples) * (int(replicates) + 64)
+
+
 def check(cfg) -> None:
-    check_dataset_config(to_config(cfg))
+    """Impossible or unaffordable cells, each in one line, before any work."""
+    c = to_config(cfg)
+    for name in ("noise_ug", "dt_s", "bias_m_s2"):
+        value = getattr(c, name)
+        if not np.isfinite(value):
+            raise ValueError(f"{name} = {value} must be a finite number")
+    check_dataset_config(c)
+    need = cell_bytes(c.replicates, c.n_samples)
+    if need > MAX_CELL_BYTES:
+        raise ValueError(f"replicates × n_samples = {c.replicates} × {c.n_samples} needs {need / 2**30:.3g} GiB "
+                         f"of memory, above the limit of {MAX_CELL_BYTES / 2**30:g} GiB per cell "
+                         f"(experiments/jobs/make_dataset.py): ask for fewer replicates or shorter records")
 
 
 def task(cfg) -> None:

@@ -23,6 +23,8 @@ def workdir(tmp_path_factory):
     write_cell(DatasetConfig(noise_ug=1000, n_samples=64, replicates=2, seed=5, out=str(d / "cell.npz")))
     t = np.arange(256) * 0.02
     (d / "ok.csv").write_text("t,accel\n" + "".join(f"{x:.2f},{np.cos(3 * x):.6f}\n" for x in t))
+    (d / "huge.csv").write_text("t,accel\n" + "".join(f"{0.02 * k:.2f},{1e300 if k == 5 else 0.1 * k}\n"
+                                                      for k in range(16)))
     (d / "bad.csv").write_text("t,accel\n0,1\n0.02,2\n0.04,oops\n" + "".join(f"{0.06 + 0.02 * k:.2f},1\n"
                                                                           for k in range(8)))
     return d
@@ -47,6 +49,18 @@ def assert_one_line_error(proc, *fragments):
     (["method=fft", "data.dataset=cell.npz", "prior=[3.8,16,26,460]"], ["460", "Nyquist"]),
     (["method=fft", "data.path=bad.csv"], ["row 3", "oops"]),
     (["method=fft", "data.path=missing.csv"], ["missing.csv", "does not exist"]),
+    (["method=fft", "data.dataset=cell.npz", "prior=[19,19,23,55]"], ["prior[1] = 19", "increasing"]),
+    (["method=fft", "data.path=huge.csv", "prior=[2.5]"], ["row 6", "1e+300", "not a physical acceleration"]),
+    # option errors of every method: one line, before the first replicate (no progress-bar fragment)
+    (["method=pem", "data.dataset=cell.npz", "method.options.n_starts=0"], ["n_starts = 0"]),
+    (["method=pem", "data.dataset=cell.npz", "method.options.predictor=bogus"], ["predictor = 'bogus'"]),
+    (["method=pem", "data.dataset=cell.npz", "method.options.damping_bounds=[0.5,-0.5]"], ["damping_bounds"]),
+    (["method=pem", "data.dataset=cell.npz", "method.options.predictor=kalman", "method.options.tip_mode_shape=[1,2]"],
+     ["tip_mode_shape has 2 entries"]),
+    (["method=fft", "data.dataset=cell.npz", "method.options.window=bogus"], ["window = 'bogus'"]),
+    (["method=akf", "data.dataset=cell.npz", "method.options.measurement=velocity"], ["measurement", "velocity"]),
+    (["method=wkf", "data.dataset=cell.npz", "method.options.weight_gain=-1"], ["weight_gain = -1"]),
+    (["method=pll", "data.dataset=cell.npz", "method.options.filter_order=0"], ["filter order 0"]),
 ])
 def test_identify_rejects_bad_input_with_one_line(workdir, args, fragments):
     before = set(workdir.rglob("*"))
@@ -60,6 +74,8 @@ def test_identify_rejects_bad_input_with_one_line(workdir, args, fragments):
     (["noise_ug=-3"], ["noise_ug = -3.0"]),
     (["n_samples=7"], ["n_samples = 7 is too short"]),
     (["n_samples=ten"], ["n_samples", "ten"]),
+    (["noise_ug=inf"], ["noise_ug = inf must be a finite number"]),
+    (["replicates=1000000000"], ["replicates × n_samples = 1000000000 × 256", "GiB"]),
 ])
 def test_make_dataset_rejects_bad_input_with_one_line(workdir, args, fragments):
     proc = run("experiments.jobs.make_dataset", *args, "out=new.npz", cwd=workdir)
@@ -77,3 +93,17 @@ def test_identify_on_a_users_csv_writes_estimate_json(workdir):
     assert est["frequencies_rad_s"][0] == pytest.approx(3.0, rel=0.01)
     assert set(est) >= {"method", "frequencies_rad_s", "std_rad_s", "converged"}
     assert "mode 1:" in proc.stdout
+
+
+def test_a_long_single_record_says_what_it_is_doing(workdir):
+    """10⁵ samples through fft: an info line before and after (the progress bar counts records, and there is
+    one), and the answer."""
+    t = np.arange(100_000) * 0.02
+    y = np.cos(3.0 * t) + 0.1 * np.random.default_rng(6).standard_normal(t.size)
+    (workdir / "long.csv").write_text("t,accel\n" + "".join(f"{a:.2f},{b:.6f}\n" for a, b in zip(t, y, strict=True)))
+    proc = run("experiments.jobs.identify", "method=fft", "data.path=long.csv", "prior=[2.5]", "hydra.run.dir=long",
+               cwd=workdir)
+    assert proc.returncode == 0, proc.stderr
+    info = [ln for ln in proc.stderr.splitlines() if ln.startswith("info: ")]
+    assert len(info) == 2 and "100000 samples" in info[0] and "done in" in info[1], proc.stderr
+    assert "mode 1: 3 rad/s" in proc.stdout

@@ -32,3 +32,20 @@ def test_reads_uniform_record(tmp_path):
 def test_bad_csv_names_the_row(tmp_path, text, message):
     with pytest.raises(ValueError, match=message):
         load_csv(write(tmp_path, text))
+
+
+def test_fast_reader_gives_the_float_nearest_each_decimal(tmp_path):
+    """The numeric fast path must read every value exactly as float() reads its text."""
+    import numpy as np
+
+    rng = np.random.default_rng(2)
+    values = (rng.standard_normal(5000) * 10.0 ** rng.integers(-9, 5, 5000)).tolist()
+    text = "t,accel\n" + "".join(f"{0.02 * k:.2f},{v!r}\n" for k, v in enumerate(values))
+    accel, dt = load_csv(write(tmp_path, text))
+    assert accel.tolist() == values
+    assert dt == pytest.approx(0.02)
+
+
+def test_non_physical_acceleration_names_the_row(tmp_path):
+    with pytest.raises(ValueError, match=r"row 4: accel = 1e\+300 m/s² is not a physical acceleration"):
+        load_csv(write(tmp_path, "t,accel\n" + rows(3) + "0.06,1e300\n" + rows(6, start=4)))
