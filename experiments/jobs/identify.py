@@ -28,6 +28,7 @@ from experiments.io import CHECKSUM_KEY, atomic_write_text, read_npz, write_json
 from experiments.jobs.app import fail, run_app
 from experiments.jobs.config import methods_named_on, register, variant_label
 from experiments.report.scoring import COLUMNS, replicate_rows
+from experiments.simulate.scenarios import AXES, result_columns
 
 
 def load_data(cfg) -> dict:
@@ -48,7 +49,9 @@ def load_data(cfg) -> dict:
         if d.replicates < 1:
             raise ValueError(f"data.replicates = {d.replicates} must be at least 1")
         y = y[: d.replicates]
-    return {"y": y, "dt": float(cell["dt_s"]), "truth": cell, "source": str(d.dataset)}
+    # a cell with a prior-error axis carries the harness's prior per replicate (never the truth)
+    priors = cell["prior_rad_s"][: len(y)] if "prior_rad_s" in cell else None
+    return {"y": y, "dt": float(cell["dt_s"]), "truth": cell, "source": str(d.dataset), "priors": priors}
 
 
 def prior_of(cfg) -> np.ndarray:
@@ -56,21 +59,37 @@ def prior_of(cfg) -> np.ndarray:
     return np.asarray(list(prior), dtype=float)
 
 
+def priors_of(cfg, data: dict) -> np.ndarray:
+    """One prior per record (R × m): the command line's ``prior`` if given, else the cell's harness prior
+    (a prior-error scenario), else the method config's prior."""
+    if cfg.prior is None and data.get("priors") is not None:
+        return np.asarray(data["priors"], dtype=float)
+    return np.tile(prior_of(cfg), (len(data["y"]), 1))
+
+
+def scenario_of(cell) -> dict:
+    """The cell's scenario axis values ({} for a plain noise × length cell)."""
+    if cell is None or "scenario_json" not in cell:
+        return {}
+    return json.loads(str(cell["scenario_json"]))
+
+
 def check(cfg) -> None:
     """Everything that can be known wrong before any work: data readable, every record and the prior
     sensible, the method's options possible (``methods.check_options``, the contract of methods/__init__.py)."""
     data = load_data(cfg)
-    prior = prior_of(cfg)
-    if data["truth"] is not None and prior.size != data["truth"]["truth_freq_rad_s"].size:
-        raise ValueError(f"prior {prior.tolist()} has {prior.size} entries; the dataset has "
-                         f"{data['truth']['truth_freq_rad_s'].size} modes")
+    priors = priors_of(cfg, data)
+    for prior in np.unique(priors, axis=0):
+        if data["truth"] is not None and prior.size != data["truth"]["truth_freq_rad_s"].size:
+            raise ValueError(f"prior {prior.tolist()} has {prior.size} entries; the dataset has "
+                             f"{data['truth']['truth_freq_rad_s'].size} modes")
     for r, rec in enumerate(data["y"]):   # samples finite and physical, prior > 0, increasing, below Nyquist
         try:
-            methods.check_inputs(rec, data["dt"], prior)
+            methods.check_inputs(rec, data["dt"], priors[r])
         except ValueError as exc:
             raise ValueError(f"{data['source']}: {exc}" if r == 0 else
                              f"{data['source']}, replicate {r}: {exc}") from None
-    methods.check_options(cfg.method.name, prior, data["dt"],
+    methods.check_options(cfg.method.name, priors[0], data["dt"],
                           OmegaConf.to_container(cfg.method.options, resolve=True))
 
 
@@ -79,11 +98,10 @@ LONG_RECORD_SAMPLES = 100_000
 
 
 def run_records(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict, progress: bool):
-    """Identify every record; an exception on one record marks it failed and the job goes on.
-
-    The options were checked before (``check``); a ValueError that still comes from the first record is
-    bad input and stops the job before anything is written."""
+    """Identify every record (``prior``: one for all, or one row per record); an exception on one record
+    marks it failed and the job goes on."""
     identify = methods.get(name)
+    priors = np.broadcast_to(np.asarray(prior, dtype=float), (len(y), np.shape(prior)[-1]))
     out = []
     bar = None
     long_single = progress and len(y) == 1 and y.shape[1] >= LONG_RECORD_SAMPLES
@@ -91,6 +109,7 @@ def run_records(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options:
         print(f"info: {name} on one record of {y.shape[1]} samples ({y.shape[1] * dt:.6g} s)...",
               file=sys.stderr, flush=True)
     for r, rec in enumerate(y):
+        prior = priors[r]
         t0 = time.perf_counter()
         try:
             est = identify(rec, dt, prior, **options)
@@ -121,24 +140,27 @@ def _progress(total: int, name: str, enabled: bool):
 def task(cfg) -> float | None:
     """Identify every record; in a sweep (``-m``) or when tracking, return the cell's objective."""
     data = load_data(cfg)
-    prior = prior_of(cfg)
+    priors = priors_of(cfg, data)
     name = cfg.method.name
     label = variant_label(name, cfg.method.variant)
     options = OmegaConf.to_container(cfg.method.options, resolve=True)
-    results = run_records(name, data["y"], data["dt"], prior, options, cfg.progress)
+    results = run_records(name, data["y"], data["dt"], priors, options, cfg.progress)
     run_dir = Path(HydraConfig.get().runtime.output_dir)
     record = job_record(cfg, data)
     if data["truth"] is None:
-        path = report_measurement(name, prior, results[0][0], run_dir)
+        path = report_measurement(name, priors[0], results[0][0], run_dir)
         if cfg.tracking.enabled:
             log_measurement(record, results[0][0], path)
         return
     cell = data["truth"]
+    scenario = scenario_of(cell)
     rows = []
     for r, (est, runtime) in enumerate(results):
-        rows += replicate_rows(label, float(cell["noise_ug"]), int(cell["t_s"].size), r, prior,
+        rows += replicate_rows(label, float(cell["noise_ug"]), int(cell["t_s"].size), r, priors[r],
                                cell["truth_freq_rad_s"], cell["crlb_std_rad_s"],
                                cell["crlb_offset_std_rad_s"], est, runtime)
+    for row in rows:              # the cell's scenario axes, as columns after the standard ones
+        row.update(result_columns(scenario, row["mode"]))
     out = Path(cfg.out) if cfg.out else run_dir / "results.csv"
     atomic_write_text(out, rows_to_csv(rows))
     record_path = write_json(out.with_suffix(".json"), record)
@@ -169,7 +191,8 @@ def rows_to_csv(rows: list[dict]) -> str:
     import io
 
     buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=COLUMNS, lineterminator="\n")
+    extra = [a for a in AXES if rows and a in rows[0]]
+    writer = csv.DictWriter(buf, fieldnames=COLUMNS + extra, lineterminator="\n")
     writer.writeheader()
     writer.writerows(rows)
     return buf.getvalue()
@@ -203,7 +226,8 @@ def job_record(cfg, data) -> dict:
         dataset = {"name": Path(data["source"]).stem, "path": data["source"], "kind": "cell",
                    "digest": str(cell[CHECKSUM_KEY]),
                    "settings": {"noise_ug": float(cell["noise_ug"]), "n_samples": int(cell["t_s"].size),
-                                "seed": int(cell["seed"]), "dt_s": float(cell["dt_s"])}}
+                                "seed": int(cell["seed"]), "dt_s": float(cell["dt_s"]),
+                                **{f"scenario.{k}": v for k, v in scenario_of(cell).items()}}}
     return {
         "grid": cfg.grid_name,
         "method": variant_label(cfg.method.name, cfg.method.variant),

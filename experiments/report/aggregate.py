@@ -23,7 +23,7 @@ import yaml
 from experiments.io import atomic_write_text, markdown_table, write_table
 from experiments.report import catalog, htmltables, pareto, plots, variants
 from experiments.report.coverage import coverage_table, honesty_lines
-from experiments.report.summary import summarize
+from experiments.report.summary import cell_keys, summarize
 
 # experiments/configs is configs/ (a link in the repository, package data in a wheel)
 PRINTED = Path(__file__).resolve().parents[1] / "configs" / "paper" / "printed.yaml"
@@ -118,7 +118,7 @@ def headline(summary: pd.DataFrame) -> str:
     ident = summary[summary["identifiable"] & (summary["failure_rate"] <= 0.1)].dropna(subset=["rmse_rad_s"])
     lines = []
     for mode, g in ident.groupby("mode"):
-        best = g.loc[g.groupby(["noise_ug", "n_samples"])["rmse_rad_s"].idxmin()]
+        best = g.loc[g.groupby(cell_keys(g), dropna=False)["rmse_rad_s"].idxmin()]
         counts = best["method"].value_counts()
         parts = [f"{m} wins {c} of {len(best)} identifiable cells (median RMSE/CRLB "
                  f"{best[best['method'] == m]['rmse_over_crlb'].median():.2f})" for m, c in counts.items()]
@@ -164,13 +164,23 @@ def main(argv=None) -> int:
     for d in args.experiments:
         files.append(experiment_tables(d, tables / f"{d.name}.html"))
 
-    files += plots.rmse_against(summary, figs / "rmse_vs_noise", x="noise_ug", fixed="n_samples",
-                                fixed_value=longest)
-    files += plots.rmse_against(summary, figs / "rmse_vs_length", x="n_samples", fixed="noise_ug",
-                                fixed_value=noise_ref)
-    files += plots.winner_map(summary, figs / "winner_map")
-    files += plots.failure_map(summary, figs / "failure_map")
+    # the noise x length figures show the plain cells (no scenario axis), if the grid has any
+    scenario_cols = cell_keys(summary)[2:]
+    plain = summary[summary[scenario_cols].isna().all(axis=1)] if scenario_cols else summary
+    if not plain.empty:
+        files += plots.rmse_against(plain, figs / "rmse_vs_noise", x="noise_ug", fixed="n_samples",
+                                    fixed_value=longest)
+        files += plots.rmse_against(plain, figs / "rmse_vs_length", x="n_samples", fixed="noise_ug",
+                                    fixed_value=noise_ref)
+        files += plots.winner_map(plain, figs / "winner_map")
+        files += plots.failure_map(plain, figs / "failure_map")
     files += plots.coverage(summary, cov, figs / "coverage")
+    scenario_text = ""
+    if scenario_cols:                      # per-axis figures and the basin of attraction
+        from experiments.report import axes
+
+        axis_files, scenario_text = axes.figures(summary, results, out)
+        files += axis_files
     classes = pareto.class_table(summary)
     files += write_table(classes, tables / "cell_classes")
     files += pareto.figure(classes, figs / "pareto")
@@ -183,7 +193,8 @@ def main(argv=None) -> int:
 
     files += html_twins(tables, args.grid, files)
     files += write_captions(figs, "png", context) + write_captions(tables, "html", context)
-    text = (page(args.grid, summary, cov, out, context, classes) + experiments_section(args.experiments, out))
+    text = (page(args.grid, summary, cov, out, context, classes) + scenario_text
+            + experiments_section(args.experiments, out))
     page_path = args.page or out / "README.md"
     atomic_write_text(page_path, text)
     print(f"wrote {page_path} and {len(files)} tables/figures/captions")

@@ -74,7 +74,10 @@ def method_coverage(results: pd.DataFrame, cells: pd.DataFrame | None = None) ->
     """
     res = results
     if cells is not None:
-        res = res.merge(cells[["method", "noise_ug", "n_samples", "mode"]].drop_duplicates(), how="inner")
+        from experiments.simulate.scenarios import AXES  # scenario cells are told apart by their axes
+
+        keys = ["method", "noise_ug", "n_samples", *[a for a in AXES if a in cells and a in res], "mode"]
+        res = res.merge(cells[keys].drop_duplicates(), how="inner")
     ok = res[res["converged"].astype(bool)]
     rows = []
     for method in sorted(results["method"].unique()):

@@ -23,6 +23,13 @@ from experiments.report.coverage import coverage
 KEYS = ["method", "noise_ug", "n_samples", "mode"]
 
 
+def cell_keys(table: pd.DataFrame) -> list[str]:
+    """The columns that name a cell: noise, length and the scenario axes present in the table."""
+    from experiments.simulate.scenarios import AXES
+
+    return ["noise_ug", "n_samples", *[a for a in AXES if a in table.columns]]
+
+
 def _stats(g: pd.DataFrame) -> pd.Series:
     ok = g["converged"].to_numpy(bool) & np.isfinite(g["estimate_rad_s"].to_numpy(float))
     err = g["error_rad_s"].to_numpy(float)[ok]
@@ -48,13 +55,15 @@ def _stats(g: pd.DataFrame) -> pd.Series:
 
 
 def summarize(results: pd.DataFrame) -> pd.DataFrame:
-    """One row per (method, noise_ug, n_samples, mode), sorted."""
+    """One row per (method, noise_ug, n_samples, [scenario axes,] mode), sorted. A cell without an axis
+    that other cells of the table have keeps NaN there (``dropna=False``)."""
     if results.empty:
         return pd.DataFrame(columns=[*KEYS, "true_rad_s", "replicates", "failures", "failure_rate",
                                      "bias_rad_s", "std_rad_s", "rmse_rad_s", "crlb_std_rad_s", "crlb_offset_std_rad_s",
                                      "rmse_over_crlb", "rmse_over_crlb_offset", "identifiable",
                                      "median_runtime_s", *COVERAGE_COLUMNS])
-    out = (results.groupby(KEYS, sort=True)[results.columns.drop(KEYS)]
+    keys = ["method", *cell_keys(results), "mode"]
+    out = (results.groupby(keys, sort=True, dropna=False)[results.columns.drop(keys)]
            .apply(_stats).reset_index())
     return out
 

@@ -1,5 +1,6 @@
 # Grid configs (configs/grid/*.yaml), validated against configs/grid/schema.yaml on load, and the
-# helpers that turn a grid into file names.
+# helpers that turn a grid into file names. A grid's cells (noise x length x scenario axes) and their names
+# come from experiments/simulate/scenarios.py.
 import functools
 import glob
 import math
@@ -11,9 +12,12 @@ import jsonschema
 import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.settings.types import DeploymentMethod
+from snakemake.utils import validate
 
 import methods
 from experiments.jobs.config import method_of_config
+from experiments.simulate import scenarios as _scenarios
+from experiments.simulate.plant import PlantConfig
 from experiments.tracking import provenance
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
@@ -56,6 +60,32 @@ def _check_methods(path, grid):
             raise WorkflowError(f"error: {path}: {exc}") from None
 
 
+def _plant_config():
+    """The grids' base plant (configs/plant/paper.yaml), to check scenario cells against it."""
+    with open(os.path.join(workflow.basedir, "configs", "plant", "paper.yaml")) as f:
+        values = {k: v for k, v in yaml.safe_load(f).items() if k != "defaults"}
+    return PlantConfig(**values)
+
+
+def _method_options(config_name):
+    """The option names a method config sets (following its `defaults:` chain), without importing it."""
+    path = os.path.join(METHOD_CONFIGS, f"{config_name}.yaml")
+    if not os.path.exists(path):
+        return set()                      # an installed plugin without a config: its defaults
+    with open(path) as f:
+        cfg = yaml.safe_load(f) or {}
+    keys = set((cfg.get("options") or {}).keys())
+    for parent in cfg.get("defaults") or []:
+        if isinstance(parent, str) and parent != "_self_" and not parent.endswith("_schema"):
+            keys |= _method_options(parent)
+    return keys
+
+
+def _refuse(path, message):
+    """A bad grid: one line `error: ...` naming the file and the value, exit status 2, nothing run."""
+    raise WorkflowError(f"error: {os.path.relpath(path)}: {message}")
+
+
 GRID_DIR = os.path.join(workflow.basedir, "configs", "grid")
 # Grid names are the file names; a grid is read and validated only when a target asks for it, so one
 # malformed file never breaks the other grids.
@@ -82,12 +112,14 @@ def load_grid(name):
         raise WorkflowError(f"error: {path}: {key}: {exc.message}") from None
     except (OSError, ValueError, yaml.YAMLError) as exc:
         raise WorkflowError(f"error: {path}: {' '.join(str(exc).split())}") from None
-    for key, spec in SCHEMA["properties"].items():
-        if "default" in spec:
-            grid.setdefault(key, spec["default"])
+    validate(grid, os.path.join(GRID_DIR, "schema.yaml"), set_default=True)    # fills the schema's defaults
     if grid["name"] != name:
         raise WorkflowError(f"error: {path}: name: '{grid['name']}' must match the file name '{name}'")
     _check_methods(path, grid)
+    try:
+        grid["cells"] = _scenarios.check_grid(grid, _plant_config())
+    except ValueError as exc:
+        _refuse(path, str(exc))
     return grid
 
 
@@ -117,22 +149,23 @@ for _grid in _requested_grids():
 wildcard_constraints:
     grid="|".join(GRID_NAMES),
     method="[a-z0-9_]+",
-    noise=r"[0-9.e+-]+",
-    n=r"[0-9]+",
-
-
-def cell_name(noise, n):
-    return f"noise{noise:g}ug_n{n}"
+    cell=r"noise[A-Za-z0-9_.+-]+",
 
 
 def cells(grid):
-    g = load_grid(grid)
-    return [cell_name(noise, n) for noise in g["noise_ug"] for n in g["n_samples"]]
+    return list(load_grid(grid)["cells"])
+
+
+def runs_cell(grid, config_name, cell):
+    """Whether a method runs on a cell: a `measurement` cell only for methods with that option."""
+    measurement = load_grid(grid)["cells"][cell]["axes"].get("measurement")
+    return measurement is None or "measurement" in _method_options(config_name)
 
 
 def result_files(grid):
     g = load_grid(grid)
-    return [f"results/{grid}/identify/{method_config(m)}/{c}.csv" for m in g["methods"] for c in cells(grid)]
+    return [f"results/{grid}/identify/{method_config(m)}/{c}.csv" for m in g["methods"] for c in cells(grid)
+            if runs_cell(grid, method_config(m), c)]
 
 
 def provenance_files(grid):
@@ -147,10 +180,38 @@ def grid_targets(grid):
     return [f"results/{grid}/README.md", f"results/{grid}/mlflow_runs.json"]
 
 
+def dataset_args(wildcards):
+    """make_dataset's command-line overrides of one cell (the plain cells: exactly those of before)."""
+    g = load_grid(wildcards.grid)
+    cell = g["cells"][wildcards.cell]
+    axes = cell["axes"]
+    args = [f"noise_ug={cell['noise_ug']}", f"n_samples={cell['n_samples']}", f"replicates={g['replicates']}",
+            f"seed={g['seed']}", f"dt_s={axes.get('dt_s', g['dt_s'])}",
+            f"bias_m_s2={axes.get('bias_m_s2', g['bias_m_s2'])}"]
+    for axis, value in axes.items():
+        if axis not in ("dt_s", "bias_m_s2"):
+            text = "[" + ",".join(str(v) for v in value) + "]" if isinstance(value, list) else str(value)
+            args.append(f"scenario.{axis}={text}")
+    named = [a for a in ("dt_s", "bias_m_s2") if a in axes]
+    if named:
+        args.append(f"scenario.axes=[{','.join(named)}]")
+    return " ".join(shlex.quote(a) for a in args)
+
+
 def method_overrides(wildcards):
-    overrides = load_grid(wildcards.grid).get("method_overrides", {})
-    named = {method_config(k): v for k, v in overrides.items()}
-    return " ".join(named.get(wildcards.method, []))
+    """The grid's extra overrides of this method (keyed by its grid entry or config name) and the cell's
+    measurement axis."""
+    g = load_grid(wildcards.grid)
+    extra = g.get("method_overrides", {})
+    entries = [e for e in g["methods"] if method_config(e) == wildcards.method]
+    out = list(extra.get(wildcards.method, []))
+    for e in entries:
+        if e != wildcards.method:
+            out += extra.get(e, [])
+    measurement = g["cells"][wildcards.cell]["axes"].get("measurement")
+    if measurement is not None:
+        out.append(f"method.options.measurement={measurement}")
+    return " ".join(shlex.quote(o) for o in out)
 
 
 # What an identify job's result depends on, for Snakemake's rerun triggers: the method's code files are
@@ -186,5 +247,5 @@ CPU_S_PER_SAMPLE = 0.0035
 
 def identify_runtime(wildcards, attempt):
     """Minutes for one identify job: 4x the measured cost of its cell, at least 2 min, doubled per retry."""
-    work = load_grid(wildcards.grid)["replicates"] * int(wildcards.n)
+    work = load_grid(wildcards.grid)["replicates"] * int(load_grid(wildcards.grid)["cells"][wildcards.cell]["n_samples"])
     return attempt * max(2, math.ceil(4 * CPU_S_PER_SAMPLE * work / 60))

@@ -1,8 +1,8 @@
 rule dataset:
     output:
-        "results/{grid}/data/noise{noise}ug_n{n}.npz",
+        "results/{grid}/data/{cell}.npz",
     params:
-        grid=lambda wc: load_grid(wc.grid),
+        args=dataset_args,
     threads: 1
     resources:
         mem_mb=MEM_MB_JOB,
@@ -12,8 +12,6 @@ rule dataset:
     conda:
         CONDA_ENV
     log:
-        "results/{grid}/logs/dataset/noise{noise}ug_n{n}.log",
+        "results/{grid}/logs/dataset/{cell}.log",
     shell:
-        "python -m experiments.jobs.make_dataset noise_ug={wildcards.noise} n_samples={wildcards.n}"
-        " replicates={params.grid[replicates]} seed={params.grid[seed]} dt_s={params.grid[dt_s]}"
-        " bias_m_s2={params.grid[bias_m_s2]} out={output} > {log} 2>&1"
+        "python -m experiments.jobs.make_dataset {params.args} out={output} > {log} 2>&1"

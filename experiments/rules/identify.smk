@@ -3,13 +3,13 @@
 # version, which is all the track step reads besides the table.
 rule identify:
     input:
-        data="results/{grid}/data/noise{noise}ug_n{n}.npz",
+        data="results/{grid}/data/{cell}.npz",
         code=method_code,
     output:
-        table="results/{grid}/identify/{method}/noise{noise}ug_n{n}.csv",
-        provenance="results/{grid}/identify/{method}/noise{noise}ug_n{n}.json",
+        table="results/{grid}/identify/{method}/{cell}.csv",
+        provenance="results/{grid}/identify/{method}/{cell}.json",
     params:
-        run_dir="results/{grid}/runs/{method}/noise{noise}ug_n{n}",
+        run_dir="results/{grid}/runs/{method}/{cell}",
         overrides=method_overrides,
         method_config=resolved_config,
         versions=method_versions,
@@ -22,9 +22,9 @@ rule identify:
     conda:
         CONDA_ENV
     log:
-        "results/{grid}/logs/identify/{method}/noise{noise}ug_n{n}.log",
+        "results/{grid}/logs/identify/{method}/{cell}.log",
     benchmark:
-        "results/{grid}/benchmarks/identify/{method}/noise{noise}ug_n{n}.tsv"
+        "results/{grid}/benchmarks/identify/{method}/{cell}.tsv"
     shell:
         "python -m experiments.jobs.identify method={wildcards.method} data.dataset={input.data}"
         " out={output.table} grid_name={wildcards.grid} tracking.enabled=false hydra.run.dir={params.run_dir}"

@@ -14,13 +14,16 @@ File schema (every entry a plain numpy array; ``numpy.load(path)`` reads it, no 
 | ``crlb_std_rad_s`` | (4,) | Cramér–Rao bound of each frequency for this cell (16 unknowns) |
 | ``crlb_offset_std_rad_s`` | (4,) | the same with the sensor offset unknown too (17 unknowns) |
 | ``provenance_json`` | () str | the config, seed scheme, package versions |
+| ``scenario_json`` | () str | the cell's scenario axis values (JSON; only in cells with an axis) |
+| ``prior_rad_s`` | (R, 4) | the harness's prior per replicate (only in cells with a prior axis) |
 | ``checksum_sha256`` | () str | SHA-256 of all the other arrays (``experiments.io.array_checksum``) |
 
 Read a cell with ``experiments.io.read_npz`` (or ``numpy.load``): it verifies the checksum, so a file
 changed or truncated after it was written is refused instead of giving stale results.
 Replicate r of a cell draws its noise from ``numpy.random.default_rng([seed, noise_ng, N, r])`` with
 ``noise_ng`` the noise level in nano-g: the same config gives the same bytes, and a cell with R = 20 holds
-the first 20 replicates of the same cell with R = 100.
+the first 20 replicates of the same cell with R = 100. Scenario axes (damping, the mode gap, excitation,
+the harness's prior, ...) are described in ``experiments.simulate.scenarios``.
 """
 
 from __future__ import annotations
@@ -29,10 +32,12 @@ import json
 from dataclasses import asdict, dataclass, field
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from experiments.io import write_npz
+from experiments.simulate import scenarios
 from experiments.simulate.plant import PlantConfig
 
 G0 = 9.80665                 # standard gravity, m/s²
@@ -41,6 +46,20 @@ MIN_SAMPLES = 8
 # The entries a job needs from a cell (experiments.io.read_npz(path, required=CELL_KEYS)).
 CELL_KEYS = ("t_s", "accel_m_s2", "dt_s", "noise_ug", "seed", "truth_freq_rad_s", "crlb_std_rad_s",
              "crlb_offset_std_rad_s")
+
+
+@dataclass
+class ScenarioConfig:
+    """A cell's scenario axes (experiments.simulate.scenarios); None = not an axis of this cell.
+    dt_s and bias_m_s2 are the dataset's own fields."""
+
+    prior_scale: float | None = None
+    prior_spread: float | None = None
+    damping: Any = None              # ζ for every mode, or one per mode
+    gap_rad_s: float | None = None
+    excitation: Any = None           # scale of Table 2's displacements, for every mode or one per mode
+    measurement: str | None = None   # read by the methods that offer it (the identify job's override)
+    axes: list[str] = field(default_factory=list)   # which settings are axes of the grid (names the cell)
 
 
 @dataclass
@@ -55,6 +74,27 @@ class DatasetConfig:
     seed: int = 20261121
     out: str = "results/dataset.npz"
     plant: PlantConfig = field(default_factory=PlantConfig)
+    scenario: ScenarioConfig = field(default_factory=ScenarioConfig)
+
+
+def scenario_axes(cfg: DatasetConfig) -> dict:
+    """The cell's axis values: every scenario setting that is not None, and dt_s / bias_m_s2 when
+    ``scenario.axes`` names them (otherwise they are the grid's constants and do not name the cell)."""
+    sc = cfg.scenario
+    named = list(sc.axes or [])
+    for axis in named:
+        if axis not in scenarios.AXES:
+            raise ValueError(f"scenario.axes names '{axis}', not an axis; known: {', '.join(scenarios.AXES)}")
+    out = {}
+    for axis in scenarios.AXES:
+        if axis in ("dt_s", "bias_m_s2"):
+            if axis in named:
+                out[axis] = float(getattr(cfg, axis))
+            continue
+        value = getattr(sc, axis)
+        if value is not None:
+            out[axis] = list(value) if isinstance(value, (list, tuple)) else value
+    return out
 
 
 def check_dataset_config(cfg: DatasetConfig) -> None:
@@ -69,6 +109,7 @@ def check_dataset_config(cfg: DatasetConfig) -> None:
         raise ValueError(f"dt_s = {cfg.dt_s} must be positive")
     if not np.isfinite(cfg.bias_m_s2):
         raise ValueError(f"bias_m_s2 = {cfg.bias_m_s2} must be a finite number")
+    scenarios.check_cell(scenario_axes(cfg), cfg.plant, cfg.dt_s)
 
 
 def replicate_rng(seed: int, noise_ug: float, n_samples: int, replicate: int) -> np.random.Generator:
@@ -81,7 +122,8 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
     from experiments.simulate.plant import build_plant
 
     check_dataset_config(cfg)
-    plant = build_plant(cfg.plant)
+    axes = scenario_axes(cfg)
+    plant = build_plant(scenarios.apply_to_plant(cfg.plant, axes))
     clean = plant.tip_acceleration(cfg.n_samples, cfg.dt_s)
     sigma = cfg.noise_ug * UG
     noisy = np.empty((cfg.replicates, cfg.n_samples))
@@ -93,10 +135,19 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
     bound = crlb_std(*modal, cfg.n_samples, cfg.dt_s, sigma)
     bound_offset = crlb_std(*modal, cfg.n_samples, cfg.dt_s, sigma, offset=True)
     provenance = {
-        "config": {k: v for k, v in asdict(cfg).items() if k != "out"},
+        "config": {k: v for k, v in asdict(cfg).items() if k != "out" and (k != "scenario" or axes)},
         "noise_scheme": "numpy.random.default_rng([seed, round(noise_ug*1000), n_samples, replicate])",
         "versions": _versions(),
     }
+    extra = {}
+    if axes:
+        extra["scenario_json"] = np.array(json.dumps(axes, sort_keys=True))
+        provenance["scenario"] = axes
+        provenance["plant_in_cell"] = asdict(scenarios.apply_to_plant(cfg.plant, axes))
+    if scenarios.has_prior_axis(axes):
+        extra["prior_rad_s"] = scenarios.harness_prior(truth["freq_rad_s"], axes, cfg.seed, cfg.replicates)
+        provenance["prior_scheme"] = ("prior[r] = sort(prior_scale * truth * (1 + prior_spread * "
+                                      f"default_rng([seed, {scenarios.PRIOR_STREAM}, r]).uniform(-1, 1, m)))")
     return {
         "t_s": np.arange(cfg.n_samples) * cfg.dt_s,
         "accel_m_s2": noisy,
@@ -114,6 +165,7 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
         "crlb_std_rad_s": bound,
         "crlb_offset_std_rad_s": bound_offset,
         "provenance_json": np.array(json.dumps(provenance, sort_keys=True)),
+        **extra,
     }
 
 

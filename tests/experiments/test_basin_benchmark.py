@@ -1,0 +1,36 @@
+"""The basin benchmark's random structures obey the issue's rules, and it refuses the scoring seed."""
+
+import numpy as np
+import pytest
+
+from experiments.benchmarks import basin
+from experiments.report.scoring import identifiable
+
+
+@pytest.mark.parametrize("k", range(12))
+def test_structures_are_other_than_the_papers_and_identifiable(k):
+    s = basin.draw_structure(7, k, 512, 0.01)
+    w = s["freq"]
+    assert 2 <= w.size <= 5
+    assert np.all((w >= 1.5) & (w <= 80)) and np.all(w[1:] / w[:-1] >= 1.08)
+    assert np.all((s["zeta"] >= 0.002) & (s["zeta"] <= 0.03))
+    assert (s["offset"] != 0) == bool(k % 2)
+    assert np.all(identifiable(w, s["crlb"]))
+    assert basin.draw_structure(7, k, 512, 0.01)["freq"].tolist() == w.tolist()   # seeded
+
+
+def test_trials_give_sorted_priors_within_the_stated_errors():
+    s = basin.draw_structure(7, 3, 512, 0.01)
+    for kind, value, prior, i in basin.trials(s, [0.7, 1.3], 0.25, 3, 7):
+        assert np.all(np.diff(prior) > 0)
+        if kind == "common":
+            np.testing.assert_allclose(prior, value * s["freq"])
+        else:        # the documented draw: u ~ U(-1, 1) from default_rng([seed, 0x4241, k, 1000 + d])
+            u = np.random.default_rng([7, 0x4241, 3, 1000 + i - 2]).uniform(-1, 1, s["freq"].size)
+            assert np.all(np.abs(u) <= 1)
+            np.testing.assert_allclose(prior, np.sort(s["freq"] * (1 + 0.25 * u)))
+
+
+def test_scoring_seed_is_refused(capsys):
+    assert basin.main(["--seed", "20261121", "--structures", "1"]) == 2
+    assert capsys.readouterr().err.startswith("error: --seed 20261121 is the grids' scoring seed")

@@ -1,0 +1,34 @@
+"""A grid with a bad axis value is refused by the workflow in one line, exit 2, before any job runs."""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize(("axes", "message"), [
+    ("gap_rad_s: [0.3, 40]", "cell noise1000ug_n256_gap40: gap_rad_s = 40 puts mode 3 at 60.24 rad/s"),
+    ("damping: [-0.01]", "$.scenarios[0].damping[0]: -0.01 is less than or equal to the minimum of 0"),
+    ("dt_s: [0.06]", "dt_s = 0.06 s puts Nyquist at 52.36 rad/s"),
+])
+def test_bad_axis_value_is_one_line_and_exit_2(tmp_path, axes, message):
+    for part in ("Snakefile", "experiments", "configs", "methods"):
+        src = ROOT / part
+        (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / part)
+    (tmp_path / "configs" / "grid" / "bad.yaml").write_text(
+        "name: bad\nnoise_ug: [1000]\nn_samples: [256]\nreplicates: 2\nseed: 1\nmethods: [fft]\n"
+        f"scenarios:\n  - {axes}\n")
+    bindir = Path(sys.executable).parent
+    proc = subprocess.run([str(bindir / "snakemake"), "-n", "--cores", "1", "results/bad/README.md"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                          env=os.environ | {"PATH": f"{bindir}{os.pathsep}{os.environ['PATH']}"})
+    assert proc.returncode == 2
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and message in errors[0], proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert not (tmp_path / "results").exists()
