@@ -26,8 +26,10 @@ wait_for() {  # wait_for <seconds> <command...>: poll until the command succeeds
   echo "error: timed out waiting for: $*" >&2; return 1
 }
 running munged || su -s /bin/sh munge -c /usr/sbin/munged
-if ! running mariadbd && ! running mysqld; then
-  (mysqld_safe --user=mysql >/var/log/mysqld-safe.log 2>&1 &)
+# Ask the database, not the process table: a server that died leaves slurmdbd running but deaf (sacct then
+# fails with "Unable to connect to database" and the SLURM executor waits).
+if ! mysqladmin -uroot ping >/dev/null 2>&1; then
+  (setsid mysqld_safe --user=mysql >/var/log/mysqld-safe.log 2>&1 &)
 fi
 wait_for 60 mysqladmin -uroot ping
 mysql -uroot -e "CREATE DATABASE IF NOT EXISTS slurm_acct_db; CREATE USER IF NOT EXISTS 'slurm'@'localhost' IDENTIFIED BY 'slurmpw'; GRANT ALL ON slurm_acct_db.* TO 'slurm'@'localhost'; FLUSH PRIVILEGES;"
