@@ -13,7 +13,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.mark.parametrize(("axes", "message"), [
     ("gap_rad_s: [0.3, 40]", "cell noise1000ug_n256_gap40: gap_rad_s = 40 puts mode 3 at 60.24 rad/s"),
-    ("damping: [-0.01]", "$.scenarios[0].damping[0]: -0.01 is less than or equal to the minimum of 0"),
+    ("damping: [-0.01]",
+     "configs/grid/bad.yaml: scenarios.0.damping.0: -0.01 is less than or equal to the minimum of 0"),
     ("dt_s: [0.06]", "dt_s = 0.06 s puts Nyquist at 52.36 rad/s"),
 ])
 def test_bad_axis_value_is_one_line_and_exit_2(tmp_path, axes, message):
