@@ -38,7 +38,7 @@ def table_without_runtimes(path: Path) -> list[list[str]]:
     """A CSV's cells as text, runtime columns (wall-clock, never reproducible) removed: equal text = equal bits."""
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
-    keep = [i for i, name in enumerate(rows[0]) if "runtime" not in name]
+    keep = [i for i, name in enumerate(rows[0]) if "runtime" not in name and "ms_per_fit" not in name]
     return [[row[i] for i in keep] for row in rows]
 
 
