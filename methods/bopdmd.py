@@ -23,43 +23,32 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, flat_record, make_options
-from methods.hdmd import delays_and_order
-from methods.modal_poles import check_common, to_estimate
+from methods import hdmd
+from methods.modal_poles import check_peer_options, identify_peer, too_short
 
 
 @dataclass
-class Options:
-    order: int | None = None         # rank; None: 2m + 1 + extra_order
-    extra_order: int = 1             # spare states beyond modes and offset (tuned on seed 1)
-    delays_fraction: float = 0.5     # delays d / N
+class Options(hdmd.Options):
+    # extra_order (1) and delays_fraction (0.5, delays d / N) as hdmd's, tuned on seed 1
     num_trials: int = 0              # BOPDMD bags; > 0 gives the library's eigenvalue std
     trial_size: float = 0.6          # fraction of the snapshots per bag
     seed: int = 0                    # numpy's global seed for the bags (pydmd draws from np.random)
-    band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
-    min_damping: float = -0.02       # mode picker: accepted damping ratios
-    max_damping: float = 0.2
+
+    def check(self) -> None:
+        super().check()
+        if self.num_trials < 0:
+            raise ValueError(f"num_trials = {self.num_trials} must be ≥ 0")
 
 
 def check_options(prior, dt, **options) -> Options:
     """The options contract of :mod:`methods`: every check that needs no record, before any work."""
-    opts = make_options(Options, options, "bopdmd")
-    check_common(opts)
-    if opts.num_trials < 0:
-        raise ValueError(f"num_trials = {opts.num_trials} must be ≥ 0")
-    return opts
+    return check_peer_options(Options, options, "bopdmd")
 
 
-def identify(y, dt, prior, **options):
-    """Frequencies of the m most energetic physical poles of an optimized DMD of the record."""
-    y, dt, prior = check_inputs(y, dt, prior)
-    opts = check_options(prior, dt, **options)
-    if why := flat_record(y):
-        return failed(prior, why, converged_per_mode=[False] * prior.size)
-    d, order = delays_and_order(y.size, prior.size, opts)
+def _fit(y, dt, prior, opts: Options):
+    d, order = hdmd.delays_and_order(y.size, prior.size, opts)
     if order < 2 * prior.size:
-        return failed(prior, f"record of {y.size} samples too short for {prior.size} modes by BOPDMD",
-                      converged_per_mode=[False] * prior.size)
+        return too_short(prior, y.size, "BOPDMD")
     from pydmd import BOPDMD  # optional extra (.[peers])
     from pydmd.preprocessing import hankel_preprocessing
 
@@ -71,11 +60,15 @@ def identify(y, dt, prior, **options):
         warnings.simplefilter("ignore")
         dmd.fit(y[None, :], t=np.arange(y.size - d + 1) * dt)
     s = np.asarray(dmd.eigs, dtype=complex)
-    est = to_estimate(s, y, dt, prior, band=opts.band, min_damping=opts.min_damping,
-                      max_damping=opts.max_damping, order=order, delays=d)
+    est = opts.estimate(s, y, dt, prior, order=order, delays=d)
     if opts.num_trials and dmd.eigenvalues_std is not None:
         spread = np.abs(np.asarray(dmd.eigenvalues_std))
         std = np.array([spread[np.argmin(np.abs(np.abs(s) - w))] if np.isfinite(w) else np.nan
                         for w in est.frequencies])
         est = type(est)(est.frequencies, std, converged=est.converged, message=est.message, extra=est.extra)
     return est
+
+
+def identify(y, dt, prior, **options):
+    """Frequencies of the m most energetic physical poles of an optimized DMD of the record."""
+    return identify_peer(check_options, _fit, y, dt, prior, options)

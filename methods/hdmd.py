@@ -17,46 +17,33 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, flat_record, make_options
-from methods.modal_poles import check_common, continuous_poles, order_rule, to_estimate
+from methods.modal_poles import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
 
 
 @dataclass
-class Options:
-    order: int | None = None         # SVD rank; None: 2m + 1 + extra_order
+class Options(PeerOptions):
     extra_order: int = 1             # spare states beyond modes and offset (tuned on seed 1)
     delays_fraction: float = 0.5     # delays d / N (the snapshots are N − d + 1)
-    band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
-    min_damping: float = -0.02       # mode picker: accepted damping ratios
-    max_damping: float = 0.2
 
 
 def delays_and_order(n: int, m: int, opts) -> tuple[int, int]:
     """The delay count d and the rank, clipped so that the d × (N − d + 1) embedding has that rank."""
     if not 0 < opts.delays_fraction < 1:
         raise ValueError(f"delays_fraction = {opts.delays_fraction} must be in (0, 1)")
-    order = opts.order if opts.order is not None else order_rule(m, opts.extra_order)
+    order = opts.model_order(m)
     d = min(max(int(round(opts.delays_fraction * n)), order), n - order - 1)
     return d, min(order, d, n - d)
 
 
 def check_options(prior, dt, **options) -> Options:
     """The options contract of :mod:`methods`: every check that needs no record, before any work."""
-    opts = make_options(Options, options, "hdmd")
-    check_common(opts)
-    return opts
+    return check_peer_options(Options, options, "hdmd")
 
 
-def identify(y, dt, prior, **options):
-    """Frequencies of the m most energetic physical poles of a Hankel DMD of the record."""
-    y, dt, prior = check_inputs(y, dt, prior)
-    opts = check_options(prior, dt, **options)
-    if why := flat_record(y):
-        return failed(prior, why, converged_per_mode=[False] * prior.size)
+def _fit(y, dt, prior, opts: Options):
     d, order = delays_and_order(y.size, prior.size, opts)
     if order < 2 * prior.size:
-        return failed(prior, f"record of {y.size} samples too short for {prior.size} modes by Hankel DMD",
-                      converged_per_mode=[False] * prior.size)
+        return too_short(prior, y.size, "Hankel DMD")
     from pydmd import HankelDMD  # optional extra (.[peers])
 
     dmd = HankelDMD(svd_rank=order, d=d)
@@ -64,5 +51,9 @@ def identify(y, dt, prior, **options):
         warnings.simplefilter("ignore")              # pydmd warns about ill-conditioned snapshot matrices
         dmd.fit(y[None, :])
     s = continuous_poles(np.asarray(dmd.eigs), dt)
-    return to_estimate(s, y, dt, prior, band=opts.band, min_damping=opts.min_damping,
-                       max_damping=opts.max_damping, order=order, delays=d)
+    return opts.estimate(s, y, dt, prior, order=order, delays=d)
+
+
+def identify(y, dt, prior, **options):
+    """Frequencies of the m most energetic physical poles of a Hankel DMD of the record."""
+    return identify_peer(check_options, _fit, y, dt, prior, options)

@@ -20,40 +20,27 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, flat_record, make_options
-from methods.modal_poles import check_common, order_rule, to_estimate
+from methods.modal_poles import PeerOptions, check_peer_options, identify_peer, too_short
 
 
 @dataclass
-class Options:
-    order: int | None = None         # number of poles 2n; None: 2m + 1 + extra_order (rounded up to even)
+class Options(PeerOptions):
+    # order: the number of poles 2n; None: 2m + 1 + extra_order (rounded up to even)
     extra_order: int = 31            # spare poles beyond modes and offset (tuned on seed 1)
-    band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
-    min_damping: float = -0.02       # mode picker: accepted damping ratios
-    max_damping: float = 0.2
 
 
 def check_options(prior, dt, **options) -> Options:
     """The options contract of :mod:`methods`: every check that needs no record, before any work."""
-    opts = make_options(Options, options, "lsce")
-    check_common(opts)
-    return opts
+    return check_peer_options(Options, options, "lsce")
 
 
-def identify(y, dt, prior, **options):
-    """Frequencies of the m most energetic physical poles of sdypy-EMA's LSCE fit of the record."""
-    y, dt, prior = check_inputs(y, dt, prior)
-    opts = check_options(prior, dt, **options)
-    if why := flat_record(y):
-        return failed(prior, why, converged_per_mode=[False] * prior.size)
+def _fit(y, dt, prior, opts: Options):
     from sdypy import EMA  # optional extra (.[peers])
 
     rec = y[: y.size - y.size % 2]                   # the library's irfft has an even length
-    order = opts.order if opts.order is not None else order_rule(prior.size, opts.extra_order)
-    pairs = min(-(-order // 2), (rec.size - 1) // 4)  # sdypy-EMA asserts N > 4n
+    pairs = min(-(-opts.model_order(prior.size) // 2), (rec.size - 1) // 4)  # sdypy-EMA asserts N > 4n
     if 2 * pairs < 2 * prior.size:
-        return failed(prior, f"record of {y.size} samples too short for {prior.size} modes by LSCE",
-                      converged_per_mode=[False] * prior.size)
+        return too_short(prior, y.size, "LSCE")
     spectrum = np.append(np.fft.rfft(rec), 0.0)      # + one empty bin above Nyquist (dropped by the library)
     freq = np.arange(spectrum.size) / (rec.size * dt)
     model = EMA.Model(frf=spectrum, freq=freq, dt=dt, lower=0.0, upper=float(freq[-1]),
@@ -62,5 +49,9 @@ def identify(y, dt, prior, **options):
         warnings.simplefilter("ignore")              # numpy warnings on rejected poles
         model.get_poles(method="lsce", show_progress=False)
     s = np.asarray(model.all_poles[-1], dtype=complex)
-    return to_estimate(s, rec, dt, prior, band=opts.band, min_damping=opts.min_damping,
-                       max_damping=opts.max_damping, order=2 * pairs)
+    return opts.estimate(s, rec, dt, prior, order=2 * pairs)
+
+
+def identify(y, dt, prior, **options):
+    """Frequencies of the m most energetic physical poles of sdypy-EMA's LSCE fit of the record."""
+    return identify_peer(check_options, _fit, y, dt, prior, options)

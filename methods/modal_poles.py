@@ -36,6 +36,8 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
+
 
 @dataclass(frozen=True)
 class Picked:
@@ -185,29 +187,68 @@ def order_rule(m: int, extra: int) -> int:
     return 2 * m + 1 + max(int(extra), 0)
 
 
-def to_estimate(s, y, dt: float, prior, *, band: float, min_damping: float, max_damping: float,
-                order: int, std=None, **extra):
-    """Pick the modes from continuous-time poles ``s`` and wrap them as an Estimate.
+@dataclass
+class PeerOptions:
+    """The options every peer shares: its model order and the mode picker's settings.
 
-    ``std`` is NaN unless the library itself gives an uncertainty (the Cramér–Rao bound at the estimate is
-    not a method's uncertainty and is never used as one).
+    A peer's ``Options`` subclasses it, redeclares ``extra_order`` with its tuned default, adds its own
+    fields (they follow these) and extends :meth:`check` with their checks.
     """
-    from methods.estimate import Estimate
 
-    prior = np.asarray(prior, dtype=float)
-    picked = pick_modes(s, y, dt, prior, band=band, damping_bounds=(min_damping, max_damping))
-    std = np.full(prior.size, np.nan) if std is None else np.where(picked.found, std, np.nan)
-    return Estimate(picked.frequencies, std, converged=bool(picked.found.all()), iterations=0,
-                    message=picked.message, extra=estimate_extra(picked, order=int(order), **extra))
+    order: int | None = None         # model order; None: 2m + 1 + extra_order (clipped to what N allows)
+    extra_order: int = 0             # spare states beyond modes and offset (each peer's tuned default)
+    band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
+    min_damping: float = -0.02       # mode picker: accepted damping ratios
+    max_damping: float = 0.2
+
+    def check(self) -> None:
+        """Validate the options (no record needed); ``ValueError`` naming the bad value."""
+        if not self.band > 0:
+            raise ValueError(f"band = {self.band} must be positive (relative search band around each prior)")
+        if not self.min_damping < self.max_damping:
+            raise ValueError(f"min_damping = {self.min_damping} must be below max_damping = {self.max_damping}")
+        if self.order is not None and self.order < 1:
+            raise ValueError(f"order = {self.order} must be a positive model order")
+        if self.extra_order < 0:
+            raise ValueError(f"extra_order = {self.extra_order} must be ≥ 0")
+
+    def model_order(self, m: int) -> int:
+        """The model order asked for m modes: ``order``, else :func:`order_rule`."""
+        return self.order if self.order is not None else order_rule(m, self.extra_order)
+
+    def estimate(self, s, y, dt: float, prior, *, order: int, std=None, **extra) -> Estimate:
+        """Pick the modes from continuous-time poles ``s`` of a model of this ``order`` fitted to ``y`` and
+        wrap them as an Estimate (``extra`` joins ``Estimate.extra``).
+
+        ``std`` is NaN unless the library itself gives an uncertainty (the Cramér–Rao bound at the estimate
+        is not a method's uncertainty and is never used as one).
+        """
+        prior = np.asarray(prior, dtype=float)
+        picked = pick_modes(s, y, dt, prior, band=self.band, damping_bounds=(self.min_damping, self.max_damping))
+        std = np.full(prior.size, np.nan) if std is None else np.where(picked.found, std, np.nan)
+        return Estimate(picked.frequencies, std, converged=bool(picked.found.all()), iterations=0,
+                        message=picked.message, extra=estimate_extra(picked, order=int(order), **extra))
 
 
-def check_common(opts) -> None:
-    """Validate the options every peer shares; ``ValueError`` naming the bad value."""
-    if not opts.band > 0:
-        raise ValueError(f"band = {opts.band} must be positive (relative search band around each prior)")
-    if not opts.min_damping < opts.max_damping:
-        raise ValueError(f"min_damping = {opts.min_damping} must be below max_damping = {opts.max_damping}")
-    if opts.order is not None and opts.order < 1:
-        raise ValueError(f"order = {opts.order} must be a positive model order")
-    if opts.extra_order < 0:
-        raise ValueError(f"extra_order = {opts.extra_order} must be ≥ 0")
+def check_peer_options(options_cls, options: dict, method: str):
+    """A peer's ``check_options``: its ``options_cls`` built from the keywords (an unknown one named) and
+    checked, before any work and without a record."""
+    opts = make_options(options_cls, options, method)
+    opts.check()
+    return opts
+
+
+def identify_peer(check_options, fit, y, dt, prior, options: dict) -> Estimate:
+    """A peer's ``identify``: the inputs checked, the options checked by the peer's ``check_options``, no
+    mode from a flat record, then ``fit(y, dt, prior, opts)`` — the library's part, which returns
+    :meth:`PeerOptions.estimate` of the model's poles (or :func:`too_short`)."""
+    y, dt, prior = check_inputs(y, dt, prior)
+    opts = check_options(prior, dt, **options)
+    if why := flat_record(y):
+        return failed(prior, why)
+    return fit(y, dt, prior, opts)
+
+
+def too_short(prior, n: int, by: str) -> Estimate:
+    """No mode: a record of ``n`` samples cannot hold a model of the m modes for the library ``by``."""
+    return failed(prior, f"record of {n} samples too short for {np.size(prior)} modes by {by}")

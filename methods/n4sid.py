@@ -16,50 +16,44 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import check_inputs, failed, flat_record, make_options
-from methods.modal_poles import check_common, continuous_poles, order_rule, to_estimate
+from methods.modal_poles import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
 
 
 @dataclass
-class Options:
-    order: int | None = None         # model order; None: 2m + 1 + extra_order
+class Options(PeerOptions):
     extra_order: int = 3             # spare states beyond modes and offset (tuned on seed 1)
     rows_fraction: float = 0.25      # block rows / N (the past and the future each have this many)
-    band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
-    min_damping: float = -0.02       # mode picker: accepted damping ratios
-    max_damping: float = 0.2
+
+    def check(self) -> None:
+        super().check()
+        if not 0 < self.rows_fraction < 0.5:
+            raise ValueError(f"rows_fraction = {self.rows_fraction} must be in (0, 0.5)")
 
 
 def check_options(prior, dt, **options) -> Options:
     """The options contract of :mod:`methods`: every check that needs no record, before any work."""
-    opts = make_options(Options, options, "n4sid")
-    check_common(opts)
-    if not 0 < opts.rows_fraction < 0.5:
-        raise ValueError(f"rows_fraction = {opts.rows_fraction} must be in (0, 0.5)")
-    return opts
+    return check_peer_options(Options, options, "n4sid")
 
 
-def identify(y, dt, prior, **options):
-    """Frequencies of the m most energetic physical poles of an N4SID model of the record."""
-    y, dt, prior = check_inputs(y, dt, prior)
-    opts = check_options(prior, dt, **options)
-    if why := flat_record(y):
-        return failed(prior, why, converged_per_mode=[False] * prior.size)
+def _fit(y, dt, prior, opts: Options):
     import pandas as pd  # nfoursid takes a DataFrame
     from nfoursid.nfoursid import NFourSID  # optional extra (.[peers])
 
-    order = opts.order if opts.order is not None else order_rule(prior.size, opts.extra_order)
+    order = opts.model_order(prior.size)
     # the block Hankel matrix has `rows` rows and N − 2·rows + 1 columns; the order needs both
     rows = max(int(round(opts.rows_fraction * y.size)), order)
     if 2 * rows >= y.size - order:
         rows = (y.size - order - 1) // 2
         order = min(order, rows)
     if order < 2 * prior.size:
-        return failed(prior, f"record of {y.size} samples too short for {prior.size} modes by N4SID",
-                      converged_per_mode=[False] * prior.size)
+        return too_short(prior, y.size, "N4SID")
     model = NFourSID(pd.DataFrame({"y": y}), output_columns=["y"], num_block_rows=rows)
     model.subspace_identification()
     ss, _ = model.system_identification(rank=order)
     s = continuous_poles(np.linalg.eigvals(ss.a), dt)
-    return to_estimate(s, y, dt, prior, band=opts.band, min_damping=opts.min_damping,
-                       max_damping=opts.max_damping, order=order, block_rows=rows)
+    return opts.estimate(s, y, dt, prior, order=order, block_rows=rows)
+
+
+def identify(y, dt, prior, **options):
+    """Frequencies of the m most energetic physical poles of an N4SID model of the record."""
+    return identify_peer(check_options, _fit, y, dt, prior, options)

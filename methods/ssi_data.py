@@ -9,25 +9,22 @@ strid class; settings chosen on tuning seed 1, never the scoring seed). ``std`` 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
-from methods.ssi_cov import check_strid_options, run_strid
+from methods import ssi_cov
+from methods.modal_poles import check_peer_options, identify_peer
 
 
 @dataclass
-class Options:
-    order: int | None = None         # model order; None: 2m + 1 + extra_order
-    extra_order: int = 11            # spare states beyond modes and offset (tuned on seed 1)
-    rows_fraction: float = 0.25      # block rows / N
-    band: float = 0.5                # mode picker: a pole matches prior ω within ω·1.5^±1
-    min_damping: float = -0.02       # mode picker: accepted damping ratios
-    max_damping: float = 0.2
+class Options(ssi_cov.Options):
+    """SSI-cov's settings and defaults (block rows capped at N/4 here, by the LQ factorisation)."""
 
 
 def check_options(prior, dt, **options) -> Options:
     """The options contract of :mod:`methods` (no record needed)."""
-    return check_strid_options(Options, options, "ssi_data")
+    return check_peer_options(Options, options, "ssi_data")
 
 
 def identify(y, dt, prior, **options):
     """Frequencies of the m most energetic physical poles of an SSI-data model of the record."""
-    return run_strid("data", y, dt, prior, options, "ssi_data", Options)
+    return identify_peer(check_options, partial(ssi_cov.fit_strid, "data", "ssi_data"), y, dt, prior, options)
