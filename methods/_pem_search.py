@@ -94,6 +94,7 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
     floor = floor_rel ** 2 * float(ev.y @ ev.y) / n
     message, converged, iterations = "iteration limit", False, 0
     history, step_lengths = [theta[:m].copy()], []
+    std_free = None
     while iterations < opts.max_iterations:
         iterations += 1
         system = NormalEquations(J, e)
@@ -109,6 +110,8 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
             step_in_std = float(np.nanmax(np.abs(d) / system.std))
         if step_in_std < opts.tol_step:
             message, converged = f"step size below {opts.tol_step:g} std", True
+            if not blocked.any() and system.well_conditioned:
+                std_free = system.std          # at the final θ: the SVD's std to ~1e-10 (see the class)
             break
         found = False
         while not found:
@@ -167,7 +170,8 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
             message, converged = (f"iteration limit; the located frequencies settled to "
                                   f"{SETTLED_STD:g} std ({m - located.sum()} not located)"), True
     return {"theta": theta, "loss": loss, "e": e, "J": J, "iterations": iterations, "message": message,
-            "converged": converged, "step_lengths": step_lengths, "joined": joined}
+            "converged": converged, "step_lengths": step_lengths, "joined": joined, "floor": floor,
+            **({} if std_free is None else {"std_free": std_free})}
 
 
 def _blocked_by_bounds(theta, free_idx, d, bounds) -> np.ndarray:
@@ -238,6 +242,8 @@ class NormalEquations:
         keep = lam2 > top * 1e-15 if top > 0 else np.zeros(lam2.size, bool)
         self._norms, self._lam2, self._V, self._keep = norms, lam2, V, keep
         self._gv = V.T @ (g / norms)
+        # scaled singular values within 1e-5 of each other: the eigh's std equals the SVD's to ~1e-10
+        self.well_conditioned = bool(keep.all() and lam2[0] > 1e-10 * top)
         inv = np.where(keep, 1.0 / np.where(keep, lam2, 1.0), 0.0)
         var = (V ** 2) @ inv / norms ** 2
         sigma2 = ee / max(n - H.shape[0], 1)

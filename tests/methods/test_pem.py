@@ -142,8 +142,8 @@ def test_paper_setting_kalman_predictor_converges_from_table4_prior():
 
 def test_multistart_is_seeded_and_reports_agreement():
     _, y = paper_record(256, 1000.0, seed=4)
-    a = pem.identify(y, DT, TABLE4_PRIOR, n_starts=4, seed=7)
-    b = pem.identify(y, DT, TABLE4_PRIOR, n_starts=4, seed=7)
+    a = pem.identify(y, DT, TABLE4_PRIOR, n_starts=4, seed=7, accept_white=False)
+    b = pem.identify(y, DT, TABLE4_PRIOR, n_starts=4, seed=7, accept_white=False)
     np.testing.assert_array_equal(a.frequencies, b.frequencies)
     assert a.extra["n_starts"] == 4 and 1 <= a.extra["n_agree"] <= 4
 
@@ -170,3 +170,22 @@ def test_invalid_options_raise_value_error_naming_them():
         pem.identify(y, DT, TABLE4_PRIOR, gain=0.1)
     with pytest.raises(ValueError, match="tip_mode_shape"):
         pem.identify(y, DT, TABLE4_PRIOR[:3], predictor="kalman")
+
+
+def test_the_first_start_is_accepted_only_when_it_explains_the_record():
+    """The early stop (accept_white) gives the all-starts answer; a residual with a sinusoid in it (a mode
+    the fit missed) is never accepted, white noise is accepted at the false-alarm rate."""
+    for seed in range(5):
+        _, y = paper_record(256, 1000.0, seed=seed)
+        fast = pem.identify(y, DT, TABLE4_PRIOR)
+        every = pem.identify(y, DT, TABLE4_PRIOR, accept_white=False)
+        assert fast.extra["n_starts"] == 1 and every.extra["n_starts"] == 3
+        np.testing.assert_allclose(fast.frequencies, every.frequencies, rtol=1e-9)
+    n, rng = 256, np.random.default_rng(0)
+    w_std = np.full(4, 1e-3)
+    accepted = [pem._explains_record({"e": rng.standard_normal(n)}, w_std, n, DT) for _ in range(400)]
+    assert 0.97 <= np.mean(accepted) < 1.0          # α = 1 %: a few false alarms, not none, not many
+    t = np.arange(n) * DT
+    missed = rng.standard_normal(n) + 0.6 * np.sin(20.24 * t)   # E/σ² = 0.36·N/2 = 46 > 2 ln(N/2α) = 18.7
+    assert not pem._explains_record({"e": missed}, w_std, n, DT)
+    assert not pem._explains_record({"e": rng.standard_normal(n)}, np.full(4, 1.0), n, DT)  # not detected
