@@ -2,14 +2,17 @@
 
     python -m experiments.benchmarks.pipeline results/full [--wall-s 1234]
 
-Reads Snakemake's per-job ``benchmark:`` files (the wall time of each identify job as a whole process) and
-the jobs' result tables (the time spent inside ``identify`` for each replicate). The difference is the
-pipeline's overhead: interpreter start-up, imports, Hydra composition, file I/O and Snakemake scheduling.
-With ``--wall-s`` (the workflow's measured wall time) it also reports the share of the wall time.
+Reads Snakemake's ``benchmark:`` files (the wall time of each job as a whole process: the datasets batch of
+the grid and one identify batch per method, experiments/rules/) and the jobs' result tables (the time spent
+inside ``identify`` for each replicate). The difference is the pipeline's overhead: interpreter start-up,
+imports, Hydra composition, file I/O. With ``--wall-s`` (the workflow's measured wall time) it also reports
+the share of the wall time, including Snakemake's own scheduling and the serial aggregate and track steps.
 
 Part of every job's start-up is not the pipeline's but the method's own: importing its numerical libraries
 (``scipy.signal`` alone takes ~0.7 s here). That cost is measured per method (median of 5 fresh
 interpreters) and reported separately, so the pipeline's own share (Snakemake, Hydra, file I/O) is explicit.
+Grids made before the batches (one process per method and cell: ``benchmarks/identify/<method>/<cell>.tsv``)
+are read too, so a before/after comparison uses this one command.
 """
 
 from __future__ import annotations
@@ -24,15 +27,33 @@ from pathlib import Path
 import pandas as pd
 
 
+def _numeric_s(table: Path) -> float:
+    res = pd.read_csv(table)
+    return float(res.drop_duplicates("replicate")["runtime_s"].sum())
+
+
 def measure(grid_dir: Path) -> pd.DataFrame:
+    """One row per identify job: its method, wall time as a process, and the time inside ``identify``."""
     rows = []
-    for tsv in sorted((grid_dir / "benchmarks" / "identify").glob("*/*.tsv")):
+    bench = grid_dir / "benchmarks" / "identify"
+    for tsv in sorted(bench.glob("*.tsv")):                     # a batch: one method, every cell
+        method = tsv.stem
+        job_s = float(pd.read_csv(tsv, sep="\t")["s"].iloc[0])
+        tables = sorted((grid_dir / "identify" / method).glob("*.csv"))
+        rows.append({"method": method, "cells": len(tables), "job_s": job_s,
+                     "numeric_s": sum(_numeric_s(t) for t in tables)})
+    for tsv in sorted(bench.glob("*/*.tsv")):                   # one process per (method, cell)
         method, cell = tsv.parent.name, tsv.stem
         job_s = float(pd.read_csv(tsv, sep="\t")["s"].iloc[0])
-        res = pd.read_csv(grid_dir / "identify" / method / f"{cell}.csv")
-        numeric_s = float(res.drop_duplicates("replicate")["runtime_s"].sum())
-        rows.append({"method": method, "cell": cell, "job_s": job_s, "numeric_s": numeric_s})
+        rows.append({"method": method, "cells": 1, "job_s": job_s,
+                     "numeric_s": _numeric_s(grid_dir / "identify" / method / f"{cell}.csv")})
     return pd.DataFrame(rows)
+
+
+def dataset_job_s(grid_dir: Path) -> float:
+    """Wall time of the dataset jobs (the batch, or one process per cell in grids made before it)."""
+    files = [grid_dir / "benchmarks" / "datasets.tsv"] + sorted((grid_dir / "benchmarks" / "dataset").glob("*.tsv"))
+    return sum(float(pd.read_csv(f, sep="\t")["s"].iloc[0]) for f in files if f.exists())
 
 
 def import_cost_s(method: str, runs: int = 5) -> float:
@@ -57,7 +78,7 @@ def main(argv=None) -> int:
     if df.empty:
         print(f"error: no benchmark files under {args.grid_dir}/benchmarks/identify", file=sys.stderr)
         return 2
-    per = df.groupby("method")[["job_s", "numeric_s"]].sum()
+    per = df.groupby("method")[["cells", "job_s", "numeric_s"]].sum()
     per["jobs"] = df.groupby("method").size()
     per["import_s_per_job"] = [import_cost_s(m) for m in per.index]
     per["import_s"] = per["import_s_per_job"] * per["jobs"]
@@ -70,12 +91,14 @@ def main(argv=None) -> int:
           f"+ pipeline (Snakemake, Hydra, I/O) {pipe:.0f} s")
     print(f"everything but the numerical work: {100 * (1 - num / job):.1f} % of job time; "
           f"the pipeline's own part: {100 * pipe / job:.1f} %")
+    data_s = dataset_job_s(args.grid_dir)
+    print(f"dataset jobs: {data_s:.0f} s (simulation and start-up; not counted above)")
     if args.wall_s:
         busy = args.wall_s * args.cores
-        idle = busy - job
+        idle = busy - job - data_s
         print(f"workflow wall {args.wall_s:.0f} s x {args.cores} cores = {busy:.0f} core-s: "
               f"numerical {100 * num / busy:.1f} %, imports {100 * imp / busy:.1f} %, "
-              f"pipeline in jobs {100 * pipe / busy:.1f} %, "
+              f"pipeline in jobs {100 * pipe / busy:.1f} %, dataset jobs {100 * data_s / busy:.1f} %, "
               f"scheduling and idle cores {100 * idle / busy:.1f} %")
     return 0
 

@@ -139,14 +139,22 @@ def _progress(total: int, name: str, enabled: bool):
 
 def task(cfg) -> float | None:
     """Identify every record; in a sweep (``-m``) or when tracking, return the cell's objective."""
+    hydra_cfg = HydraConfig.get()
+    return run_job(cfg, Path(hydra_cfg.runtime.output_dir), hydra_cfg.runtime.choices.get("method"),
+                   sweep=hydra_cfg.mode == RunMode.MULTIRUN)
+
+
+def run_job(cfg, run_dir: Path, config_name: str | None, sweep: bool = False) -> float | None:
+    """The job of :func:`task` with what it takes from Hydra's runtime given: the run directory, the
+    method's config name and whether it is one job of a sweep (also called per cell by the workflow's
+    batches, :mod:`experiments.jobs.batch`)."""
     data = load_data(cfg)
     priors = priors_of(cfg, data)
     name = cfg.method.name
     label = variant_label(name, cfg.method.variant)
     options = OmegaConf.to_container(cfg.method.options, resolve=True)
     results = run_records(name, data["y"], data["dt"], priors, options, cfg.progress)
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
-    record = job_record(cfg, data)
+    record = job_record(cfg, data, config_name)
     if data["truth"] is None:
         path = report_measurement(name, priors[0], results[0][0], run_dir)
         if cfg.tracking.enabled:
@@ -170,7 +178,7 @@ def task(cfg) -> float | None:
 
         key, _, created = log_job(cfg.tracking.experiment, record, out, record_path)
         print(f"MLflow experiment {cfg.tracking.experiment}: run {key} ({'logged' if created else 'already there'})")
-    if cfg.tracking.enabled or HydraConfig.get().mode == RunMode.MULTIRUN:
+    if cfg.tracking.enabled or sweep:
         import pandas as pd
 
         from experiments.report.summary import summarize
@@ -212,12 +220,12 @@ def report_measurement(name: str, prior, est, run_dir: Path) -> None:
     return path
 
 
-def job_record(cfg, data) -> dict:
+def job_record(cfg, data, config_name: str | None) -> dict:
     """What determines this job's result, written beside its table and keyed in MLflow: the resolved
     config, the dataset (name, content digest, settings), the code version and the package versions."""
     from experiments.tracking import provenance
 
-    config_name = HydraConfig.get().runtime.choices.get("method") or cfg.method.name
+    config_name = config_name or cfg.method.name
     if data["truth"] is None:
         dataset = {"name": Path(data["source"]).name, "path": data["source"], "kind": "measurement",
                    "digest": provenance.file_digest(data["source"])}

@@ -3,6 +3,7 @@
 # come from experiments/simulate/scenarios.py.
 import functools
 import glob
+import json
 import math
 import os
 import shlex
@@ -172,6 +173,11 @@ def provenance_files(grid):
     return [f[: -len(".csv")] + ".json" for f in result_files(grid)]
 
 
+def identify_dirs(grid):
+    """The identify batches' folders of a grid (each holds the tables and records of its method)."""
+    return [f"results/{grid}/identify/{method_config(m)}" for m in load_grid(grid)["methods"]]
+
+
 def experiment_dirs(grid):
     return [f"results/{grid}/paper/{e}" for e in load_grid(grid).get("experiments", [])]
 
@@ -180,10 +186,10 @@ def grid_targets(grid):
     return [f"results/{grid}/README.md", f"results/{grid}/mlflow_runs.json"]
 
 
-def dataset_args(wildcards):
+def dataset_args(grid, cell_name):
     """make_dataset's command-line overrides of one cell (the plain cells: exactly those of before)."""
-    g = load_grid(wildcards.grid)
-    cell = g["cells"][wildcards.cell]
+    g = load_grid(grid)
+    cell = g["cells"][cell_name]
     axes = cell["axes"]
     args = [f"noise_ug={cell['noise_ug']}", f"n_samples={cell['n_samples']}", f"replicates={g['replicates']}",
             f"seed={g['seed']}", f"dt_s={axes.get('dt_s', g['dt_s'])}",
@@ -195,23 +201,51 @@ def dataset_args(wildcards):
     named = [a for a in ("dt_s", "bias_m_s2") if a in axes]
     if named:
         args.append(f"scenario.axes=[{','.join(named)}]")
-    return " ".join(shlex.quote(a) for a in args)
+    return args
 
 
-def method_overrides(wildcards):
-    """The grid's extra overrides of this method (keyed by its grid entry or config name) and the cell's
-    measurement axis."""
-    g = load_grid(wildcards.grid)
+def dataset_jobs(wildcards):
+    """The datasets batch: one make_dataset command line per cell (experiments/jobs/batch.py), as JSON."""
+    jobs = [dataset_args(wildcards.grid, c) + [f"out=results/{wildcards.grid}/data/{c}.npz"]
+            for c in cells(wildcards.grid)]
+    return shlex.quote(json.dumps(jobs))
+
+
+def grid_method_overrides(grid, method):
+    """The grid's extra overrides of a method (keyed by its grid entry or config name)."""
+    g = load_grid(grid)
     extra = g.get("method_overrides", {})
-    entries = [e for e in g["methods"] if method_config(e) == wildcards.method]
-    out = list(extra.get(wildcards.method, []))
+    entries = [e for e in g["methods"] if method_config(e) == method]
+    out = list(extra.get(method, []))
     for e in entries:
-        if e != wildcards.method:
+        if e != method:
             out += extra.get(e, [])
-    measurement = g["cells"][wildcards.cell]["axes"].get("measurement")
+    return out
+
+
+def cell_overrides(grid, method, cell):
+    """The method's overrides on one cell: the grid's, and the cell's measurement axis."""
+    out = grid_method_overrides(grid, method)
+    measurement = load_grid(grid)["cells"][cell]["axes"].get("measurement")
     if measurement is not None:
         out.append(f"method.options.measurement={measurement}")
-    return " ".join(shlex.quote(o) for o in out)
+    return out
+
+
+def method_cells(grid, method):
+    """The cells a method runs on (a `measurement` cell only for methods with that option)."""
+    return [c for c in cells(grid) if runs_cell(grid, method, c)]
+
+
+def identify_jobs(wildcards):
+    """The identify batch of a (grid, method): one identify command line per cell, as JSON."""
+    grid, method = wildcards.grid, wildcards.method
+    jobs = [[f"method={method}", f"data.dataset=results/{grid}/data/{c}.npz",
+             f"out=results/{grid}/identify/{method}/{c}.csv", f"grid_name={grid}", "tracking.enabled=false",
+             *cell_overrides(grid, method, c)] for c in method_cells(grid, method)]
+    if not jobs:
+        raise WorkflowError(f"error: grid {grid}: method {method} runs on none of its cells")
+    return shlex.quote(json.dumps(jobs))
 
 
 # What an identify job's result depends on, for Snakemake's rerun triggers: the method's code files are
@@ -224,7 +258,7 @@ def method_code(wildcards):
 
 
 def resolved_config(wildcards):
-    overrides = tuple(method_overrides(wildcards).split())
+    overrides = tuple(grid_method_overrides(wildcards.grid, wildcards.method))
     if not os.path.exists(os.path.join(METHOD_CONFIGS, f"{wildcards.method}.yaml")):
         return provenance.canonical_json({"plugin": wildcards.method, "overrides": overrides})
     return provenance.resolved_method_config(wildcards.method, overrides, workflow.basedir)
@@ -245,7 +279,21 @@ MEM_MB_JOB = 1000
 CPU_S_PER_SAMPLE = 0.0035
 
 
+DATASET_CPU_S_PER_SAMPLE = 0.0001
+
+
+def _grid_samples(grid, cell_names):
+    g = load_grid(grid)
+    return sum(g["replicates"] * int(g["cells"][c]["n_samples"]) for c in cell_names)
+
+
 def identify_runtime(wildcards, attempt):
-    """Minutes for one identify job: 4x the measured cost of its cell, at least 2 min, doubled per retry."""
-    work = load_grid(wildcards.grid)["replicates"] * int(load_grid(wildcards.grid)["cells"][wildcards.cell]["n_samples"])
+    """Minutes for one identify batch: 4x the measured cost of its cells, at least 2 min, doubled per retry."""
+    work = _grid_samples(wildcards.grid, method_cells(wildcards.grid, wildcards.method))
     return attempt * max(2, math.ceil(4 * CPU_S_PER_SAMPLE * work / 60))
+
+
+def dataset_runtime(wildcards, attempt):
+    """Minutes for the datasets batch: 4x its measured cost, at least 5 min, doubled per retry."""
+    work = _grid_samples(wildcards.grid, cells(wildcards.grid))
+    return attempt * max(5, math.ceil(4 * DATASET_CPU_S_PER_SAMPLE * work / 60))

@@ -1,17 +1,19 @@
-rule dataset:
+# One job per grid simulates every cell (experiments.jobs.batch: make_dataset's job for each cell, in one
+# process). The folder is the output: a failed or interrupted job leaves nothing behind.
+rule datasets:
     output:
-        "results/{grid}/data/{cell}.npz",
+        directory("results/{grid}/data"),
     params:
-        args=dataset_args,
+        jobs=dataset_jobs,
     threads: 1
     resources:
         mem_mb=MEM_MB_JOB,
-        runtime=5,
-    group:
-        "cells"
+        runtime=dataset_runtime,
     conda:
         CONDA_ENV
     log:
-        "results/{grid}/logs/dataset/{cell}.log",
+        "results/{grid}/logs/datasets.log",
+    benchmark:
+        "results/{grid}/benchmarks/datasets.tsv"
     shell:
-        "python -m experiments.jobs.make_dataset {params.args} out={output} > {log} 2>&1"
+        "python -m experiments.jobs.batch dataset {params.jobs} > {log} 2>&1"

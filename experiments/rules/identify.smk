@@ -1,31 +1,27 @@
-# One job per (method, cell), all replicates inside; MLflow logging is left to the serial `track` step.
-# Beside the table the job writes <cell>.json: its resolved config, the dataset's digest and the code
-# version, which is all the track step reads besides the table.
+# One job per (grid, method) runs the method on every cell of the grid, all replicates, in one process
+# (experiments.jobs.batch: identify's job for each cell; a process per cell spent a third of the job time
+# starting up). Its folder is the output: results/<grid>/identify/<method>/<cell>.csv and, beside each table,
+# <cell>.json: the cell's resolved config, the dataset's digest and the code version, which is all the track
+# step reads besides the table. MLflow logging is left to the serial `track` step.
 rule identify:
     input:
-        data="results/{grid}/data/{cell}.npz",
+        data="results/{grid}/data",
         code=method_code,
     output:
-        table="results/{grid}/identify/{method}/{cell}.csv",
-        provenance="results/{grid}/identify/{method}/{cell}.json",
+        directory("results/{grid}/identify/{method}"),
     params:
-        run_dir="results/{grid}/runs/{method}/{cell}",
-        overrides=method_overrides,
+        jobs=identify_jobs,
         method_config=resolved_config,
         versions=method_versions,
     threads: 1
     resources:
         mem_mb=MEM_MB_JOB,
         runtime=identify_runtime,
-    group:
-        "cells"
     conda:
         CONDA_ENV
     log:
-        "results/{grid}/logs/identify/{method}/{cell}.log",
+        "results/{grid}/logs/identify/{method}.log",
     benchmark:
-        "results/{grid}/benchmarks/identify/{method}/{cell}.tsv"
+        "results/{grid}/benchmarks/identify/{method}.tsv"
     shell:
-        "python -m experiments.jobs.identify method={wildcards.method} data.dataset={input.data}"
-        " out={output.table} grid_name={wildcards.grid} tracking.enabled=false hydra.run.dir={params.run_dir}"
-        " {params.overrides} > {log} 2>&1"
+        "python -m experiments.jobs.batch identify {params.jobs} > {log} 2>&1"

@@ -22,7 +22,7 @@ report: "../report/captions/workflow.rst"
 
 rule aggregate:
     input:
-        results=lambda wc: result_files(wc.grid),
+        results=lambda wc: identify_dirs(wc.grid),
         experiments=lambda wc: experiment_dirs(wc.grid),
     output:
         page="results/{grid}/summary.md",
@@ -42,17 +42,18 @@ rule aggregate:
         ),
     conda:
         CONDA_ENV
+    params:
+        tables=lambda wc: result_files(wc.grid),
     log:
         "results/{grid}/logs/aggregate.log",
     shell:
         "python -m experiments.report.aggregate --grid {wildcards.grid} --out results/{wildcards.grid}"
-        " --page {output.page} --experiments {input.experiments} -- {input.results} > {log} 2>&1"
+        " --page {output.page} --experiments {input.experiments} -- {params.tables} > {log} 2>&1"
 
 
 rule track:
     input:
-        results=lambda wc: result_files(wc.grid),
-        provenance=lambda wc: provenance_files(wc.grid),
+        results=lambda wc: identify_dirs(wc.grid),
         summary="results/{grid}/summary.md",
         tables="results/{grid}/tables",
         figures="results/{grid}/figures",
@@ -61,12 +62,14 @@ rule track:
         page="results/{grid}/README.md",
     conda:
         CONDA_ENV
+    params:
+        tables=lambda wc: result_files(wc.grid),
     log:
         "results/{grid}/logs/track.log",
     shell:
         "python -m experiments.tracking.track --grid {wildcards.grid} --out {output.record}"
         " --summary {input.summary} --page {output.page} --aggregate {input.tables} {input.figures}"
-        " -- {input.results} > {log} 2>&1"
+        " -- {params.tables} > {log} 2>&1"
 
 
 rule reproduce:

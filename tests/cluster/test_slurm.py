@@ -4,8 +4,8 @@ A single-node SLURM with accounting (munge, MariaDB, slurmdbd, slurmctld, slurmd
 .ci/slurm-single-node.sh, which installs Debian's packages with apt-get: that needs root. Checks: the run
 completes with the venv's ``bin`` absent from PATH (jobs name their interpreter), every result CSV and summary
 table equals the local run's as text (bit for bit, runtime columns aside: the grid is seeded, the methods
-deterministic), the dataset and identify jobs ran grouped in SLURM jobs that sacct lists as COMPLETED, and
-aggregate/track ran on the submitting side (localrules).
+deterministic), the datasets batch and one identify batch per method ran as SLURM jobs that sacct lists as
+COMPLETED, and aggregate/track ran on the submitting side (localrules).
 """
 
 import os
@@ -45,7 +45,7 @@ def slurm():
 @pytest.fixture(scope="module")
 def runs(slurm, local_smoke, tmp_path_factory):
     remote = tmp_path_factory.mktemp("slurm")
-    # --cores: the node of this test has nproc CPUs; a group job asking for more (the profile says 8) never starts
+    # --cores: the node of this test has nproc CPUs
     cores = str(len(os.sched_getaffinity(0)))
     proc = snakemake(remote, "--workflow-profile", str(ROOT / "profiles" / "slurm"), "smoke", "--cores", cores,
                      "--slurm-init-seconds-before-status-checks", "1", env=slurm)
@@ -57,19 +57,20 @@ def test_slurm_tables_equal_the_local_run_bit_for_bit(runs):
     local, remote, _ = runs
     expected, got = result_tables(local), result_tables(remote)
     grid = yaml.safe_load((ROOT / "configs" / "grid" / "smoke.yaml").read_text())
-    n_jobs = len(grid["methods"]) * len(grid["noise_ug"]) * len(grid["n_samples"])   # one table per job
-    assert sum(name.startswith("identify/") for name in expected) == n_jobs
+    n_tables = len(grid["methods"]) * len(grid["noise_ug"]) * len(grid["n_samples"])   # one per (method, cell)
+    assert sum(name.startswith("identify/") for name in expected) == n_tables
     assert "tables/comparison.csv" in expected
     assert got.keys() == expected.keys()
     for name, table in expected.items():
         assert got[name] == table, name
 
 
-def test_sacct_lists_the_grouped_jobs_as_completed(runs):
+def test_sacct_lists_the_batch_jobs_as_completed(runs):
     _, remote, log = runs
     job_ids = re.findall(r"submitted with SLURM jobid (\d+)", log)
-    # dataset + identify of the 4 cells form one group job (group-components cells: 12); nothing else is sent
-    assert len(job_ids) == 1, log[-3000:]
+    # the datasets batch and one identify batch per method; nothing else is sent
+    grid = yaml.safe_load((ROOT / "configs" / "grid" / "smoke.yaml").read_text())
+    assert len(job_ids) == 1 + len(grid["methods"]), log[-3000:]
     assert "rule aggregate" in log and "rule track" in log   # run here, not submitted (localrules)
     proc = subprocess.run(["sacct", "-X", "-n", "-P", "-j", ",".join(job_ids), "--format=JobID,State,Account"],
                           capture_output=True, text=True, check=True)
