@@ -106,6 +106,10 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
         if not np.all(np.isfinite(d)):
             message = "singular Jacobian"
             break
+        if _settled(theta, system.std[:m], history):
+            message, converged = (f"the located frequencies settled to {SETTLED_STD:g} std over "
+                                  f"{SETTLED_ITERATIONS} iterations (the others are not located)"), True
+            break
         with np.errstate(divide="ignore", invalid="ignore"):
             step_in_std = float(np.nanmax(np.abs(d) / system.std))
         if step_in_std < opts.tol_step:
@@ -172,6 +176,21 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
     return {"theta": theta, "loss": loss, "e": e, "J": J, "iterations": iterations, "message": message,
             "converged": converged, "step_lengths": step_lengths, "joined": joined, "floor": floor,
             **({} if std_free is None else {"std_free": std_free})}
+
+
+def _settled(theta, w_std, history) -> bool:
+    """Whether a search with modes the record does not locate (std > 10 % of ω) can stop: every located
+    mode moved less than ``SETTLED_STD`` std over the last ``SETTLED_ITERATIONS`` iterations. The others
+    crawl along a flat valley for as long as they are allowed (50 iterations, at every start and repair:
+    most of the time of a short or very noisy record went there) without moving the located ones."""
+    if len(history) <= SETTLED_ITERATIONS:
+        return False
+    m = w_std.size
+    located = w_std <= LOCATED_REL_STD * theta[:m]
+    if not located.any() or located.all():
+        return False
+    drift = np.abs(history[-1] - history[-1 - SETTLED_ITERATIONS])
+    return bool(np.all(drift[located] < SETTLED_STD * w_std[located]))
 
 
 def _blocked_by_bounds(theta, free_idx, d, bounds) -> np.ndarray:

@@ -154,6 +154,14 @@ def _compare_grids(old: dict, new: dict) -> None:
     """Old vs new per cell: RMSE/CRLB of the identifiable modes, failure and not-converged rates, and
     whether the difference is within Monte-Carlo scatter (RMSE: 3 x sqrt(1/(2R)) relative, the standard
     error of an RMSE from R draws; rates: 3 binomial standard errors)."""
+    common = sorted(set(zip(old["n"], old["noise_ug"], strict=True)) & set(zip(new["n"], new["noise_ug"], strict=True)))
+
+    def only_common(run):                  # a run restricted with --max-n has fewer cells
+        keep = [i for i, cell in enumerate(zip(run["n"], run["noise_ug"], strict=True)) if cell in common]
+        return {k: np.asarray(v)[keep] for k, v in run.items()
+                if k in ("n", "noise_ug", "errors", "converged", "times")}
+
+    old, new = only_common(old), only_common(new)
     r_old, ident, f_old = _grid_scores(old)
     r_new, _, f_new = _grid_scores(new)
     R = old["errors"].shape[1]
