@@ -165,6 +165,32 @@ class ClosedForm:
     def residual(self, theta: np.ndarray) -> np.ndarray:
         return self.y - self.basis(theta) @ theta[2 * self.m:]
 
+    def project(self, theta: np.ndarray):
+        """θ with its free linear unknowns (x₀, b) at their least-squares values for θ's (ω, ζ), its ε and
+        loss — :func:`methods._pem_search.solve_linear` for this predictor, in a few array operations (the
+        search calls it at every trial point): the normal equations of the column-scaled basis, solved
+        through their eigendecomposition. None where they are near-singular (scaled condition number above
+        1e12): the caller then takes the SVD route."""
+        m = self.m
+        phi = self.basis(theta)
+        fixed = theta[2 * m:].copy()
+        fixed[self._lin_cols] = 0.0
+        target = self.y - phi @ fixed if fixed.any() else self.y
+        F = phi if self._lin_cols.size == phi.shape[1] else phi[:, self._lin_cols]
+        H = F.T @ F
+        norms = np.sqrt(H.diagonal())
+        if not (np.all(norms > 0) and np.all(np.isfinite(H))):
+            return None
+        lam, V = np.linalg.eigh(H / np.outer(norms, norms))
+        if not lam[0] > 1e-12 * lam[-1]:
+            return None
+        c = (V @ ((V.T @ (F.T @ target / norms)) / lam)) / norms
+        out = theta.copy()
+        out[2 * m:][self._lin_cols] = c
+        e = target - F @ c
+        self._e_key, self._e = out.tobytes(), e
+        return out, e, float(e @ e / e.size)
+
     def linear_part(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """ε(θ) and G = ∂ε/∂c_free = −Φ[:, free linear columns] (ε is affine in x₀ and b)."""
         return self.residual(theta), -self.basis(theta)[:, self._lin_cols]
@@ -185,7 +211,7 @@ class ClosedForm:
         J[:, :n_w] = (z * tg - root * th)[:, free[:n_w]]                             # −∂ŷ/∂ω
         J[:, n_w:n_z] = (w * tg + (w * z / root) * th)[:, free[n_w:n_z] - m]         # −∂ŷ/∂ζ
         np.negative(phi[:, free[n_z:] - 2 * m], out=J[:, n_z:])                     # −∂ŷ/∂(x₀, b)
-        e = self.y - phi @ theta[2 * m:]
+        e = self._e if getattr(self, "_e_key", None) == theta.tobytes() else self.y - phi @ theta[2 * m:]
         return e, J
 
 

@@ -50,6 +50,10 @@ def solve_linear(ev, theta, m):
 
     ε(θ) is affine in c, ε = ε₀ + G c, so one linear solve is exact. Returns (θ, ε, loss).
     """
+    if hasattr(ev, "project"):                 # the closed form's own lean solve (None: near-singular)
+        done = ev.project(theta)
+        if done is not None:
+            return done
     theta = theta.copy()
     theta[2 * m:2 * m + ev.n_linear] = 0.0                    # a fixed offset stays at its value
     e0, G = ev.linear_part(theta)

@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 
-def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 32,
-                  amplitude_samples: int = 256) -> tuple[np.ndarray, np.ndarray]:
+def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
+                  amplitude_samples: int = 128) -> tuple[np.ndarray, np.ndarray]:
     """Poles zⱼ and complex amplitudes cⱼ of y(k) ≈ Σ cⱼ zⱼᵏ (k = 0…N−1).
 
     Parameters
@@ -27,8 +27,10 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 32,
     order : int
         Number of poles M (clipped to what the record supports, about N/2).
     max_columns : int
-        Pencil parameter L is N/3, at most this (and at least M). The cost is O(N·L²); L = 32 keeps the
-        start near half a millisecond at N = 256, and the search from it, not the pencil, sets the accuracy.
+        Pencil parameter L is N/3, at most this (and at least M). The cost is O(N·L²) + O(L³) (the
+        eigendecomposition: 0.6 ms at L = 85 here, 0.1 ms at L = 32); a smaller L is cheaper but more
+        sensitive to noise (``methods.pem`` tries L = 32 first and keeps it only when the fit from it
+        explains the record).
     amplitude_samples : int
         The amplitudes are the least-squares fit of the poles to the first this many samples (they only
         rank the poles by energy; a fit to all N samples would cost O(N·M²)).
@@ -50,7 +52,11 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 32,
         return np.zeros(0, complex), np.zeros(0, complex)
     order = min(order, int(np.sum(lam > lam[-1] * 1e-16)))
     V = vecs[:, ::-1][:, :order]                       # (L+1) × M, strongest first
-    z = np.linalg.eigvals(np.linalg.lstsq(V[:-1], V[1:], rcond=None)[0])
+    V1 = V[:-1]                                        # V₁⁺V₂ = (V₁ᵀV₁)⁻¹V₁ᵀV₂: V has orthonormal columns,
+    try:                                               # so V₁ᵀV₁ = I − vvᵀ (v the last row) is well conditioned
+        z = np.linalg.eigvals(np.linalg.solve(V1.T @ V1, V1.T @ V[1:]))
+    except np.linalg.LinAlgError:                      # |v| = 1: a pole at infinity; the pseudo-inverse
+        z = np.linalg.eigvals(np.linalg.lstsq(V1, V[1:], rcond=None)[0])
     head = min(n, max(amplitude_samples, 2 * order))
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         vander = np.exp(np.multiply.outer(np.arange(head), np.log(z.astype(complex))))
@@ -113,17 +119,17 @@ PENCIL_WINDOW = 4096   # samples the start looks at: its cost is then bounded wh
 
 
 def pencil_start(y: np.ndarray, dt: float, prior: np.ndarray, *, extra_order: int, default_zeta: float,
-                 max_zeta: float = 0.3, window: int = PENCIL_WINDOW):
+                 max_zeta: float = 0.3, window: int = PENCIL_WINDOW, max_columns: int = 120):
     """A start (ω, ζ) in prior order from the matrix pencil of order 2m + 1 + extra_order.
 
     Only the first ``window`` samples are used: the pencil's SVD is O(rows·L²) and its Vandermonde fit
     O(rows·M²), so on the whole of a 10⁶-sample record it would cost seconds and a gigabyte, while a start
     only has to land in the basin of the search on the full record. (A damped mode's energy is in the
     record's beginning anyway; the basin in ω is ~2π/(NΔt) wide, the windowed pencil's error ~ its CRLB at
-    ``window`` samples — far smaller for the grid's noise levels.)"""
+    ``window`` samples — far smaller for the grid's noise levels.) ``max_columns``: see :func:`matrix_pencil`."""
     prior = np.asarray(prior, dtype=float)
     y = np.asarray(y, dtype=float)[:window]
-    z, amp = matrix_pencil(y, 2 * prior.size + 1 + extra_order)
+    z, amp = matrix_pencil(y, 2 * prior.size + 1 + extra_order, max_columns=max_columns)
     omega, zeta, _ = modes_from_poles(z, amp, y.size, dt)
     ok = (omega < np.pi / dt) & (zeta > -0.05) & (zeta < max_zeta)
     freq, damp = match_to_prior(omega[ok], zeta[ok], prior, default_zeta)

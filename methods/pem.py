@@ -34,8 +34,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from methods import _pem_fast as fast
 from methods import _pem_search as search
-from methods.damped_sinusoids import pencil_start
+from methods.damped_sinusoids import PENCIL_WINDOW, pencil_start
 from methods.estimate import Estimate, check_inputs, failed, make_options
 
 PREDICTORS = ("output_error", "kalman")
@@ -127,15 +128,16 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
     bounds = search.search_bounds(prior, dt, opts)
     fits, join = [], None
     for label, w0, z0 in _starts(y, dt, prior, opts):
-        fit = search.fit_one_start(y, dt, w0, z0, shape, free, opts, bounds, join)
+        fit = _fit(y, dt, w0, z0, shape, free, opts, bounds, join)
         fit["start"] = label
         fits.append(fit)
         if join is None and fit["converged"] and np.isfinite(fit["loss"]):
             std = _free_std(fit)
             if np.all(std[:m] <= search.IDENTIFIED_REL_STD * fit["theta"][:m]):   # every mode determined
-                join = (fit["theta"], std)
-                if opts.accept_white and label == "pencil" and _explains_record(fit, std[:m], n, dt):
+                if opts.accept_white and label in (QUICK, "pencil") and _explains_record(fit, std[:m], n, dt):
+                    fits = [fit]
                     break
+                join = (fit["theta"], std)
     # a start that joined an earlier fit stopped short of the common minimum: it never wins
     ok = [f for f in fits if np.isfinite(f["loss"]) and not f["joined"]]
     if not ok:
@@ -146,13 +148,21 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         start = _repaired_start(best, free, prior, opts)
         if start is None:
             break
-        fit = search.fit_one_start(y, dt, *start, shape, free, opts, bounds)
+        fit = _fit(y, dt, *start, shape, free, opts, bounds)
         fit["start"] = f"repair{len(fits)}"
         fits.append(fit)
         if not fit["loss"] < best["loss"]:
             break
         best = fit
     return _estimate(best, fits, prior, free, n, dt)
+
+
+def _fit(y, dt, w0, z0, shape, free, opts: Options, bounds, join=None) -> dict:
+    """One start's search: the variable-projection path (:mod:`methods._pem_fast`) for the default
+    options, else the reference (:func:`methods._pem_search.fit_one_start`: any predictor and search)."""
+    if fast.applies(opts):
+        return fast.fit_one_start(y, dt, w0, z0, free, opts, bounds, join)
+    return search.fit_one_start(y, dt, w0, z0, shape, free, opts, bounds, join)
 
 
 def _free_std(fit: dict) -> np.ndarray:
@@ -255,24 +265,45 @@ def _free_mask(m: int, opts: Options) -> tuple[bool, ...]:
     return tuple([True] * m + [opts.estimate_damping] * m + [True] * (2 * m) + [opts.bias == "estimate"])
 
 
+QUICK = "quick pencil"
+QUICK_PENCIL_COLUMNS = 32     # the quick start's pencil parameter L (the full start's is N/3, up to 120)
+
+
 def _starts(y, dt, prior, opts: Options):
-    """(label, ω, ζ) of every start: the pencil start, the prior, then seeded perturbations."""
-    starts = []
+    """(label, ω, ζ) of every start, made when asked for: with ``accept_white`` first a quick pencil start
+    (L = 32: a fifth of the full pencil's time at N = 256; kept only if its fit explains the record, see
+    :func:`_explains_record`), then the ``n_starts``: the pencil start (L = N/3 up to 120: the quick one's
+    L lost 4 % of the random structures of ``experiments.benchmarks.basin`` to local minima), the prior,
+    then seeded perturbations."""
     z_prior = np.full(prior.size, opts.damping_ratio)
-    if opts.data_driven_start:
+
+    def pencil(label, max_columns):
         try:
             w, z = pencil_start(y, dt, prior, extra_order=opts.pencil_extra_order,
-                                default_zeta=opts.damping_ratio)
-            starts.append(("pencil", w, z if opts.estimate_damping else z_prior))
+                                default_zeta=opts.damping_ratio, max_columns=max_columns)
         except np.linalg.LinAlgError:
-            pass
-    starts.append(("prior", prior.copy(), z_prior))
+            return None
+        return label, w, z if opts.estimate_damping else z_prior
+
+    if opts.data_driven_start and opts.accept_white and min(y.size, PENCIL_WINDOW) // 3 > QUICK_PENCIL_COLUMNS:
+        start = pencil(QUICK, QUICK_PENCIL_COLUMNS)
+        if start is not None:
+            yield start
+    made = 0
+    if opts.data_driven_start:
+        start = pencil("pencil", 120)
+        if start is not None:
+            yield start
+            made += 1
+    if made < opts.n_starts:
+        yield "prior", prior.copy(), z_prior
+        made += 1
     rng = np.random.default_rng(opts.seed)
     nyquist = np.pi / dt
-    while len(starts) < opts.n_starts:
+    while made < opts.n_starts:
         w = prior * np.exp(opts.start_spread * rng.standard_normal(prior.size))
-        starts.append((f"perturbed{len(starts)}", np.minimum(w, 0.95 * nyquist), z_prior))
-    return starts[:opts.n_starts]
+        yield f"perturbed{made}", np.minimum(w, 0.95 * nyquist), z_prior
+        made += 1
 
 
 def detection_std(n: int, dt: float, alpha: float = 0.01) -> float:

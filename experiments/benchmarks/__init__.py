@@ -6,6 +6,18 @@ import statistics
 import time
 
 
+def interleaved_medians(fns: dict, repeats: int) -> dict:
+    """Median wall time of each ``fn()`` over ``repeats`` rounds, one call of every fn per round, so that
+    a slow spell of the shared machine hits every row alike (the ratios are what to quote)."""
+    times = {name: [] for name in fns}
+    for _ in range(repeats):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - t0)
+    return {name: statistics.median(t) for name, t in times.items()}
+
+
 def median_seconds(fn, repeats: int) -> float:
     """Median wall time of ``fn()`` over ``repeats`` calls (the machine is shared: quote medians)."""
     times = []

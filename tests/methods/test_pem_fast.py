@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from methods import _pem_fast, pem
 from methods import _pem_predictor as pp
-from methods import pem
 
 DT = 0.02
 TRUE_W = np.array([3.23, 20.24, 22.00, 56.67])        # Table 3
@@ -67,13 +67,45 @@ def test_fast_path_equals_the_reference_path_on_noise_free_data(monkeypatch):
     y = damped_sinusoids(TRUE_W, zeta, np.array([1.0, -3.9, -5.1, 6.4]), np.array([0.2, 0.5, -0.3, 1.0]), 200,
                          offset=0.01)
     fast = pem.identify(y, DT, TABLE4_PRIOR)
+    # the reference search (methods/_pem_search.py) on the closed form, then on the recursive predictor
+    monkeypatch.setattr(_pem_fast, "applies", lambda opts: False)
+    closed = pem.identify(y, DT, TABLE4_PRIOR)
     monkeypatch.setattr(pp, "make_evaluator", lambda y_, dt, m, free, K: pp.Recursive(
         y_.size, m, free, False, y_, np.zeros(2 * m), dt))
     ref = pem.identify(y, DT, TABLE4_PRIOR)
-    assert fast.converged and ref.converged
-    np.testing.assert_allclose(fast.frequencies, ref.frequencies, rtol=1e-8)
+    for other in (closed, ref):
+        assert fast.converged and other.converged
+        np.testing.assert_allclose(fast.frequencies, other.frequencies, rtol=1e-8)
+        np.testing.assert_allclose(fast.extra["damping"], other.extra["damping"], rtol=1e-6)
+        np.testing.assert_allclose(fast.std, other.std, atol=1e-12)     # rounding level: no data noise
     np.testing.assert_allclose(fast.frequencies, TRUE_W, rtol=1e-8)
-    np.testing.assert_allclose(fast.extra["damping"], ref.extra["damping"], rtol=1e-6)
+
+
+def test_the_fast_search_takes_the_steps_of_the_reference_search():
+    """On a noisy record from the same start: the variable-projection search (methods/_pem_fast.py) and the
+    reference Gauss–Newton (methods/_pem_search.py) end at the same minimum, with the same std of ω and ζ
+    (the reduced normal equations are the Schur complement of the full ones)."""
+    from methods import _pem_search as search
+    from methods.damped_sinusoids import pencil_start
+
+    zeta = np.array([0.005, 0.004, 0.006, 0.005])
+    clean = damped_sinusoids(TRUE_W, zeta, np.array([1.0, -3.9, -5.1, 6.4]), np.array([0.2, 0.5, -0.3, 1.0]),
+                             256, offset=0.01)
+    y = clean + 0.05 * np.random.default_rng(3).standard_normal(256)
+    for options in ({}, {"estimate_damping": False}, {"bias": "none"}):
+        opts = pem.Options(**options)
+        free = pem._free_mask(4, opts)
+        bounds = search.search_bounds(TABLE4_PRIOR, DT, opts)
+        w0, z0 = pencil_start(y, DT, TABLE4_PRIOR, extra_order=6, default_zeta=0.005)
+        z0 = z0 if opts.estimate_damping else np.full(4, opts.damping_ratio)
+        a = _pem_fast.fit_one_start(y, DT, w0, z0, free, opts, bounds)
+        b = search.fit_one_start(y, DT, w0, z0, np.ones(4), free, opts, bounds)
+        assert a["converged"] and b["converged"], (a["message"], b["message"])
+        np.testing.assert_allclose(a["theta"], b["theta"], rtol=1e-7, atol=1e-10)
+        assert a["loss"] == pytest.approx(b["loss"], rel=1e-10)
+        n_nl = 8 if opts.estimate_damping else 4
+        std_b = search.lstsq_step(b["J"], b["e"])[1]
+        np.testing.assert_allclose(a["std_free"][:n_nl], std_b[:n_nl], rtol=1e-6)
 
 
 @pytest.mark.slow
