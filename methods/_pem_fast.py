@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from methods import _pem_search as search
-from methods._pem_predictor import _powers
+from methods._pem_predictor import _powers, scaled_lstsq
 
 
 class _Model:
@@ -47,14 +47,10 @@ class _Model:
         p = _powers((-z * w + 1j * (w * root)) * self.dt, self.k.size)
         phi[:, :m] = p.real
         phi[:, m:2 * m] = p.imag
-        H = phi.T @ phi
-        norms = np.sqrt(H.diagonal())
-        if not (np.all(norms > 0) and np.all(np.isfinite(H))):
+        solved = scaled_lstsq(phi, self.target)
+        if solved is None:
             return None
-        lam, V = np.linalg.eigh(H / np.outer(norms, norms))
-        if not lam[0] > 1e-12 * lam[-1]:
-            return None
-        c = (V @ ((V.T @ (phi.T @ self.target / norms)) / lam)) / norms
+        c, (norms, lam, V) = solved
         e = self.target - phi @ c
         return c, e, float(e @ e) / e.size, (norms, lam, V, root)
 
@@ -156,8 +152,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict:
             message = "singular Jacobian"
             break
         if search._settled(x, system.std[:m], history):
-            message, converged = (f"the located frequencies settled to {search.SETTLED_STD:g} std over "
-                                  f"{search.SETTLED_ITERATIONS} iterations (the others are not located)"), True
+            message, converged = search.SETTLED_MESSAGE, True
             break
         with np.errstate(divide="ignore", invalid="ignore"):
             step_in_std = float(np.nanmax(np.abs(d) / system.std))
@@ -207,12 +202,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict:
             break
         history.append(x[:m].copy())
     else:
-        w_std = _Reduced(Jr, e, n_unknowns).std[:m]
-        located = w_std <= search.LOCATED_REL_STD * x[:m]
-        drift = np.abs(history[-1] - history[max(len(history) - search.SETTLED_ITERATIONS, 0)])
-        if located.any() and np.all(drift[located] < search.SETTLED_STD * w_std[located]):
-            message, converged = (f"iteration limit; the located frequencies settled to "
-                                  f"{search.SETTLED_STD:g} std ({m - located.sum()} not located)"), True
+        message, converged = search.at_iteration_limit(x[:m], _Reduced(Jr, e, n_unknowns).std[:m], history)
     if std_free is None:                     # the std at the final point (a stop other than the step rule)
         std_free = _Reduced(Jr, e, n_unknowns).std
     fit = _result(model, x, c, loss, iterations, message, converged, step_lengths, free, std_free)

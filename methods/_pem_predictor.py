@@ -114,6 +114,21 @@ def _powers(logp: np.ndarray, n: int) -> np.ndarray:
     return (steps[:, None, :] * head[None, :, :]).reshape(-1, logp.size)[:n]
 
 
+def scaled_lstsq(F: np.ndarray, target: np.ndarray):
+    """c minimising |target − F c| through the normal equations of the column-scaled F and their
+    eigendecomposition (a p × p problem: far cheaper than an SVD of N × p), and the pieces that apply
+    (FᵀF)⁻¹ again: (c, (norms, eigenvalues, eigenvectors)). None where FᵀF is not finite or its scaled
+    condition number exceeds 1e12 (the caller takes the SVD route)."""
+    H = F.T @ F
+    norms = np.sqrt(H.diagonal())
+    if not (np.all(norms > 0) and np.all(np.isfinite(H))):
+        return None
+    lam, V = np.linalg.eigh(H / np.outer(norms, norms))
+    if not lam[0] > 1e-12 * lam[-1]:
+        return None
+    return (V @ ((V.T @ (F.T @ target / norms)) / lam)) / norms, (norms, lam, V)
+
+
 class ClosedForm:
     """The output-error predictor (K = 0) in closed form, with its exact Jacobian: no recursion at all.
 
@@ -177,14 +192,10 @@ class ClosedForm:
         fixed[self._lin_cols] = 0.0
         target = self.y - phi @ fixed if fixed.any() else self.y
         F = phi if self._lin_cols.size == phi.shape[1] else phi[:, self._lin_cols]
-        H = F.T @ F
-        norms = np.sqrt(H.diagonal())
-        if not (np.all(norms > 0) and np.all(np.isfinite(H))):
+        solved = scaled_lstsq(F, target)
+        if solved is None:
             return None
-        lam, V = np.linalg.eigh(H / np.outer(norms, norms))
-        if not lam[0] > 1e-12 * lam[-1]:
-            return None
-        c = (V @ ((V.T @ (F.T @ target / norms)) / lam)) / norms
+        c = solved[0]
         out = theta.copy()
         out[2 * m:][self._lin_cols] = c
         e = target - F @ c

@@ -111,8 +111,7 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
             message = "singular Jacobian"
             break
         if _settled(theta, system.std[:m], history):
-            message, converged = (f"the located frequencies settled to {SETTLED_STD:g} std over "
-                                  f"{SETTLED_ITERATIONS} iterations (the others are not located)"), True
+            message, converged = SETTLED_MESSAGE, True
             break
         with np.errstate(divide="ignore", invalid="ignore"):
             step_in_std = float(np.nanmax(np.abs(d) / system.std))
@@ -168,18 +167,27 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
             break
         history.append(theta[:m].copy())
     else:
-        # Modes the record does not determine can crawl along a flat, curved valley for hundreds of
-        # iterations; the answer still counts when every mode the data locate (std ≤ 10 % of ω) has
-        # settled over the last iterations.
-        w_std = LinearizedSystem(J, e).std[:m]
-        located = w_std <= LOCATED_REL_STD * theta[:m]
-        drift = np.abs(history[-1] - history[max(len(history) - SETTLED_ITERATIONS, 0)])
-        if located.any() and np.all(drift[located] < SETTLED_STD * w_std[located]):
-            message, converged = (f"iteration limit; the located frequencies settled to "
-                                  f"{SETTLED_STD:g} std ({m - located.sum()} not located)"), True
+        message, converged = at_iteration_limit(theta[:m], LinearizedSystem(J, e).std[:m], history)
     return {"theta": theta, "loss": loss, "e": e, "J": J, "iterations": iterations, "message": message,
             "converged": converged, "step_lengths": step_lengths, "joined": joined, "floor": floor,
             **({} if std_free is None else {"std_free": std_free})}
+
+
+SETTLED_MESSAGE = (f"the located frequencies settled to {SETTLED_STD:g} std over {SETTLED_ITERATIONS} "
+                   "iterations (the others are not located)")
+
+
+def at_iteration_limit(w, w_std, history) -> tuple[str, bool]:
+    """(message, converged) of a search that reached the iteration limit. Modes the record does not
+    determine can crawl along a flat, curved valley for hundreds of iterations; the answer still counts
+    when every mode the data locate (std ≤ 10 % of ω) has settled over the last iterations."""
+    m = w.size
+    located = w_std <= LOCATED_REL_STD * w
+    drift = np.abs(history[-1] - history[max(len(history) - SETTLED_ITERATIONS, 0)])
+    if located.any() and np.all(drift[located] < SETTLED_STD * w_std[located]):
+        return (f"iteration limit; the located frequencies settled to {SETTLED_STD:g} std "
+                f"({m - located.sum()} not located)"), True
+    return "iteration limit", False
 
 
 def _settled(theta, w_std, history) -> bool:
