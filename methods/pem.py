@@ -36,6 +36,7 @@ import numpy as np
 
 from methods import _pem_fast as fast
 from methods import _pem_search as search
+from methods._pem_predictor import _powers
 from methods.damped_sinusoids import PENCIL_WINDOW, pencil_start
 from methods.estimate import Estimate, check_inputs, failed, make_options
 
@@ -134,7 +135,8 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         if join is None and fit["converged"] and np.isfinite(fit["loss"]):
             std = _free_std(fit)
             if np.all(std[:m] <= search.IDENTIFIED_REL_STD * fit["theta"][:m]):   # every mode determined
-                if opts.accept_white and label in (QUICK, "pencil") and _explains_record(fit, std[:m], n, dt):
+                if (opts.accept_white and label in (QUICK, "pencil")
+                        and _explains_record(fit, std[:m], n, dt, opts.predictor == "output_error")):
                     fits = [fit]
                     break
                 join = (fit["theta"], std)
@@ -154,7 +156,7 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         if not fit["loss"] < best["loss"]:
             break
         best = fit
-    return _estimate(best, fits, prior, free, n, dt)
+    return _estimate(best, fits, prior, free, n, dt, opts.predictor == "output_error")
 
 
 def _fit(y, dt, w0, z0, shape, free, opts: Options, bounds, join=None) -> dict:
@@ -175,9 +177,33 @@ def _free_std(fit: dict) -> np.ndarray:
 WHITENESS_ALPHA = 0.01     # false-alarm rate of the residual's sinusoid test (a false alarm costs time only)
 
 
-def _explains_record(fit: dict, w_std: np.ndarray, n: int, dt: float) -> bool:
-    """Whether a fit leaves nothing for another start to find: every mode detected (std below
-    :func:`detection_std`) and no sinusoid left in the residual, or the residual at rounding level.
+def mode_energies(theta: np.ndarray, n: int, dt: float) -> np.ndarray:
+    """‖e^{−σᵢt}(Aᵢ cos ω_dᵢt + Bᵢ sin ω_dᵢt)‖² over the record: each fitted mode's energy (θ order)."""
+    m = (theta.size - 1) // 4
+    w, z = theta[:m], theta[m:2 * m]
+    p = _powers((-z * w + 1j * (w * np.sqrt(1.0 - z * z))) * dt, n)
+    comp = p.real * theta[2 * m:4 * m:2] + p.imag * theta[2 * m + 1:4 * m:2]
+    return np.einsum("ij,ij->j", comp, comp)
+
+
+def _detected(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, energy: bool) -> np.ndarray:
+    """Per mode (θ order): does the record detect it? Its std is below :func:`detection_std` (the rule
+    for a sinusoid that lasts the record), or — for the output-error model, whose θ holds each mode's
+    amplitudes — its fitted energy exceeds the noise's 1 − α level, E/σ̂² > 2 ln(N/2α). The std rule
+    alone misses a damped mode in a long record: its energy, and so its std, stops improving once it has
+    decayed, while the rule's bound keeps shrinking as 1/N (mode 4 of the plant at N = 262 144)."""
+    found = w_std <= detection_std(n, dt, alpha)
+    if energy and fit.get("e") is not None and "theta" in fit and np.all(np.isfinite(fit["theta"])):
+        e = fit["e"]
+        sigma2 = float(e @ e) / max(n - len(fit.get("std_free", ())), 1)
+        if sigma2 > 0:
+            found = found | (mode_energies(fit["theta"], n, dt) / sigma2 > 2.0 * np.log(n / (2.0 * alpha)))
+    return found
+
+
+def _explains_record(fit: dict, w_std: np.ndarray, n: int, dt: float, energy: bool = True) -> bool:
+    """Whether a fit leaves nothing for another start to find: every mode detected (:func:`_detected`)
+    and no sinusoid left in the residual, or the residual at rounding level.
 
     The other starts and the repair rounds exist for local minima: a mode parked where it explains nothing,
     two close modes merged, a missed mode. Each leaves a sinusoid of the record unexplained, and the
@@ -188,7 +214,7 @@ def _explains_record(fit: dict, w_std: np.ndarray, n: int, dt: float) -> bool:
     this ends the search after one start (the other two and the repairs cost 20× the first; measured:
     ``python -m experiments.benchmarks.pem_speed``); where the test fails every start runs as before.
     """
-    if not np.all(w_std <= detection_std(n, dt, WHITENESS_ALPHA)):
+    if not np.all(_detected(fit, w_std, n, dt, WHITENESS_ALPHA, energy)):
         return False
     e = fit["e"]
     power = float(e @ e)
@@ -318,11 +344,13 @@ def detection_std(n: int, dt: float, alpha: float = 0.01) -> float:
     return float(np.sqrt(3.0 / np.log(n / (2.0 * alpha))) / (n * dt))
 
 
-def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float) -> Estimate:
+def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float,
+              energy: bool = True) -> Estimate:
     """The winning fit as an Estimate, its modes labelled with the prior entries (:func:`_label_modes`)."""
     m = prior.size
     w, w_std, z, z_std = _mode_table(best, free, m)
     slot = _label_modes(w, w_std, prior)
+    detected = _detected(best, w_std, n, dt, 0.01, energy)[slot]
     freq, std, damp, damp_std = w[slot], w_std[slot], z[slot], z_std[slot]
     identified = std <= search.IDENTIFIED_REL_STD * freq
     agree, agree_converged = 0, False
@@ -340,7 +368,7 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
     # within 10 % of ω) and detects it (below); no such mode — an all-zero, constant or pure-noise record
     # — is no answer at all
     per_mode = (converged & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
-                & (std <= detection_std(n, dt)))
+                & detected)
     converged = converged and bool(per_mode.any())
     std = np.where(np.isfinite(std), std, np.nan)   # a column the record does not move: no std, not inf
     extra = {

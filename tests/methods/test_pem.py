@@ -189,3 +189,14 @@ def test_the_first_start_is_accepted_only_when_it_explains_the_record():
     missed = rng.standard_normal(n) + 0.6 * np.sin(20.24 * t)   # E/σ² = 0.36·N/2 = 46 > 2 ln(N/2α) = 18.7
     assert not pem._explains_record({"e": missed}, w_std, n, DT)
     assert not pem._explains_record({"e": rng.standard_normal(n)}, np.full(4, 1.0), n, DT)  # not detected
+
+
+def test_a_damped_mode_of_a_long_record_is_detected_by_its_energy():
+    """Mode 4 (ζ = 0.005, 56.7 rad/s) decays within ~200 samples: in a long record its std stops shrinking
+    while detection_std keeps falling as 1/N; its fitted energy still shows it (E/σ² ≫ 2 ln(N/2α))."""
+    plant, y = paper_record(262144, 1000.0, seed=2)
+    est = pem.identify(y, DT, TABLE4_PRIOR)
+    assert est.std[3] > pem.detection_std(y.size, DT)                  # the std rule alone would refuse it
+    assert est.converged and est.extra["converged_per_mode"].all(), est.message
+    assert est.extra["n_starts"] == 1                                  # and the first start is accepted
+    np.testing.assert_allclose(est.frequencies, plant.freq_rad_s, rtol=1e-4)
