@@ -25,11 +25,14 @@ class Options(PeerOptions):
     extra_order: int = 1             # spare states beyond modes and offset (tuned on seed 1)
     delays_fraction: float = 0.5     # delays d / N (the snapshots are N − d + 1)
 
+    def check(self) -> None:
+        super().check()
+        if not 0 < self.delays_fraction < 1:
+            raise ValueError(f"delays_fraction = {self.delays_fraction} must be in (0, 1)")
+
 
 def delays_and_order(n: int, m: int, opts) -> tuple[int, int]:
     """The delay count d and the rank, clipped so that the d × (N − d + 1) embedding has that rank."""
-    if not 0 < opts.delays_fraction < 1:
-        raise ValueError(f"delays_fraction = {opts.delays_fraction} must be in (0, 1)")
     order = opts.model_order(m)
     d = min(max(int(round(opts.delays_fraction * n)), order), n - order - 1)
     return d, min(order, d, n - d)

@@ -58,6 +58,15 @@ def test_bad_options_name_the_value(name):
         methods.get(name)(y, DT, [5.0], no_such_option=1)
 
 
+@pytest.mark.parametrize("name", ["hdmd", "bopdmd"])
+def test_a_bad_delays_fraction_is_refused_before_any_record(name):
+    """check_options (no record) refuses it, and identify does so even on a flat record."""
+    with pytest.raises(ValueError, match="delays_fraction = 1.5"):
+        methods.check_options(name, [5.0], DT, {"delays_fraction": 1.5})
+    with pytest.raises(ValueError, match="delays_fraction = 0"):
+        methods.get(name)(np.zeros(128), DT, [5.0], delays_fraction=0.0)
+
+
 @pytest.mark.parametrize("name", ["n4sid", "ssi_data"])
 def test_too_short_record_fails_per_mode(name, plant):
     """20 samples cannot hold these libraries' Hankel matrices for 4 modes: NaN, not converged, no crash."""
