@@ -110,9 +110,16 @@ def applies(opts) -> bool:
     return opts.predictor == "output_error" and opts.separable and opts.search == "levenberg_marquardt"
 
 
-def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict:
+def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     """:func:`methods._pem_search.fit_one_start` for the options :func:`applies` to: the same dict (θ, loss,
-    ε, iterations, message, converged, ...; ``J`` None, ``std_free`` with NaN for the linear unknowns)."""
+    ε, iterations, message, converged, ...; ``J`` None, ``std_free`` with NaN for the linear unknowns).
+
+    None — the caller then runs the reference search from the same start — as soon as a mode is not
+    determined by the record (std of ω above 1 % of ω) or the basis is near-singular: there the two
+    searches' damped steps differ (λ scales a different matrix) and their paths through a flat valley can
+    end at different points, so such a start gets exactly the reference's behaviour (short or very noisy
+    records; measured: ``experiments.benchmarks.pem --part grid``), and the fast path is used where every
+    mode is determined, which is where its speed matters."""
     m = w0.size
     est_z = bool(free[m])
     with_offset = bool(free[4 * m])
@@ -148,9 +155,8 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict:
                 blocked = np.r_[np.zeros(m, bool), bz]
                 system = _Reduced(Jr, e, n_unknowns, blocked)
                 d = system.step(0.0)
-        if not np.all(np.isfinite(d)):
-            message = "singular Jacobian"
-            break
+        if not (np.all(np.isfinite(d)) and np.all(system.std[:m] <= search.IDENTIFIED_REL_STD * x[:m])):
+            return None     # a mode the record does not determine here: the reference search takes over
         if search._settled(x, system.std[:m], history):
             message, converged = search.SETTLED_MESSAGE, True
             break
@@ -171,7 +177,9 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict:
                 np.clip(cand, lo, hi, out=cand)
                 if _valid(cand, m, dt, n):
                     trial = model.fit(cand[:m], cand[m:])
-                    if trial is not None and np.isfinite(trial[2]) and trial[2] < loss:
+                    if trial is None:
+                        return None          # a near-singular basis: the reference's SVD route takes over
+                    if np.isfinite(trial[2]) and trial[2] < loss:
                         found = True
                         break
                 mu *= 0.5

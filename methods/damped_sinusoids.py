@@ -52,10 +52,14 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
         return np.zeros(0, complex), np.zeros(0, complex)
     order = min(order, int(np.sum(lam > lam[-1] * 1e-16)))
     V = vecs[:, ::-1][:, :order]                       # (L+1) × M, strongest first
-    V1 = V[:-1]                                        # V₁⁺V₂ = (V₁ᵀV₁)⁻¹V₁ᵀV₂: V has orthonormal columns,
-    try:                                               # so V₁ᵀV₁ = I − vvᵀ (v the last row) is well conditioned
-        z = np.linalg.eigvals(np.linalg.solve(V1.T @ V1, V1.T @ V[1:]))
-    except np.linalg.LinAlgError:                      # |v| = 1: a pole at infinity; the pseudo-inverse
+    V1 = V[:-1]
+    z = None
+    if V1.shape[0] >= 2 * V1.shape[1]:                 # V₁⁺V₂ = (V₁ᵀV₁)⁻¹V₁ᵀV₂: V has orthonormal columns, so
+        try:                                           # V₁ᵀV₁ = I − vvᵀ (v the last row) is well conditioned
+            z = np.linalg.eigvals(np.linalg.solve(V1.T @ V1, V1.T @ V[1:]))
+        except np.linalg.LinAlgError:                  # |v| = 1: a pole at infinity
+            z = None
+    if z is None:                                      # few rows (a short record): the pseudo-inverse
         z = np.linalg.eigvals(np.linalg.lstsq(V1, V[1:], rcond=None)[0])
     head = min(n, max(amplitude_samples, 2 * order))
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
