@@ -71,38 +71,15 @@ class _Model:
         return Jn - phi @ coef
 
 
-class _Reduced:
-    """The (ω, ζ) normal equations J_rᵀJ_r, column-scaled, as :class:`methods._pem_search.NormalEquations`."""
-
-    def __init__(self, Jr: np.ndarray, e: np.ndarray, n_unknowns: int, blocked=None):
-        H, g = Jr.T @ Jr, Jr.T @ e
-        if blocked is not None:
-            H[blocked, :] = 0.0
-            H[:, blocked] = 0.0
-            g[blocked] = 0.0
-        norms = np.sqrt(H.diagonal())
-        norms = np.where(norms > 0, norms, 1.0)
-        lam2, V = np.linalg.eigh(H / np.outer(norms, norms))
-        top = lam2[-1]
-        keep = lam2 > top * 1e-15 if top > 0 else np.zeros(lam2.size, bool)
-        self.well_conditioned = bool(keep.all() and lam2[0] > 1e-10 * top)
-        inv = np.where(keep, 1.0 / np.where(keep, lam2, 1.0), 0.0)
-        var = (V ** 2) @ inv / norms ** 2
-        sigma2 = float(e @ e) / max(e.size - n_unknowns, 1)
-        self.std = np.where(var > 0, np.sqrt(sigma2 * var), np.inf)
-        self._norms, self._lam2, self._V, self._keep, self._top = norms, lam2, V, keep, top
-        self._gv = V.T @ (g / norms)
-
-    def step(self, lam: float) -> np.ndarray:
-        f = np.where(self._keep, 1.0 / np.where(self._keep, self._lam2 + lam * self._top, 1.0), 0.0)
-        return -(self._V @ (f * self._gv)) / self._norms
+class _Handover(Exception):
+    """Raised inside a trial point: this start goes to the reference search."""
 
 
-def _valid(x, m, dt, n) -> bool:
-    """:func:`methods._pem_search._valid` on (ω, ζ)."""
-    w, z = x[:m], x[m:]
-    return bool(((w > 0) & (np.abs(z) < 0.9) & (w * np.sqrt(np.maximum(1.0 - z * z, 0.0)) * dt < np.pi)
-                 & (-z * w * dt * n < search.MAX_GROWTH_EXPONENT)).all())
+def _reduced(Jr: np.ndarray, e: np.ndarray, n_unknowns: int) -> search.NormalEquations:
+    """The (ω, ζ) normal equations J_rᵀJ_r, column-scaled (:class:`methods._pem_search.NormalEquations`),
+    with σ̂² = Σε²/(N − p) for all p = ``n_unknowns`` free unknowns, as in the full system."""
+    return search.NormalEquations(None, None, (Jr.T @ Jr, Jr.T @ e, float(e @ e),
+                                               e.size - n_unknowns + Jr.shape[1]))
 
 
 def applies(opts) -> bool:
@@ -133,18 +110,17 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
         return _result(model, x, None, np.inf, 0, "the predictor diverges at the start", False, [], free, None)
     c, e, loss, solver = sol
     nn = m * (1 + est_z)                                          # free nonlinear unknowns
-    floor_rel = search.LOSS_FLOOR_REL + search.PHASE_ROUNDING * float(np.max(x[:m])) * n * dt
-    floor = floor_rel ** 2 * float(model.y @ model.y) / n
+    floor = search.loss_floor(x[:m], model.y, dt)
     if join is not None:
         join_at, join_tol = join[0][:nn], search.JOIN_STD * join[1][:nn]
-    halvings, lam = search.LM_HALVINGS, 0.0
+    lam = 0.0
     message, converged, iterations, joined = "iteration limit", False, 0, False
     history, step_lengths, std_free = [x[:m].copy()], [], None
     Jr = model.reduced_jacobian(x[:m], x[m:], c, solver, est_z)
     system = None
     while iterations < opts.max_iterations:
         iterations += 1
-        system = _Reduced(Jr, e, n_unknowns)
+        system = _reduced(Jr, e, n_unknowns)
         d = system.step(0.0)
         blocked = None
         if est_z:
@@ -153,7 +129,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
             bz = ((v <= lo[m:]) & (dz < 0)) | ((v >= hi[m:]) & (dz > 0))
             if bz.any():                                            # active set: ζ at its bound stays
                 blocked = np.r_[np.zeros(m, bool), bz]
-                system = _Reduced(Jr, e, n_unknowns, blocked)
+                system = system.without(blocked)
                 d = system.step(0.0)
         if not (np.all(np.isfinite(d)) and np.all(system.std[:m] <= search.IDENTIFIED_REL_STD * x[:m])):
             return None     # a mode the record does not determine here: the reference search takes over
@@ -167,52 +143,41 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
             if blocked is None and system.well_conditioned:
                 std_free = system.std
             break
-        found = False
-        while not found:
-            d = system.step(lam)
-            mu = 1.0
-            for _ in range(halvings):
-                cand = x.copy()
-                cand[:nn] += mu * d
-                np.clip(cand, lo, hi, out=cand)
-                if _valid(cand, m, dt, n):
-                    trial = model.fit(cand[:m], cand[m:])
-                    if trial is None:
-                        return None          # a near-singular basis: the reference's SVD route takes over
-                    if np.isfinite(trial[2]) and trial[2] < loss:
-                        found = True
-                        break
-                mu *= 0.5
-            if lam > 1e8:
-                break
-            if not found:
-                lam = max(10.0 * lam, 1e-8)
-            elif mu == 1.0:
-                lam = 0.0 if lam <= 1e-8 else lam / 10.0
+
+        def try_point(d, mu, base=x):
+            cand = base.copy()
+            cand[:nn] += mu * d
+            np.clip(cand, lo, hi, out=cand)
+            if not search.valid_modes(cand[:m], cand[m:], dt, n):
+                return None
+            trial = model.fit(cand[:m], cand[m:])
+            if trial is None:
+                raise _Handover      # a near-singular basis: the reference's SVD route takes over
+            return trial[2], (cand, trial)
+
+        try:
+            found, mu, lam, trial = search.damped_step(system, lam, loss, True, try_point)
+        except _Handover:
+            return None
         if not found:
             message = f"no loss decrease along the search direction ({step_in_std:.2g} std)"
             converged = True
             break
-        c, e, loss_new, solver = trial
+        cand, (c, e, loss_new, solver) = trial[1]
         improvement = (loss - loss_new) / loss if loss > 0 else 0.0
         step_lengths.append(mu)
         x, loss = cand, loss_new
         Jr = model.reduced_jacobian(x[:m], x[m:], c, solver, est_z)
-        if improvement < opts.tol_loss:
-            message, converged = f"relative loss improvement below {opts.tol_loss:g}", True
-            break
-        if loss <= floor:
-            message, converged = "residual at the rounding level of the data", True
-            break
-        if join is not None and np.all(np.abs(x[:nn] - join_at) <= join_tol):
-            message = f"joined an earlier start's fit (within {search.JOIN_STD:g} std)"
-            converged, joined = True, True
+        at_join = join is not None and bool(np.all(np.abs(x[:nn] - join_at) <= join_tol))
+        stop = search.stop_after_step(opts, improvement, loss, floor, at_join)
+        if stop:
+            message, converged, joined = stop, True, at_join and stop == search.JOINED_MESSAGE
             break
         history.append(x[:m].copy())
     else:
-        message, converged = search.at_iteration_limit(x[:m], _Reduced(Jr, e, n_unknowns).std[:m], history)
+        message, converged = search.at_iteration_limit(x[:m], _reduced(Jr, e, n_unknowns).std[:m], history)
     if std_free is None:                     # the std at the final point (a stop other than the step rule)
-        std_free = _Reduced(Jr, e, n_unknowns).std
+        std_free = _reduced(Jr, e, n_unknowns).std
     fit = _result(model, x, c, loss, iterations, message, converged, step_lengths, free, std_free)
     fit.update(e=e, joined=joined, floor=floor)
     return fit

@@ -114,6 +114,17 @@ def _powers(logp: np.ndarray, n: int) -> np.ndarray:
     return (steps[:, None, :] * head[None, :, :]).reshape(-1, logp.size)[:n]
 
 
+def modal_basis(w: np.ndarray, z: np.ndarray, dt: float, n: int) -> np.ndarray:
+    """Φ (n × 2m + 1) with ŷ = Φ·(x₀, b): columns e^{−σᵢt} cos ω_dᵢt, e^{−σᵢt} sin ω_dᵢt (i = 1…m), then 1."""
+    m = w.size
+    rot = _powers((-z * w + 1j * (w * np.sqrt(1.0 - z * z))) * dt, n)
+    phi = np.empty((n, 2 * m + 1))
+    phi[:, 0:2 * m:2] = rot.real
+    phi[:, 1:2 * m:2] = rot.imag
+    phi[:, 2 * m] = 1.0
+    return phi
+
+
 def scaled_lstsq(F: np.ndarray, target: np.ndarray):
     """c minimising |target − F c| through the normal equations of the column-scaled F and their
     eigendecomposition (a p × p problem: far cheaper than an SVD of N × p), and the pieces that apply
@@ -168,13 +179,7 @@ class ClosedForm:
         m = self.m
         key = theta[:2 * m].tobytes()
         if key != self._key:                        # the search asks twice at an accepted point
-            w, z = theta[:m], theta[m:2 * m]
-            rot = _powers((-z * w + 1j * (w * np.sqrt(1.0 - z * z))) * self.dt, self.t.size)
-            phi = np.empty((self.t.size, 2 * m + 1))
-            phi[:, 0:2 * m:2] = rot.real
-            phi[:, 1:2 * m:2] = rot.imag
-            phi[:, 2 * m] = 1.0
-            self._key, self._phi = key, phi
+            self._key, self._phi = key, modal_basis(theta[:m], theta[m:2 * m], self.dt, self.t.size)
         return self._phi
 
     def residual(self, theta: np.ndarray) -> np.ndarray:

@@ -86,7 +86,6 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
     if join is not None:
         join_at, join_tol = join[0][free_idx[nonlin]], JOIN_STD * join[1][nonlin]
     lm = opts.search == "levenberg_marquardt"
-    halvings = LM_HALVINGS if lm else MAX_HALVINGS
     lam = 0.0
     e, J = ev.residual_jacobian(theta)
     n = e.size
@@ -94,8 +93,7 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
     # A noise-free record is fitted to rounding; below this every step's decrease is rounding noise, and
     # proving "no decrease" costs ~85 trial points (every halving at every λ) — on 10⁶ samples, minutes.
     # The model's own rounding grows with the phase ωt it reaches (t = kΔt is rounded): ~ε_mach·ω·t_max.
-    floor_rel = LOSS_FLOOR_REL + PHASE_ROUNDING * float(np.max(theta[:m])) * n * dt
-    floor = floor_rel ** 2 * float(ev.y @ ev.y) / n
+    floor = loss_floor(theta[:m], ev.y, dt)
     message, converged, iterations = "iteration limit", False, 0
     history, step_lengths = [theta[:m].copy()], []
     std_free = None
@@ -120,33 +118,26 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
             if not blocked.any() and system.well_conditioned:
                 std_free = system.std          # at the final θ: the SVD's std to ~1e-10 (see the class)
             break
-        found = False
-        while not found:
-            d = system.step(lam)
-            mu = 1.0
-            for _ in range(halvings):
-                cand = theta.copy()
-                if opts.separable:
-                    cand[free_idx[nonlin]] += mu * d[nonlin]
-                else:
-                    cand[free_idx] += mu * d
-                cand[:2 * m] = np.clip(cand[:2 * m], *bounds)
-                if _valid(cand, dt, n):
-                    if opts.separable:
-                        cand, _, loss_new = solve_linear(ev, cand, m)
-                    else:
-                        e_new = ev.residual(cand)
-                        loss_new = e_new @ e_new / n
-                    if np.isfinite(loss_new) and loss_new < loss:
-                        found = True
-                        break
-                mu *= 0.5
-            if not lm or lam > 1e8:
-                break
-            if not found:
-                lam = max(10.0 * lam, 1e-8)
-            elif mu == 1.0:
-                lam = 0.0 if lam <= 1e-8 else lam / 10.0
+
+        def try_point(d, mu, base=theta):
+            cand = base.copy()
+            if opts.separable:
+                cand[free_idx[nonlin]] += mu * d[nonlin]
+            else:
+                cand[free_idx] += mu * d
+            cand[:2 * m] = np.clip(cand[:2 * m], *bounds)
+            if not _valid(cand, dt, n):
+                return None
+            if opts.separable:
+                cand, _, loss_new = solve_linear(ev, cand, m)
+            else:
+                e_new = ev.residual(cand)
+                loss_new = e_new @ e_new / n
+            return loss_new, cand
+
+        found, mu, lam, trial = damped_step(system, lam, loss, lm, try_point)
+        if found:
+            loss_new, cand = trial
         if not found:
             # No decrease along any damped step: a minimum to rounding.
             message = f"no loss decrease along the search direction ({step_in_std:.2g} std)"
@@ -156,14 +147,10 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
         step_lengths.append(mu)
         theta, loss = cand, loss_new
         e, J = ev.residual_jacobian(theta)
-        if improvement < opts.tol_loss:
-            message, converged = f"relative loss improvement below {opts.tol_loss:g}", True
-            break
-        if loss <= floor:
-            message, converged = "residual at the rounding level of the data", True
-            break
-        if join is not None and np.all(np.abs(theta[free_idx[nonlin]] - join_at) <= join_tol):
-            message, converged, joined = f"joined an earlier start's fit (within {JOIN_STD:g} std)", True, True
+        at_join = join is not None and bool(np.all(np.abs(theta[free_idx[nonlin]] - join_at) <= join_tol))
+        stop = stop_after_step(opts, improvement, loss, floor, at_join)
+        if stop:
+            message, converged, joined = stop, True, at_join and stop == JOINED_MESSAGE
             break
         history.append(theta[:m].copy())
     else:
@@ -188,6 +175,55 @@ def at_iteration_limit(w, w_std, history) -> tuple[str, bool]:
         return (f"iteration limit; the located frequencies settled to {SETTLED_STD:g} std "
                 f"({m - located.sum()} not located)"), True
     return "iteration limit", False
+
+
+def loss_floor(w: np.ndarray, y: np.ndarray, dt: float) -> float:
+    """The loss below which a fit is at the rounding level of the data: the residual rms ``LOSS_FLOOR_REL``
+    of the data's, plus the model's own rounding, which grows with the phase ωt it reaches (t = kΔt is
+    rounded): ~ε_mach·ω·t_max."""
+    n = y.size
+    floor_rel = LOSS_FLOOR_REL + PHASE_ROUNDING * float(np.max(w)) * n * dt
+    return floor_rel ** 2 * float(y @ y) / n
+
+
+JOINED_MESSAGE = f"joined an earlier start's fit (within {JOIN_STD:g} std)"
+
+
+def stop_after_step(opts, improvement: float, loss: float, floor: float, at_join: bool) -> str | None:
+    """Why a search ends after an accepted step — the relative loss improvement below ``tol_loss``, the
+    loss at the data's rounding level, or the point within ``JOIN_STD`` std of an earlier start's fit
+    (checked in this order) — or None to go on. Shared with :mod:`methods._pem_fast`."""
+    if improvement < opts.tol_loss:
+        return f"relative loss improvement below {opts.tol_loss:g}"
+    if loss <= floor:
+        return "residual at the rounding level of the data"
+    return JOINED_MESSAGE if at_join else None
+
+
+def damped_step(system, lam: float, loss: float, lm: bool, try_point):
+    """The step rule of eq. (30), shared by this search and :mod:`methods._pem_fast`: from the system's
+    step for damping λ, μ = 1 halved until ``try_point(d, μ)`` — (loss, payload) of the trial point, or
+    None where it is not valid — gives a lower loss (40 halvings for pure Gauss–Newton; for
+    Levenberg–Marquardt 5, then λ grows ×10 and the step is recomputed; a full step shrinks λ ÷10).
+    Returns (found, μ, λ, (loss, payload) of the accepted point or None)."""
+    halvings = LM_HALVINGS if lm else MAX_HALVINGS
+    found, trial = False, None
+    while not found:
+        d = system.step(lam)
+        mu = 1.0
+        for _ in range(halvings):
+            out = try_point(d, mu)
+            if out is not None and np.isfinite(out[0]) and out[0] < loss:
+                found, trial = True, out
+                break
+            mu *= 0.5
+        if not lm or lam > 1e8:
+            break
+        if not found:
+            lam = max(10.0 * lam, 1e-8)
+        elif mu == 1.0:
+            lam = 0.0 if lam <= 1e-8 else lam / 10.0
+    return found, mu, lam, trial
 
 
 def _settled(theta, w_std, history) -> bool:
@@ -316,10 +352,14 @@ def lstsq_step(J: np.ndarray, e: np.ndarray):
 
 
 def _valid(theta, dt, n) -> bool:
+    """:func:`valid_modes` of the (ω, ζ) of a full parameter vector."""
+    m = (theta.size - 1) // 4
+    return valid_modes(theta[:m], theta[m:2 * m], dt, n)
+
+
+def valid_modes(w, z, dt, n) -> bool:
     """Frequencies positive, damped frequency below Nyquist, |ζ| < 0.9, and no mode growing more than
     e²⁰ over the record (a negative ζ lets a mode the record does not determine mimic a trend)."""
-    m = (theta.size - 1) // 4
-    w, z = theta[:m], theta[m:2 * m]
     # one vectorised test (called for every trial point; the chained np.all calls were 15 % of a fit)
     ok = ((w > 0) & (np.abs(z) < 0.9) & (w * np.sqrt(np.maximum(1.0 - z * z, 0.0)) * dt < np.pi)
           & (-z * w * dt * n < MAX_GROWTH_EXPONENT))

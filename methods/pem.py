@@ -36,7 +36,7 @@ import numpy as np
 
 from methods import _pem_fast as fast
 from methods import _pem_search as search
-from methods._pem_predictor import _powers
+from methods._pem_predictor import modal_basis
 from methods.damped_sinusoids import PENCIL_WINDOW, pencil_start
 from methods.estimate import Estimate, check_inputs, failed, make_options
 
@@ -185,10 +185,7 @@ def mode_wald(theta: np.ndarray, n: int, dt: float) -> np.ndarray:
     Unlike the mode's energy ‖Φᵢcᵢ‖², it is small for two modes the record does not tell apart (large,
     cancelling amplitudes on nearly collinear columns)."""
     m = (theta.size - 1) // 4
-    w, z = theta[:m], theta[m:2 * m]
-    p = _powers((-z * w + 1j * (w * np.sqrt(1.0 - z * z))) * dt, n)
-    phi = np.empty((n, 2 * m + 1))
-    phi[:, 0:2 * m:2], phi[:, 1:2 * m:2], phi[:, 2 * m] = p.real, p.imag, 1.0
+    phi = modal_basis(theta[:m], theta[m:2 * m], dt, n)
     try:
         S = np.linalg.inv(phi.T @ phi)
     except np.linalg.LinAlgError:
@@ -211,17 +208,18 @@ def _detected(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, ene
     information stops growing once it has decayed, while the rule's bound keeps shrinking as 1/N (mode 4
     of the plant at N = 262 144)."""
     found = w_std <= detection_std(n, dt, alpha)
-    if energy and fit.get("e") is not None and "theta" in fit and np.all(np.isfinite(fit["theta"])):
-        e = fit["e"]
-        sigma2 = float(e @ e) / max(n - len(fit.get("std_free", ())), 1)
-        if sigma2 > 0:
-            if "wald" not in fit:                      # asked twice for the winning fit: computed once
-                fit["wald"] = mode_wald(fit["theta"], n, dt)
-            # only for a mode the record determines (std ≤ 1 % of ω): on a short record the Wald statistic
-            # at a fitted ω ignores how loosely ω itself is pinned, and the std rule is the right one
-            determined = w_std <= search.IDENTIFIED_REL_STD * fit["theta"][:w_std.size]
-            found = found | (determined & (fit["wald"] / sigma2 > 2.0 * np.log(n / (2.0 * alpha))))
-    return found
+    if not energy or fit.get("e") is None or "theta" not in fit or not np.all(np.isfinite(fit["theta"])):
+        return found
+    # only for a mode the record determines (std ≤ 1 % of ω): on a short record the Wald statistic at a
+    # fitted ω ignores how loosely ω itself is pinned, and the std rule is the right one
+    candidates = ~found & (w_std <= search.IDENTIFIED_REL_STD * fit["theta"][:w_std.size])
+    e = fit["e"]
+    sigma2 = float(e @ e) / max(n - len(fit.get("std_free", ())), 1)
+    if not candidates.any() or not sigma2 > 0:        # the usual case: no basis to build
+        return found
+    if "wald" not in fit:                              # asked twice for the winning fit: computed once
+        fit["wald"] = mode_wald(fit["theta"], n, dt)
+    return found | (candidates & (fit["wald"] / sigma2 > 2.0 * np.log(n / (2.0 * alpha))))
 
 
 def _explains_record(fit: dict, w_std: np.ndarray, n: int, dt: float, energy: bool = True) -> bool:
