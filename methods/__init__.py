@@ -17,6 +17,11 @@ Honesty contract of the ``Estimate``: a mode the record does not determine (an a
 ``extra["converged_per_mode"]`` False and a std that is NaN or finite and honest, never 0
 (tests/methods/test_contract.py checks every registered method).
 
+Optional: ``identify_batch(y, dt, priors, **options) -> list[Estimate]`` on R records at once (``y`` R × n,
+``priors`` one prior or R × m), returning exactly what ``identify`` returns on each row, computed together
+where that shares work (``akf``/``wkf``: the R filters in lock-step). :func:`get_batch` finds it; the jobs
+use it for a cell's replicates; tests/methods/test_contract.py checks it against ``identify`` row by row.
+
 ``get(name)`` finds a method by name. Adding a method: write ``methods/<name>.py`` with the three names
 above and add one line to ``_REGISTRY``. Nothing here imports the experiments, Hydra, MLflow or the file
 system.
@@ -70,7 +75,7 @@ _REQUIRES: dict[str, str] = {
 ENTRY_POINT_GROUP = "spacecraft_modal_id.methods"
 
 __all__ = ["ENTRY_POINT_GROUP", "Estimate", "check_inputs", "check_options", "check_prior", "failed", "flat_record",
-           "get", "module_name", "names", "options_class", "plugins", "require"]
+           "get", "get_batch", "module_name", "names", "options_class", "plugins", "require"]
 
 
 @functools.cache
@@ -116,6 +121,12 @@ def _module(name: str):
 def get(name: str):
     """Return the ``identify(y, dt, prior, **options) -> Estimate`` function of method ``name``."""
     return _module(name).identify
+
+
+def get_batch(name: str):
+    """Return method ``name``'s ``identify_batch(y, dt, priors, **options) -> list[Estimate]``, or None
+    when it has none (then call ``identify`` per record)."""
+    return getattr(_module(name), "identify_batch", None)
 
 
 def options_class(name: str):

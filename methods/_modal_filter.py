@@ -87,8 +87,10 @@ def double_integrate(y: np.ndarray, dt: float) -> np.ndarray:
     the homogeneous part of the two integrators, c + v·k: the unknown initial position and velocity.
     A constant bias b in ``y`` becomes exactly b·(kΔt)²/2. The filter estimates c, v and b as states.
     """
-    v = np.concatenate(([0.0], np.cumsum(0.5 * dt * (y[1:] + y[:-1]))))
-    return np.concatenate(([0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))))
+    y = np.asarray(y, dtype=float)         # one record, or records along the last axis
+    zero = np.zeros(y.shape[:-1] + (1,))
+    v = np.concatenate((zero, np.cumsum(0.5 * dt * (y[..., 1:] + y[..., :-1]), axis=-1)), axis=-1)
+    return np.concatenate((zero, np.cumsum(0.5 * dt * (v[..., 1:] + v[..., :-1]), axis=-1)), axis=-1)
 
 
 def drift_transition(n_drift: int, dt: float) -> np.ndarray:
@@ -226,14 +228,10 @@ def _initial_covariance(z: np.ndarray, y: np.ndarray, prior: np.ndarray, lay: _L
     return np.diag(p0)
 
 
-def run_filter(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings, *,
-               observer=None) -> Estimate:
-    """Run the augmented (optionally frequency-weighted) EKF over the record ``y`` (tip acceleration).
-
-    Returns an Estimate whose history holds the frequency states after every measurement update (and
-    ``extra["std_history"]`` their filter standard deviations), or a failed Estimate with the history up
-    to the failure when the filter diverges. ``observer(k, x, P)``, if given, sees every posterior (tests).
-    """
+def prepare(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings):
+    """What a filter run on ``y`` starts from: the sequence the filter measures (the record, integrated
+    twice for position, weighted for ``wkf``), the state layout, filterpy's EKF with x0, P0, Q and R, the
+    transition F with its constant blocks and the measurement row H (shared with the lock-step run)."""
     if s.measurement == "position":
         z = double_integrate(y, dt)
         n_drift = 3 if s.estimate_bias else 2
@@ -244,6 +242,19 @@ def run_filter(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings, *
     lay = _Layout(prior.size, n_drift, 0 if wf is None else wf.phi_f.shape[0])
     meas = z if wf is None else wf.apply(z)   # the weighted filter sees y_f, eq. (26)
     ekf, F, H = _build_filter(z, y, dt, prior, lay, s)
+    return meas, lay, ekf, F, H
+
+
+def run_filter(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings, *,
+               observer=None) -> Estimate:
+    """Run the augmented (optionally frequency-weighted) EKF over the record ``y`` (tip acceleration).
+
+    Returns an Estimate whose history holds the frequency states after every measurement update (and
+    ``extra["std_history"]`` their filter standard deviations), or a failed Estimate with the history up
+    to the failure when the filter diverges. ``observer(k, x, P)``, if given, sees every posterior (tests).
+    """
+    meas, lay, ekf, F, H = prepare(y, dt, prior, s)
+    wf = s.weighting
 
     n, nm = lay.n, lay.n_model
     # flat positions in F of the modal blocks Φ_n and of the columns ∂(Φ_n x_n)/∂ω_n
@@ -294,17 +305,25 @@ def run_filter(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings, *
         if reason:
             return failed(prior, f"diverged at sample {k}: {reason}", iterations=k + 1,
                           history=history[: k + 1])
-    determined, share = _determined(std_history[-1], y.size, s)
-    std_history = np.sqrt(np.clip(std_history, 0.0, None))
+    return finished(history, std_history, ekf.x[:, 0].copy(), prior, s)
+
+
+def finished(history: np.ndarray, var_history: np.ndarray, final_state: np.ndarray, prior: np.ndarray,
+             s: FilterSettings) -> Estimate:
+    """The Estimate of a filter run that did not diverge: the frequency states and variances after every
+    sample (n × m each), the last state, the prior and the settings (shared with the lock-step run)."""
+    n = history.shape[0]
+    determined, share = _determined(var_history[-1], n, s)
+    std_history = np.sqrt(np.clip(var_history, 0.0, None))
     std = std_history[-1].copy()
     std[~determined & (std == 0.0)] = np.nan     # a frequency held fixed (P0 = Qd = 0) has no 1σ to give
-    message = f"{y.size} samples filtered ({s.measurement} measurement)"
+    message = f"{n} samples filtered ({s.measurement} measurement)"
     if not determined.all():
         message += "; not determined by the record (frequency variance still above half of the prior's): " + \
             ", ".join(f"mode {i + 1} ({prior[i]:g} rad/s, {share[i]:.2f})" for i in np.flatnonzero(~determined))
     return Estimate(history[-1].copy(), std, history=history, converged=True,
-                    iterations=y.size, message=message,
-                    extra={"std_history": std_history, "final_state": ekf.x[:, 0].copy(),
+                    iterations=n, message=message,
+                    extra={"std_history": std_history, "final_state": final_state,
                            "converged_per_mode": determined.tolist(), "variance_share": share})
 
 

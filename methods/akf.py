@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from methods._modal_filter import run_filter, settings_from
+from methods._modal_filter_batch import identify_each
 from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
 
 
@@ -84,11 +85,22 @@ def identify(y, dt, prior, **options) -> Estimate:
         ``converged=False`` with the reason when the filter diverges.
     """
     y, dt, prior = check_inputs(y, dt, prior)
-    opts = check_options(prior, dt, **options)
+    settings = _settings(prior, dt, options)
     flat = flat_record(y)
     if flat:
         return failed(prior, flat)
-    return run_filter(y, dt, prior, settings_from(opts, prior, "akf"))
+    return run_filter(y, dt, prior, settings)
+
+
+def identify_batch(y, dt, priors, **options) -> list[Estimate]:
+    """:func:`identify` on every row of ``y`` (R records × n samples), row r with ``priors[r]`` (or one
+    prior for all): the same Estimates, computed with the R filters in lock-step
+    (:mod:`methods._modal_filter_batch`, checked against this module's filterpy run)."""
+    return identify_each(y, dt, priors, lambda prior: _settings(prior, dt, options))
+
+
+def _settings(prior, dt, options: dict):
+    return settings_from(check_options(prior, dt, **options), prior, "akf")
 
 
 def check_options(prior, dt, **options) -> Options:

@@ -16,6 +16,7 @@ from scipy.signal import cont2discrete
 
 from methods import akf
 from methods._modal_filter import Weighting, run_filter, settings_from
+from methods._modal_filter_batch import identify_each
 from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
 
 
@@ -79,12 +80,24 @@ def identify(y, dt, prior, **options) -> Estimate:
         As :func:`methods.akf.identify`: last frequency states, their filter std, the per-sample history.
     """
     y, dt, prior = check_inputs(y, dt, prior)
-    opts = check_options(prior, dt, **options)
+    settings = _settings(prior, dt, options)
     flat = flat_record(y)
     if flat:
         return failed(prior, flat)
+    return run_filter(y, dt, prior, settings)
+
+
+def identify_batch(y, dt, priors, **options) -> list[Estimate]:
+    """:func:`identify` on every row of ``y`` (R records × n samples), row r with ``priors[r]`` (or one
+    prior for all): the same Estimates, computed with the R filters in lock-step
+    (:mod:`methods._modal_filter_batch`, checked against this module's filterpy run)."""
+    return identify_each(y, dt, priors, lambda prior: _settings(prior, dt, options))
+
+
+def _settings(prior, dt, options: dict):
+    opts = check_options(prior, dt, **options)
     wf = weighting_filter(opts.weight_gain, opts.weight_omega0_rad_s, opts.weight_damping, dt)
-    return run_filter(y, dt, prior, settings_from(opts, prior, "wkf", weighting=wf, r_f=float(opts.r_f)))
+    return settings_from(opts, prior, "wkf", weighting=wf, r_f=float(opts.r_f))
 
 
 def check_options(prior, dt, **options) -> Options:

@@ -85,3 +85,16 @@ def test_the_physical_limit_leaves_real_records_alone():
     assert y.dtype == float and dt == DT and prior.tolist() == PRIOR
     y, _, _ = methods.check_inputs(list(range(64)), 1, [0.5])      # integers are real numbers
     assert y.dtype == float
+
+
+@pytest.mark.parametrize("name", [n for n in methods.names() if methods.get_batch(n) is not None])
+def test_a_batch_face_gives_each_record_what_identify_gives_it(name):
+    rng = np.random.default_rng(12)
+    t = np.arange(300) * DT
+    y = np.array([np.cos(3.3 * t) + 4.0 * np.cos(20.0 * t + p) + 0.01 * rng.standard_normal(t.size)
+                  for p in (0.0, 1.0, 2.0)] + [np.zeros(t.size)])
+    got = methods.get_batch(name)(y, DT, PRIOR)
+    for rec, est in zip(y, got, strict=True):
+        ref = methods.get(name)(rec, DT, PRIOR)
+        assert est.message == ref.message and est.converged == ref.converged
+        np.testing.assert_allclose(est.frequencies, ref.frequencies, rtol=1e-9, equal_nan=True)
