@@ -3,7 +3,8 @@
     python -m experiments.benchmarks.pipeline results/full [--wall-s 1234]
 
 Reads Snakemake's ``benchmark:`` files (the wall time of each job as a whole process: the datasets batch of
-the grid and one identify batch per method, experiments/rules/) and the jobs' result tables (the time spent
+the grid and one identify batch per method, experiments/rules/; a batch run by W worker processes counts
+W × its wall time, the cores it held) and the jobs' result tables (the time spent
 inside ``identify`` for each replicate). The difference is the pipeline's overhead: interpreter start-up,
 imports, Hydra composition, file I/O. With ``--wall-s`` (the workflow's measured wall time) it also reports
 the share of the wall time, including Snakemake's own scheduling and the serial aggregate and track steps.
@@ -18,6 +19,7 @@ are read too, so a before/after comparison uses this one command.
 from __future__ import annotations
 
 import argparse
+import re
 import statistics
 import subprocess
 import sys
@@ -38,16 +40,24 @@ def measure(grid_dir: Path) -> pd.DataFrame:
     bench = grid_dir / "benchmarks" / "identify"
     for tsv in sorted(bench.glob("*.tsv")):                     # a batch: one method, every cell
         method = tsv.stem
-        job_s = float(pd.read_csv(tsv, sep="\t")["s"].iloc[0])
+        workers = batch_workers(grid_dir / "logs" / "identify" / f"{method}.log")
+        job_s = workers * float(pd.read_csv(tsv, sep="\t")["s"].iloc[0])
         tables = sorted((grid_dir / "identify" / method).glob("*.csv"))
-        rows.append({"method": method, "cells": len(tables), "job_s": job_s,
+        rows.append({"method": method, "cells": len(tables), "workers": workers, "job_s": job_s,
                      "numeric_s": sum(_numeric_s(t) for t in tables)})
     for tsv in sorted(bench.glob("*/*.tsv")):                   # one process per (method, cell)
         method, cell = tsv.parent.name, tsv.stem
         job_s = float(pd.read_csv(tsv, sep="\t")["s"].iloc[0])
-        rows.append({"method": method, "cells": 1, "job_s": job_s,
+        rows.append({"method": method, "cells": 1, "workers": 1, "job_s": job_s,
                      "numeric_s": _numeric_s(grid_dir / "identify" / method / f"{cell}.csv")})
     return pd.DataFrame(rows)
+
+
+def batch_workers(log: Path) -> int:
+    """The worker processes of an identify batch, from the last line of its log ("... (2 workers)"); 1 for
+    batches without workers. A batch's job time is its wall time x its workers: the cores it held."""
+    match = re.search(r"\((\d+) workers?\)\s*$", log.read_text()) if log.exists() else None
+    return int(match.group(1)) if match else 1
 
 
 def dataset_job_s(grid_dir: Path) -> float:
@@ -80,6 +90,7 @@ def main(argv=None) -> int:
         return 2
     per = df.groupby("method")[["cells", "job_s", "numeric_s"]].sum()
     per["jobs"] = df.groupby("method").size()
+    per["workers"] = df.groupby("method")["workers"].max()
     per["import_s_per_job"] = [import_cost_s(m) for m in per.index]
     per["import_s"] = per["import_s_per_job"] * per["jobs"]
     per["pipeline_s"] = per["job_s"] - per["numeric_s"] - per["import_s"]

@@ -2,7 +2,8 @@
 # (experiments.jobs.batch: identify's job for each cell; a process per cell spent a third of the job time
 # starting up). Its folder is the output: results/<grid>/identify/<method>/<cell>.csv and, beside each table,
 # <cell>.json: the cell's resolved config, the dataset's digest and the code version, which is all the track
-# step reads besides the table. MLflow logging is left to the serial `track` step.
+# step reads besides the table. MLflow logging is left to the serial `track` step. The batch's cells are
+# shared by IDENTIFY_THREADS worker processes (common.smk; `--set-threads identify=N` changes it).
 rule identify:
     input:
         data="results/{grid}/data",
@@ -13,7 +14,7 @@ rule identify:
         jobs=identify_jobs,
         method_config=resolved_config,
         versions=method_versions,
-    threads: 1
+    threads: IDENTIFY_THREADS
     resources:
         mem_mb=MEM_MB_JOB,
         runtime=identify_runtime,
@@ -24,4 +25,4 @@ rule identify:
     benchmark:
         "results/{grid}/benchmarks/identify/{method}.tsv"
     shell:
-        "python -m experiments.jobs.batch identify {params.jobs} > {log} 2>&1"
+        "python -m experiments.jobs.batch identify {params.jobs} --workers {threads} > {log} 2>&1"

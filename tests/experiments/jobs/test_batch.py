@@ -70,3 +70,28 @@ def test_bad_input_in_any_job_is_one_line_and_nothing_is_written(cells):
         proc = subprocess.run([sys.executable, "-m", "experiments.jobs.batch", "identify", jobs_text], cwd=cwd,
                               capture_output=True, text=True, timeout=120)
         assert proc.returncode == 2 and word in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_composing_once_per_method_gives_each_job_hydras_own_config():
+    from hydra import initialize_config_module
+    from omegaconf import OmegaConf
+
+    from experiments.jobs import batch as batch_app
+    from experiments.jobs.app import CONFIG_MODULE
+    from experiments.jobs.config import register
+
+    register(with_methods=["akf", "fft"])
+    jobs = [[f"method={m}", f"data.dataset=results/g/data/{c}.npz", f"out=results/g/identify/{m}/{c}.csv",
+             "grid_name=g", "tracking.enabled=false", *extra]
+            for m, extra in (("fft", []), ("akf", ["method.options.measurement=acceleration"]))
+            for c in ("noise10ug_n20", "noise1000ug_n2048")]
+    jobs.append(jobs[0] + ["out=twice.csv"])           # a key given twice: composed by Hydra from scratch
+    with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
+        composer = batch_app.Composer("identify")
+        for job in jobs:
+            got, choice = composer(job)
+            ref, ref_choice = batch_app._compose("identify", job)
+            assert OmegaConf.to_container(got) == OmegaConf.to_container(ref)
+            assert choice == ref_choice
+        assert len(composer.cache) == 2                 # one composition per method
+        assert got.out == "twice.csv"
