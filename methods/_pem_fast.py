@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from methods import _pem_search as search
-from methods._pem_predictor import _powers, scaled_lstsq
+from methods._pem_predictor import _BLOCK, _powers, scaled_lstsq
 
 
 class _Model:
@@ -32,8 +32,8 @@ class _Model:
     def __init__(self, y: np.ndarray, dt: float, m: int, with_offset: bool, fixed_offset: float):
         self.y = np.ascontiguousarray(y, dtype=float)
         n = self.y.size
-        self.k = np.arange(n, dtype=float)
-        self.t = self.k * dt
+        self.k = np.arange(n)
+        self.t = (self.k * dt)[:, None]
         self.dt, self.m = dt, m
         self.target = self.y - fixed_offset if fixed_offset else self.y
         self.phi = np.empty((n, 2 * m + with_offset))      # columns: e^{−σt}cos (m), e^{−σt}sin (m), [1]
@@ -41,10 +41,13 @@ class _Model:
             self.phi[:, 2 * m] = 1.0
 
     def fit(self, w: np.ndarray, z: np.ndarray):
-        """(c, ε, loss, solver) at (ω, ζ); None where ΦᵀΦ is near-singular or not finite."""
-        m, phi = self.m, self.phi
+        """(c, ε, loss, solver) at (ω, ζ); None where ΦᵀΦ is near-singular or not finite. ``solver`` keeps
+        what the reduced Jacobian at this point needs (the basis Φ itself stays in ``self.phi`` until the
+        next call)."""
+        m, phi, n = self.m, self.phi, self.k.size
         root = np.sqrt(1.0 - z * z)
-        p = _powers((-z * w + 1j * (w * root)) * self.dt, self.k.size)
+        logp = (-z * w + 1j * (w * root)) * self.dt
+        p = np.exp(np.multiply.outer(self.k, logp)) if n <= 2 * _BLOCK else _powers(logp, n)
         phi[:, :m] = p.real
         phi[:, m:2 * m] = p.imag
         solved = scaled_lstsq(phi, self.target)
@@ -52,33 +55,38 @@ class _Model:
             return None
         c, (norms, lam, V) = solved
         e = self.target - phi @ c
-        return c, e, float(e @ e) / e.size, (norms, lam, V, root)
+        return c, e, float(e @ e) / n, (norms, lam, V, root, p)
 
     def reduced_jacobian(self, w, z, c, solver, estimate_damping: bool) -> np.ndarray:
-        """J_r = P⊥ ∂ε/∂(ω[, ζ]) (N × m or N × 2m) at a point where c is the least-squares solution."""
-        m, phi, t = self.m, self.phi, self.t[:, None]
-        norms, lam, V, root = solver
-        ec, es = phi[:, :m], phi[:, m:2 * m]
-        a, b = c[:m], c[m:2 * m]
-        tg = (ec * a + es * b) * t
-        th = (ec * b - es * a) * t
-        Jn = np.empty((t.size, 2 * m if estimate_damping else m))
-        np.subtract(z * tg, root * th, out=Jn[:, :m])                   # −∂ŷ/∂ω
+        """J_r = P⊥ ∂ε/∂(ω[, ζ]) (N × m or N × 2m) at a point where c is the least-squares solution.
+
+        With pᵢ(t) = e^{(−σᵢ + jω_dᵢ)t} and the mode's complex amplitude αᵢ = Aᵢ − jBᵢ, its output is
+        Re(αᵢpᵢ) = gᵢ and −Im(αᵢpᵢ) = hᵢ (the :class:`methods._pem_predictor.ClosedForm` docstring), so
+        −∂ŷ/∂ωᵢ = t·Re(αᵢpᵢ·(ζᵢ − j√(1 − ζᵢ²))) and −∂ŷ/∂ζᵢ = t·Re(αᵢpᵢ·(ωᵢ + jωᵢζᵢ/√(1 − ζᵢ²))): the
+        chain rule's coefficients folded into one complex factor per column, two array products for Jₙ."""
+        m, phi = self.m, self.phi
+        norms, lam, V, root, p = solver
+        alpha = c[:m] - 1j * c[m:2 * m]
+        factor = alpha * (z - 1j * root)
         if estimate_damping:
-            np.add(w * tg, (w * z / root) * th, out=Jn[:, m:])          # −∂ŷ/∂ζ
+            factor = np.concatenate([factor, alpha * (w + 1j * (w * z / root))])
+            Jn = (p[:, None, :] * factor.reshape(2, m)).real.reshape(-1, 2 * m) * self.t
+        else:
+            Jn = (p * factor).real * self.t
         # P⊥Jn = Jn − Φ (ΦᵀΦ)⁻¹ ΦᵀJn, through the eigendecomposition of the scaled ΦᵀΦ of the linear solve
-        coef = (V @ ((V.T @ ((phi.T @ Jn) / norms[:, None])) / lam[:, None])) / norms[:, None]
-        return Jn - phi @ coef
+        W = V / norms[:, None]
+        return Jn - phi @ (W @ ((W.T @ (phi.T @ Jn)) / lam[:, None]))
 
 
 class _Handover(Exception):
     """Raised inside a trial point: this start goes to the reference search."""
 
 
-def _reduced(Jr: np.ndarray, e: np.ndarray, n_unknowns: int) -> search.NormalEquations:
+def _reduced(Jr: np.ndarray, e: np.ndarray, n_unknowns: int, loss: float) -> search.NormalEquations:
     """The (ω, ζ) normal equations J_rᵀJ_r, column-scaled (:class:`methods._pem_search.NormalEquations`),
-    with σ̂² = Σε²/(N − p) for all p = ``n_unknowns`` free unknowns, as in the full system."""
-    return search.NormalEquations(None, None, (Jr.T @ Jr, Jr.T @ e, float(e @ e),
+    with σ̂² = Σε²/(N − p) for all p = ``n_unknowns`` free unknowns, as in the full system (Σε² = N·loss,
+    the fit's own sum)."""
+    return search.NormalEquations(None, None, (Jr.T @ Jr, Jr.T @ e, loss * e.size,
                                                e.size - n_unknowns + Jr.shape[1]))
 
 
@@ -102,7 +110,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     with_offset = bool(free[4 * m])
     n_unknowns = int(sum(free))
     lo, hi = bounds
-    x = np.clip(np.r_[w0, z0], lo, hi)                          # (ω, ζ); ζ fixed when not estimated
+    x = np.clip(np.concatenate([w0, z0]), lo, hi)               # (ω, ζ); ζ fixed when not estimated
     model = _Model(y, dt, m, with_offset, 0.0)
     n = model.y.size
     sol = model.fit(x[:m], x[m:])
@@ -113,6 +121,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     floor = search.loss_floor(x[:m], model.y, dt)
     if join is not None:
         join_at, join_tol = join[0][:nn], search.JOIN_STD * join[1][:nn]
+    lo_z, hi_z = lo[m:].tolist(), hi[m:].tolist()
     lam = 0.0
     message, converged, iterations, joined = "iteration limit", False, 0, False
     history, step_lengths, std_free = [x[:m].copy()], [], None
@@ -120,24 +129,27 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     system = None
     while iterations < opts.max_iterations:
         iterations += 1
-        system = _reduced(Jr, e, n_unknowns)
+        system = _reduced(Jr, e, n_unknowns, loss)
         d = system.step(0.0)
         blocked = None
-        if est_z:
-            v = x[m:]
-            dz = d[m:]
-            bz = ((v <= lo[m:]) & (dz < 0)) | ((v >= hi[m:]) & (dz > 0))
-            if bz.any():                                            # active set: ζ at its bound stays
-                blocked = np.r_[np.zeros(m, bool), bz]
+        if est_z:                                                   # active set: ζ at its bound stays
+            bz = [(v <= low and s < 0) or (v >= high and s > 0)    # (m Python floats: cheaper than arrays)
+                  for v, s, low, high in zip(x[m:].tolist(), d[m:].tolist(), lo_z, hi_z, strict=True)]
+            if any(bz):
+                blocked = np.array([False] * m + bz)
                 system = system.without(blocked)
                 d = system.step(0.0)
-        if not (np.all(np.isfinite(d)) and np.all(system.std[:m] <= search.IDENTIFIED_REL_STD * x[:m])):
+        std = system.std
+        if not (np.isfinite(d).all() and (std[:m] <= search.IDENTIFIED_REL_STD * x[:m]).all()):
             return None     # a mode the record does not determine here: the reference search takes over
-        if search._settled(x, system.std[:m], history):
+        if search._settled(x, std[:m], history):
             message, converged = search.SETTLED_MESSAGE, True
             break
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step_in_std = float(np.nanmax(np.abs(d) / system.std))
+        if std.min() > 0:                     # the usual case: no 0/0, so max is nanmax
+            step_in_std = float((np.abs(d) / std).max())
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step_in_std = float(np.nanmax(np.abs(d) / std))
         if step_in_std < opts.tol_step:
             message, converged = f"step size below {opts.tol_step:g} std", True
             if blocked is None and system.well_conditioned:
@@ -175,9 +187,10 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
             break
         history.append(x[:m].copy())
     else:
-        message, converged = search.at_iteration_limit(x[:m], _reduced(Jr, e, n_unknowns).std[:m], history)
+        message, converged = search.at_iteration_limit(x[:m], _reduced(Jr, e, n_unknowns, loss).std[:m],
+                                                       history)
     if std_free is None:                     # the std at the final point (a stop other than the step rule)
-        std_free = _reduced(Jr, e, n_unknowns).std
+        std_free = _reduced(Jr, e, n_unknowns, loss).std
     fit = _result(model, x, c, loss, iterations, message, converged, step_lengths, free, std_free)
     fit.update(e=e, joined=joined, floor=floor)
     return fit

@@ -132,7 +132,7 @@ def scaled_lstsq(F: np.ndarray, target: np.ndarray):
     condition number exceeds 1e12 (the caller takes the SVD route)."""
     H = F.T @ F
     norms = np.sqrt(H.diagonal())
-    if not (np.all(norms > 0) and np.all(np.isfinite(H))):
+    if not (norms.min() > 0 and np.isfinite(H).all()):
         return None
     lam, V = np.linalg.eigh(H / np.outer(norms, norms))
     if not lam[0] > 1e-12 * lam[-1]:

@@ -6,6 +6,8 @@ Used by :mod:`methods.pem`; ``opts`` is its ``Options``. Unknowns θ = [ω (m), 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from methods import _pem_predictor as pp
@@ -302,19 +304,27 @@ class NormalEquations:
         else:
             H, g, ee, n = _gram
         self._gram = (H, g, ee, n)
-        norms = np.sqrt(np.diag(H))
-        norms = np.where(norms > 0, norms, 1.0)
+        # (the fast search builds one of these per iteration: the common case — every column non-zero,
+        # every direction kept — takes the short branches, with the same arithmetic as the general ones)
+        norms = np.sqrt(H.diagonal())
+        if norms.size and not norms.min() > 0:
+            norms = np.where(norms > 0, norms, 1.0)
         lam2, V = np.linalg.eigh(H / np.outer(norms, norms))
         top = lam2[-1] if lam2.size else 0.0
         keep = lam2 > top * 1e-15 if top > 0 else np.zeros(lam2.size, bool)
-        self._norms, self._lam2, self._V, self._keep = norms, lam2, V, keep
+        self._all_kept = bool(keep.all())
+        self._norms, self._lam2, self._V, self._keep, self._top = norms, lam2, V, keep, top
         self._gv = V.T @ (g / norms)
         # scaled singular values within 1e-5 of each other: the eigh's std equals the SVD's to ~1e-10
-        self.well_conditioned = bool(keep.all() and lam2[0] > 1e-10 * top)
-        inv = np.where(keep, 1.0 / np.where(keep, lam2, 1.0), 0.0)
-        var = (V ** 2) @ inv / norms ** 2
+        self.well_conditioned = self._all_kept and bool(lam2[0] > 1e-10 * top)
+        inv = 1.0 / lam2 if self._all_kept else np.where(keep, 1.0 / np.where(keep, lam2, 1.0), 0.0)
+        var = (V * V) @ inv / (norms * norms)
         sigma2 = ee / max(n - H.shape[0], 1)
-        self.std = np.where(var > 0, np.sqrt(sigma2 * var), np.inf)
+        if var.size and var.min() > 0:
+            self.std = np.sqrt(sigma2 * var)
+        else:
+            self.std = np.where(var > 0, np.sqrt(sigma2 * var), np.inf)
+        self._gauss_newton = None
 
     def without(self, columns: np.ndarray) -> NormalEquations:
         """The system with the given columns of J set to zero (an active bound)."""
@@ -326,10 +336,19 @@ class NormalEquations:
         return NormalEquations(None, None, (H, g, ee, n))
 
     def step(self, lam: float) -> np.ndarray:
-        """−(JᵀJ + λs₀²I)⁻¹Jᵀε in scaled unknowns; λ = 0 is the (pseudo-inverse) Gauss–Newton step."""
-        top = self._lam2[-1]
-        f = np.where(self._keep, 1.0 / np.where(self._keep, self._lam2 + lam * top, 1.0), 0.0)
-        return -(self._V @ (f * self._gv)) / self._norms
+        """−(JᵀJ + λs₀²I)⁻¹Jᵀε in scaled unknowns; λ = 0 is the (pseudo-inverse) Gauss–Newton step (computed
+        once: the search asks for it again in its step rule; treat the array as read-only)."""
+        if lam == 0.0 and self._gauss_newton is not None:
+            return self._gauss_newton
+        lam2 = self._lam2
+        if self._all_kept:
+            f = 1.0 / (lam2 + lam * self._top)
+        else:
+            f = np.where(self._keep, 1.0 / np.where(self._keep, lam2 + lam * self._top, 1.0), 0.0)
+        d = -(self._V @ (f * self._gv)) / self._norms
+        if lam == 0.0:
+            self._gauss_newton = d
+        return d
 
 
 def _linear_solve(G: np.ndarray, e0: np.ndarray) -> np.ndarray:
@@ -360,10 +379,12 @@ def _valid(theta, dt, n) -> bool:
 def valid_modes(w, z, dt, n) -> bool:
     """Frequencies positive, damped frequency below Nyquist, |ζ| < 0.9, and no mode growing more than
     e²⁰ over the record (a negative ζ lets a mode the record does not determine mimic a trend)."""
-    # one vectorised test (called for every trial point; the chained np.all calls were 15 % of a fit)
-    ok = ((w > 0) & (np.abs(z) < 0.9) & (w * np.sqrt(np.maximum(1.0 - z * z, 0.0)) * dt < np.pi)
-          & (-z * w * dt * n < MAX_GROWTH_EXPONENT))
-    return bool(ok.all())
+    # called for every trial point: a loop over m Python floats costs a quarter of the vectorised test
+    for wi, zi in zip(np.ravel(w).tolist(), np.ravel(z).tolist(), strict=True):
+        if not (wi > 0 and abs(zi) < 0.9 and wi * math.sqrt(max(1.0 - zi * zi, 0.0)) * dt < math.pi
+                and -zi * wi * dt * n < MAX_GROWTH_EXPONENT):
+            return False
+    return True
 
 
 def _bad(theta, message) -> dict:

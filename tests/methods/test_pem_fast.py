@@ -60,6 +60,27 @@ def test_closed_form_equals_the_recursive_predictor(n):
     assert np.max(np.abs(J1 - J2) / np.abs(J2).max(axis=0)) < 1e-10
 
 
+@pytest.mark.parametrize("free_damping, free_offset", [(True, True), (False, True), (True, False)])
+def test_reduced_jacobian_is_the_projected_closed_form_jacobian(free_damping, free_offset):
+    """Kaufman's Jacobian of the fast search (complex-factor form) equals P⊥·∂ε/∂(ω, ζ) of the closed form
+    (itself checked against central differences above), P⊥ the projector off the basis Φ = −∂ε/∂(x₀, b)."""
+    n, m = 300, 4
+    rng = np.random.default_rng(5)
+    y = rng.standard_normal(n)
+    w, z = TRUE_W * 1.01, np.array([0.02, 0.01, -0.03, 0.01])
+    model = _pem_fast._Model(y, DT, m, free_offset, 0.0)
+    c, e, _, solver = model.fit(w, z)
+    Jr = model.reduced_jacobian(w, z, c, solver, free_damping)
+    free = tuple([True] * m + [free_damping] * m + [True] * (2 * m) + [free_offset])
+    theta = np.r_[w, z, np.c_[c[:m], c[m:2 * m]].ravel(), c[2 * m] if free_offset else 0.0]
+    e_ref, J = pp.ClosedForm(y, DT, m, free).residual_jacobian(theta)
+    nn = m * (1 + free_damping)
+    Jn, G = J[:, :nn], J[:, nn:]
+    expected = Jn - G @ np.linalg.lstsq(G, Jn, rcond=None)[0]
+    np.testing.assert_allclose(e, e_ref, rtol=0, atol=1e-13)
+    assert np.max(np.abs(Jr - expected)) < 1e-12 * np.abs(expected).max()
+
+
 def test_fast_path_equals_the_reference_path_on_noise_free_data(monkeypatch):
     """identify() through the closed form and through the recursive predictor (the reference): the same
     frequencies and damping ratios to 1e-8 relative on a noise-free record."""
