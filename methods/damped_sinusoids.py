@@ -44,13 +44,14 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
     order = int(min(order, (n - 1) // 2))
     if order < 1:
         return np.zeros(0, complex), np.zeros(0, complex)
-    cols = int(np.clip(n // 3, order, max(min(max_columns, n - order - 1), order)))
+    cols = min(max(n // 3, order), max(min(max_columns, n - order - 1), order))
     rows = n - cols
-    Y = np.lib.stride_tricks.sliding_window_view(y, cols + 1)[:rows]
+    # the Hankel matrix as a read-only view of y (sliding_window_view's, without its argument checks)
+    Y = np.lib.stride_tricks.as_strided(y, (rows, cols + 1), (y.strides[0],) * 2, writeable=False)
     lam, vecs = np.linalg.eigh(Y.T @ Y)                # ascending
     if not lam[-1] > 0:
         return np.zeros(0, complex), np.zeros(0, complex)
-    order = min(order, int(np.sum(lam > lam[-1] * 1e-16)))
+    order = min(order, int(np.count_nonzero(lam > lam[-1] * 1e-16)))
     V = vecs[:, ::-1][:, :order]                       # (L+1) × M, strongest first
     V1 = V[:-1]
     z = None
@@ -64,8 +65,9 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
     head = min(n, max(amplitude_samples, 2 * order))
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         vander = np.exp(np.multiply.outer(np.arange(head), np.log(z.astype(complex))))
-    if not np.all(np.isfinite(vander)):
-        keep = np.all(np.isfinite(vander), axis=0)
+    finite = np.isfinite(vander)
+    if not finite.all():
+        keep = finite.all(axis=0)
         z, vander = z[keep], vander[:, keep]
     amp = np.linalg.lstsq(vander, y[:head].astype(complex), rcond=None)[0]
     return z, amp
@@ -73,13 +75,14 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
 
 def modes_from_poles(z: np.ndarray, amp: np.ndarray, n_samples: int, dt: float):
     """Oscillatory modes (upper half plane, below Nyquist) as (ω = |s|, ζ = −Re s/|s|, energy), strongest first."""
-    keep = (z.imag > 1e-12) & (np.abs(z) > 1e-6)
-    z, amp = z[keep], amp[keep]
+    abs_z = np.abs(z)
+    keep = (z.imag > 1e-12) & (abs_z > 1e-6)
+    z, amp, abs_z = z[keep], amp[keep], abs_z[keep]
     s = np.log(z) / dt
     omega = np.abs(s)
     zeta = -s.real / omega
     # energy over the record of the real mode 2 Re(c zᵏ): ≈ 2|c|² Σ|z|^{2k}
-    r2 = np.abs(z) ** 2
+    r2 = abs_z ** 2
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         geo = np.where(np.abs(r2 - 1) < 1e-12, n_samples, (r2 ** n_samples - 1) / (r2 - 1))
     energy = 2 * np.abs(amp) ** 2 * geo
