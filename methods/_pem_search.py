@@ -258,7 +258,8 @@ def search_bounds(prior: np.ndarray, dt: float, opts):
     w_lo = prior / (1.0 + band)
     w_hi = np.minimum(prior * (1.0 + band), 0.98 * np.pi / dt)
     m = prior.size
-    return (np.r_[w_lo, np.full(m, opts.damping_bounds[0])], np.r_[w_hi, np.full(m, opts.damping_bounds[1])])
+    return (np.concatenate([w_lo, np.full(m, float(opts.damping_bounds[0]))]),
+            np.concatenate([w_hi, np.full(m, float(opts.damping_bounds[1]))]))
 
 
 class LinearizedSystem:

@@ -255,8 +255,7 @@ def _repaired_start(best: dict, free, prior: np.ndarray, opts: Options):
     modes alike), so they are the natural place to restart the spare modes from.
     """
     m = prior.size
-    w, w_std, z, _ = _mode_table(best, free, m)
-    slot = _label_modes(w, w_std, prior)
+    w, w_std, z, _, slot = _labelled(best, free, prior)
     w, w_std, z = w[slot], w_std[slot], z[slot]
     determined = w_std <= search.IDENTIFIED_REL_STD * w
     if determined.all() or not determined.any():
@@ -368,17 +367,15 @@ def detection_std(n: int, dt: float, alpha: float = 0.01) -> float:
 def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float,
               energy: bool = True) -> Estimate:
     """The winning fit as an Estimate, its modes labelled with the prior entries (:func:`_label_modes`)."""
-    m = prior.size
-    w, w_std, z, z_std = _mode_table(best, free, m)
-    slot = _label_modes(w, w_std, prior)
+    w, w_std, z, z_std, slot = _labelled(best, free, prior)
     detected = _detected(best, w_std, n, dt, 0.01, energy)[slot]
     freq, std, damp, damp_std = w[slot], w_std[slot], z[slot], z_std[slot]
     identified = std <= search.IDENTIFIED_REL_STD * freq
     agree, agree_converged = 0, False
     for f in fits:
         if np.isfinite(f["loss"]):
-            fw, fw_std, _, _ = _mode_table(f, free, m)
-            fw = fw[_label_modes(fw, fw_std, prior)]
+            fw, _, _, _, fw_slot = _labelled(f, free, prior)
+            fw = fw[fw_slot]
             if np.all(np.abs(fw - freq)[identified] <= 3 * std[identified]):
                 agree += 1
                 agree_converged |= f["converged"]
@@ -412,6 +409,15 @@ def _mode_table(fit: dict, free, m: int):
     std[np.flatnonzero(free)] = _free_std(fit)
     th = fit["theta"]
     return th[:m].copy(), std[:m], th[m:2 * m].copy(), std[m:2 * m]
+
+
+def _labelled(fit: dict, free, prior: np.ndarray):
+    """:func:`_mode_table` of a fit and its :func:`_label_modes` slots, computed once per fit (the repair
+    rule, the agreement count and the estimate all ask for the winning fit's); read-only arrays."""
+    if "labelled" not in fit:
+        w, w_std, z, z_std = _mode_table(fit, free, prior.size)
+        fit["labelled"] = (w, w_std, z, z_std, _label_modes(w, w_std, prior))
+    return fit["labelled"]
 
 
 def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray) -> np.ndarray:
