@@ -66,13 +66,15 @@ class _Model:
         chain rule's coefficients folded into one complex factor per column, two array products for Jₙ."""
         m, phi = self.m, self.phi
         norms, lam, V, root, p = solver
-        alpha = c[:m] - 1j * c[m:2 * m]
-        factor = alpha * (z - 1j * root)
+        # the m (or 2m) factors in Python complex arithmetic: cheaper than a dozen calls on m-vectors
+        w, z, root = w.tolist(), z.tolist(), root.tolist()
+        alpha = [complex(a, -b) for a, b in zip(c[:m].tolist(), c[m:2 * m].tolist(), strict=True)]
+        factor = [al * complex(zi, -ri) for al, zi, ri in zip(alpha, z, root, strict=True)]
         if estimate_damping:
-            factor = np.concatenate([factor, alpha * (w + 1j * (w * z / root))])
-            Jn = (p[:, None, :] * factor.reshape(2, m)).real.reshape(-1, 2 * m) * self.t
+            factor += [al * complex(wi, wi * zi / ri) for al, wi, zi, ri in zip(alpha, w, z, root, strict=True)]
+            Jn = (p[:, None, :] * np.array(factor).reshape(2, m)).real.reshape(-1, 2 * m) * self.t
         else:
-            Jn = (p * factor).real * self.t
+            Jn = (p * np.array(factor)).real * self.t
         # P⊥Jn = Jn − Φ (ΦᵀΦ)⁻¹ ΦᵀJn, through the eigendecomposition of the scaled ΦᵀΦ of the linear solve
         W = V / norms[:, None]
         return Jn - phi @ (W @ ((W.T @ (phi.T @ Jn)) / lam[:, None]))
@@ -159,7 +161,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
         def try_point(d, mu, base=x):
             cand = base.copy()
             cand[:nn] += mu * d
-            np.clip(cand, lo, hi, out=cand)
+            np.minimum(np.maximum(cand, lo, out=cand), hi, out=cand)     # np.clip's values, two ufunc calls
             if not search.valid_modes(cand[:m], cand[m:], dt, n):
                 return None
             trial = model.fit(cand[:m], cand[m:])

@@ -134,7 +134,7 @@ def scaled_lstsq(F: np.ndarray, target: np.ndarray):
     norms = np.sqrt(H.diagonal())
     if not (norms.min() > 0 and np.isfinite(H).all()):
         return None
-    lam, V = np.linalg.eigh(H / np.outer(norms, norms))
+    lam, V = np.linalg.eigh(H / np.multiply.outer(norms, norms))      # np.outer's values, less wrapper
     if not lam[0] > 1e-12 * lam[-1]:
         return None
     return (V @ ((V.T @ (F.T @ target / norms)) / lam)) / norms, (norms, lam, V)

@@ -215,7 +215,7 @@ def damped_step(system, lam: float, loss: float, lm: bool, try_point):
         mu = 1.0
         for _ in range(halvings):
             out = try_point(d, mu)
-            if out is not None and np.isfinite(out[0]) and out[0] < loss:
+            if out is not None and math.isfinite(out[0]) and out[0] < loss:
                 found, trial = True, out
                 break
             mu *= 0.5
@@ -310,7 +310,8 @@ class NormalEquations:
         norms = np.sqrt(H.diagonal())
         if norms.size and not norms.min() > 0:
             norms = np.where(norms > 0, norms, 1.0)
-        lam2, V = np.linalg.eigh(H / np.outer(norms, norms))
+        scale = np.multiply.outer(norms, norms)               # np.outer's values without its wrapper
+        lam2, V = np.linalg.eigh(H / scale)
         top = lam2[-1] if lam2.size else 0.0
         keep = lam2 > top * 1e-15 if top > 0 else np.zeros(lam2.size, bool)
         self._all_kept = bool(keep.all())
@@ -319,7 +320,7 @@ class NormalEquations:
         # scaled singular values within 1e-5 of each other: the eigh's std equals the SVD's to ~1e-10
         self.well_conditioned = self._all_kept and bool(lam2[0] > 1e-10 * top)
         inv = 1.0 / lam2 if self._all_kept else np.where(keep, 1.0 / np.where(keep, lam2, 1.0), 0.0)
-        var = (V * V) @ inv / (norms * norms)
+        var = (V * V) @ inv / scale.diagonal()                 # the diagonal is norms * norms
         sigma2 = ee / max(n - H.shape[0], 1)
         if var.size and var.min() > 0:
             self.std = np.sqrt(sigma2 * var)

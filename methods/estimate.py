@@ -8,6 +8,7 @@ truth, files, Hydra or MLflow. Inputs are checked once, here, with one clear mes
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -84,7 +85,7 @@ def check_inputs(y, dt, prior) -> tuple[np.ndarray, float, np.ndarray]:
         raise ValueError(f"y must be a 1-D record of samples, got shape {y.shape}")
     if y.size < 8:
         raise ValueError(f"record length {y.size} is too short: at least 8 samples are needed")
-    if not np.all(np.isfinite(y)):
+    if not np.isfinite(y).all():
         bad = int(np.flatnonzero(~np.isfinite(y))[0])
         raise ValueError(f"y[{bad}] = {y[bad]} is not a finite number")
     big = np.abs(y) > MAX_ABS_ACCEL_M_S2
@@ -108,8 +109,8 @@ def check_prior(dt, prior) -> tuple[float, np.ndarray]:
     if prior.ndim != 1 or prior.size == 0:
         raise ValueError(f"prior must be a non-empty list of frequencies in rad/s, got {prior.tolist()}")
     nyquist = np.pi / dt
-    for i, w in enumerate(prior):
-        if not (np.isfinite(w) and w > 0):
+    for i, w in enumerate(prior.tolist()):       # Python floats: the same tests, without numpy scalar calls
+        if not (math.isfinite(w) and w > 0):
             raise ValueError(f"prior[{i}] = {w} rad/s must be a positive frequency")
         if w >= nyquist:
             raise ValueError(f"prior[{i}] = {w} rad/s is above the Nyquist frequency {nyquist:.4g} rad/s "

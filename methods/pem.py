@@ -134,7 +134,7 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         fits.append(fit)
         if join is None and fit["converged"] and np.isfinite(fit["loss"]):
             std = _free_std(fit)
-            if np.all(std[:m] <= search.IDENTIFIED_REL_STD * fit["theta"][:m]):   # every mode determined
+            if (std[:m] <= search.IDENTIFIED_REL_STD * fit["theta"][:m]).all():   # every mode determined
                 if (opts.accept_white and label in (QUICK, "pencil")
                         and _explains_record(fit, std[:m], n, dt, opts.predictor == "output_error")):
                     fits = [fit]
@@ -208,14 +208,16 @@ def _detected(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, ene
     information stops growing once it has decayed, while the rule's bound keeps shrinking as 1/N (mode 4
     of the plant at N = 262 144)."""
     found = w_std <= detection_std(n, dt, alpha)
-    if not energy or fit.get("e") is None or "theta" not in fit or not np.all(np.isfinite(fit["theta"])):
+    if not energy or fit.get("e") is None or "theta" not in fit or not np.isfinite(fit["theta"]).all():
         return found
     # only for a mode the record determines (std ≤ 1 % of ω): on a short record the Wald statistic at a
     # fitted ω ignores how loosely ω itself is pinned, and the std rule is the right one
     candidates = ~found & (w_std <= search.IDENTIFIED_REL_STD * fit["theta"][:w_std.size])
+    if not candidates.any():                           # the usual case: no basis to build
+        return found
     e = fit["e"]
     sigma2 = float(e @ e) / max(n - len(fit.get("std_free", ())), 1)
-    if not candidates.any() or not sigma2 > 0:        # the usual case: no basis to build
+    if not sigma2 > 0:
         return found
     if "wald" not in fit:                              # asked twice for the winning fit: computed once
         fit["wald"] = mode_wald(fit["theta"], n, dt)
@@ -406,9 +408,17 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
 def _mode_table(fit: dict, free, m: int):
     """ω, std(ω), ζ, std(ζ) of a fit in θ order; std = σ̂√diag((JᵀJ)⁻¹), NaN for a fixed entry."""
     std = np.full(fit["theta"].size, np.nan)
-    std[np.flatnonzero(free)] = _free_std(fit)
+    std[_free_index(free)] = _free_std(fit)
     th = fit["theta"]
     return th[:m].copy(), std[:m], th[m:2 * m].copy(), std[m:2 * m]
+
+
+@functools.lru_cache(maxsize=64)
+def _free_index(free: tuple[bool, ...]) -> np.ndarray:
+    """np.flatnonzero of a free mask (a tuple: made once per mask, not per fit)."""
+    index = np.flatnonzero(free)
+    index.flags.writeable = False
+    return index
 
 
 def _labelled(fit: dict, free, prior: np.ndarray):
