@@ -206,7 +206,16 @@ def _detected(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, ene
     amplitudes — dropping it would raise the loss beyond the noise's 1 − α level: Wald statistic
     (:func:`mode_wald`)/σ̂² > 2 ln(N/2α). The std rule alone misses a damped mode in a long record: its
     information stops growing once it has decayed, while the rule's bound keeps shrinking as 1/N (mode 4
-    of the plant at N = 262 144)."""
+    of the plant at N = 262 144). Computed once per fit and (α, energy): the acceptance test and the
+    estimate ask for the same."""
+    done = fit.setdefault("detected", {})
+    if (alpha, energy) not in done:
+        done[alpha, energy] = _detect(fit, w_std, n, dt, alpha, energy)
+    return done[alpha, energy]
+
+
+def _detect(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, energy: bool) -> np.ndarray:
+    """:func:`_detected`, computed."""
     found = w_std <= detection_std(n, dt, alpha)
     if not energy or fit.get("e") is None or "theta" not in fit or not np.isfinite(fit["theta"]).all():
         return found
@@ -219,7 +228,7 @@ def _detected(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, ene
     sigma2 = float(e @ e) / max(n - len(fit.get("std_free", ())), 1)
     if not sigma2 > 0:
         return found
-    if "wald" not in fit:                              # asked twice for the winning fit: computed once
+    if "wald" not in fit:                              # (for two α: computed once)
         fit["wald"] = mode_wald(fit["theta"], n, dt)
     return found | (candidates & (fit["wald"] / sigma2 > 2.0 * np.log(n / (2.0 * alpha))))
 
