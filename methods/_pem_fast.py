@@ -20,6 +20,8 @@ the full model (measured side by side in ``experiments.benchmarks.pem_speed``) i
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from methods import _pem_search as search
@@ -44,9 +46,12 @@ class _Model:
         """(c, ε, loss, solver) at (ω, ζ); None where ΦᵀΦ is near-singular or not finite. ``solver`` keeps
         what the reduced Jacobian at this point needs (the basis Φ itself stays in ``self.phi`` until the
         next call)."""
-        m, phi, n = self.m, self.phi, self.k.size
-        root = np.sqrt(1.0 - z * z)
-        logp = (-z * w + 1j * (w * root)) * self.dt
+        m, phi, n, dt = self.m, self.phi, self.k.size, self.dt
+        # sΔt = (−ζω + jω√(1 − ζ²))Δt over m Python floats (|ζ| < 0.9 inside the bounds): the same IEEE
+        # operations as the array expression, a fifth of its calls
+        root = [math.sqrt(1.0 - zi * zi) for zi in z.tolist()]
+        logp = np.array([complex(-zi * wi * dt, wi * ri * dt)
+                         for wi, zi, ri in zip(w.tolist(), z.tolist(), root, strict=True)])
         p = np.exp(np.multiply.outer(self.k, logp)) if n <= 2 * _BLOCK else _powers(logp, n)
         phi[:, :m] = p.real
         phi[:, m:2 * m] = p.imag
@@ -67,7 +72,7 @@ class _Model:
         m, phi = self.m, self.phi
         norms, lam, V, root, p = solver
         # the m (or 2m) factors in Python complex arithmetic: cheaper than a dozen calls on m-vectors
-        w, z, root = w.tolist(), z.tolist(), root.tolist()
+        w, z = w.tolist(), z.tolist()
         alpha = [complex(a, -b) for a, b in zip(c[:m].tolist(), c[m:2 * m].tolist(), strict=True)]
         factor = [al * complex(zi, -ri) for al, zi, ri in zip(alpha, z, root, strict=True)]
         if estimate_damping:
