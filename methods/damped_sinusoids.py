@@ -83,11 +83,12 @@ def modes_from_poles(z: np.ndarray, amp: np.ndarray, n_samples: int, dt: float):
     zeta = -s.real / omega
     # energy over the record of the real mode 2 Re(c zᵏ): ≈ 2|c|² Σ|z|^{2k}
     r2 = abs_z ** 2
+    r2_1 = r2 - 1
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        geo = np.where(np.abs(r2 - 1) < 1e-12, n_samples, (r2 ** n_samples - 1) / (r2 - 1))
+        geo = np.where(np.abs(r2_1) < 1e-12, n_samples, (r2 ** n_samples - 1) / r2_1)
     energy = 2 * np.abs(amp) ** 2 * geo
     energy = np.where(np.isfinite(energy), energy, 0.0)
-    order = np.argsort(-energy)
+    order = (-energy).argsort()
     return omega[order], zeta[order], energy[order]
 
 
@@ -101,14 +102,14 @@ def match_to_prior(omega: np.ndarray, zeta: np.ndarray, prior: np.ndarray, defau
     """
     prior = np.asarray(prior, dtype=float)
     m = prior.size
-    near = np.min(np.abs(np.log(omega[:, None] / prior[None, :])), axis=1) <= np.log1p(max_relative_distance) \
+    near = np.abs(np.log(omega[:, None] / prior[None, :])).min(axis=1) <= np.log1p(max_relative_distance) \
         if omega.size else np.zeros(0, bool)
     omega, zeta = omega[near][:m], zeta[near][:m]
     freq = prior.copy()
     damp = np.full(m, float(default_zeta))
-    order = np.argsort(prior)
+    order = prior.argsort()
     if omega.size == m:
-        by_freq = np.argsort(omega)
+        by_freq = omega.argsort()
         freq[order] = omega[by_freq]
         damp[order] = zeta[by_freq]
         return freq, damp
@@ -140,4 +141,4 @@ def pencil_start(y: np.ndarray, dt: float, prior: np.ndarray, *, extra_order: in
     omega, zeta, _ = modes_from_poles(z, amp, y.size, dt)
     ok = (omega < np.pi / dt) & (zeta > -0.05) & (zeta < max_zeta)
     freq, damp = match_to_prior(omega[ok], zeta[ok], prior, default_zeta)
-    return freq, np.clip(damp, 0.0, max_zeta)
+    return freq, np.minimum(np.maximum(damp, 0.0), max_zeta)     # np.clip's values
