@@ -60,7 +60,7 @@ class _Model:
             return None
         c, (norms, lam, V) = solved
         e = self.target - phi @ c
-        return c, e, float(e @ e) / n, (norms, lam, V, root, p)
+        return c, e, float(e @ e) / n, (norms, lam, V, root)
 
     def reduced_jacobian(self, w, z, c, solver, estimate_damping: bool) -> np.ndarray:
         """J_r = P⊥ ∂ε/∂(ω[, ζ]) (N × m or N × 2m) at a point where c is the least-squares solution.
@@ -68,18 +68,22 @@ class _Model:
         With pᵢ(t) = e^{(−σᵢ + jω_dᵢ)t} and the mode's complex amplitude αᵢ = Aᵢ − jBᵢ, its output is
         Re(αᵢpᵢ) = gᵢ and −Im(αᵢpᵢ) = hᵢ (the :class:`methods._pem_predictor.ClosedForm` docstring), so
         −∂ŷ/∂ωᵢ = t·Re(αᵢpᵢ·(ζᵢ − j√(1 − ζᵢ²))) and −∂ŷ/∂ζᵢ = t·Re(αᵢpᵢ·(ωᵢ + jωᵢζᵢ/√(1 − ζᵢ²))): the
-        chain rule's coefficients folded into one complex factor per column, two array products for Jₙ."""
+        chain rule's coefficients folded into one complex factor fⱼ per column. With Re pᵢ, Im pᵢ the basis
+        columns, Re(pᵢfⱼ) = Re pᵢ·Re fⱼ − Im pᵢ·Im fⱼ: Jₙ = t·(Φ₁..₂ₘ M), one product with a sparse
+        2m × p matrix M."""
         m, phi = self.m, self.phi
-        norms, lam, V, root, p = solver
-        # the m (or 2m) factors in Python complex arithmetic: cheaper than a dozen calls on m-vectors
+        norms, lam, V, root = solver
+        # the m (or 2m) factors and M in Python complex arithmetic: cheaper than a dozen calls on m-vectors
         w, z = w.tolist(), z.tolist()
         alpha = [complex(a, -b) for a, b in zip(c[:m].tolist(), c[m:2 * m].tolist(), strict=True)]
         factor = [al * complex(zi, -ri) for al, zi, ri in zip(alpha, z, root, strict=True)]
         if estimate_damping:
             factor += [al * complex(wi, wi * zi / ri) for al, wi, zi, ri in zip(alpha, w, z, root, strict=True)]
-            Jn = (p[:, None, :] * np.array(factor).reshape(2, m)).real.reshape(-1, 2 * m) * self.t
-        else:
-            Jn = (p * np.array(factor)).real * self.t
+        cols = len(factor)
+        M = [0.0] * (2 * m * cols)                                   # row-major 2m × cols
+        for j, f in enumerate(factor):
+            M[(j % m) * cols + j], M[(m + j % m) * cols + j] = f.real, -f.imag
+        Jn = (phi[:, :2 * m] @ np.array(M).reshape(2 * m, cols)) * self.t
         # P⊥Jn = Jn − Φ (ΦᵀΦ)⁻¹ ΦᵀJn, through the eigendecomposition of the scaled ΦᵀΦ of the linear solve
         W = V / norms[:, None]
         return Jn - phi @ (W @ ((W.T @ (phi.T @ Jn)) / lam[:, None]))

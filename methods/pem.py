@@ -387,7 +387,7 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
         if np.isfinite(f["loss"]):
             fw, _, _, _, fw_slot = _labelled(f, free, prior)
             fw = fw[fw_slot]
-            if np.all(np.abs(fw - freq)[identified] <= 3 * std[identified]):
+            if (np.abs(fw - freq)[identified] <= 3 * std[identified]).all():
                 agree += 1
                 agree_converged |= f["converged"]
     # The answer stands when a search that reached it (within 3 std in every determined mode) stopped on
@@ -448,9 +448,9 @@ def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray) -> np.ndar
     remaining entries in frequency order. With every mode determined this is plain sorting.
     """
     m = prior.size
-    by_prior = np.argsort(prior)
+    by_prior = prior.argsort()
     good = np.flatnonzero(w_std <= search.IDENTIFIED_REL_STD * w)
-    good = good[np.argsort(w[good])]
+    good = good[w[good].argsort()]
     if good.size == m:                                             # every mode determined: plain sorting
         slot = np.empty(m, int)
         slot[by_prior] = good
