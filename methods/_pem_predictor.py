@@ -35,8 +35,10 @@ to rounding.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
+from numpy.linalg import _umath_linalg
 
 # casadi and scipy.linalg are imported where the Kalman predictor needs them: the default (output-error)
 # path uses neither, and a pipeline job that only runs it should not pay for their import.
@@ -117,12 +119,32 @@ def _powers(logp: np.ndarray, n: int) -> np.ndarray:
 def modal_basis(w: np.ndarray, z: np.ndarray, dt: float, n: int) -> np.ndarray:
     """Φ (n × 2m + 1) with ŷ = Φ·(x₀, b): columns e^{−σᵢt} cos ω_dᵢt, e^{−σᵢt} sin ω_dᵢt (i = 1…m), then 1."""
     m = w.size
-    rot = _powers((-z * w + 1j * (w * np.sqrt(1.0 - z * z))) * dt, n)
+    zl = z.tolist()
+    if all(abs(zi) < 1.0 for zi in zl):
+        # sΔt over m Python floats: the same IEEE operations as the array expression below (bit-identical),
+        # a fifth of its calls (the reference search builds a basis at every trial point)
+        logp = np.array([complex(-zi * wi * dt, wi * math.sqrt(1.0 - zi * zi) * dt)
+                         for wi, zi in zip(w.tolist(), zl, strict=True)])
+    else:
+        logp = (-z * w + 1j * (w * np.sqrt(1.0 - z * z))) * dt
+    rot = _powers(logp, n)
     phi = np.empty((n, 2 * m + 1))
     phi[:, 0:2 * m:2] = rot.real
     phi[:, 1:2 * m:2] = rot.imag
     phi[:, 2 * m] = 1.0
     return phi
+
+
+def symmetric_eigh(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``numpy.linalg.eigh(A)`` of a real symmetric matrix through numpy's own LAPACK kernel (``eigh_lo``,
+    the one ``eigh`` calls) without the wrapper's type checks and error-state context: the same values to
+    the bit, a third less time on the searches' 8 × 8 to 17 × 17 matrices (measured 15 → 10 µs; a short
+    record's search makes thousands of these calls). Where the kernel did not converge (NaN out), the
+    wrapper itself runs and raises as before."""
+    lam, V = _umath_linalg.eigh_lo(A, signature="d->dd")
+    if not math.isfinite(lam.sum()):
+        return np.linalg.eigh(A)
+    return lam, V
 
 
 def scaled_lstsq(F: np.ndarray, target: np.ndarray):
@@ -134,7 +156,7 @@ def scaled_lstsq(F: np.ndarray, target: np.ndarray):
     norms = np.sqrt(H.diagonal())
     if not (norms.min() > 0 and np.isfinite(H).all()):
         return None
-    lam, V = np.linalg.eigh(H / np.multiply.outer(norms, norms))      # np.outer's values, less wrapper
+    lam, V = symmetric_eigh(H / np.multiply.outer(norms, norms))      # np.outer's values, less wrapper
     if not lam[0] > 1e-12 * lam[-1]:
         return None
     return (V @ ((V.T @ (F.T @ target / norms)) / lam)) / norms, (norms, lam, V)

@@ -127,7 +127,8 @@ def gauss_newton(theta, free_idx, ev, dt, opts, bounds, join=None) -> dict:
                 cand[free_idx[nonlin]] += mu * d[nonlin]
             else:
                 cand[free_idx] += mu * d
-            cand[:2 * m] = np.clip(cand[:2 * m], *bounds)
+            head = cand[:2 * m]                      # np.clip's values, two ufunc calls without its wrapper
+            np.minimum(np.maximum(head, bounds[0], out=head), bounds[1], out=head)
             if not _valid(cand, dt, n):
                 return None
             if opts.separable:
@@ -311,7 +312,7 @@ class NormalEquations:
         if norms.size and not norms.min() > 0:
             norms = np.where(norms > 0, norms, 1.0)
         scale = np.multiply.outer(norms, norms)               # np.outer's values without its wrapper
-        lam2, V = np.linalg.eigh(H / scale)
+        lam2, V = pp.symmetric_eigh(H / scale)
         top = lam2[-1] if lam2.size else 0.0
         keep = lam2 > top * 1e-15 if top > 0 else np.zeros(lam2.size, bool)
         self._all_kept = bool(keep.all())
