@@ -194,6 +194,14 @@ class ClosedForm:
         lin = self.free_idx[self.free_idx >= 2 * m]
         self.n_linear = lin.size
         self._lin_cols = lin - 2 * m                 # columns of the basis [A₁, B₁, …, b] that are free
+        self._all_linear_free = lin.size == 2 * m + 1
+        free_idx = self.free_idx
+        self._n_w, self._n_z = int(np.count_nonzero(free_idx < m)), int(np.count_nonzero(free_idx < 2 * m))
+        # the Jacobian's column selections, made once (every (ω, ζ) free — the default — is a plain slice)
+        self._w_cols = free_idx[:self._n_w]
+        self._z_cols = free_idx[self._n_w:self._n_z] - m
+        self._c_cols = free_idx[self._n_z:] - 2 * m
+        self._every_w_z = self._n_w == m and self._n_z == 2 * m
         self._key = None
 
     def basis(self, theta: np.ndarray) -> np.ndarray:
@@ -215,10 +223,13 @@ class ClosedForm:
         1e12): the caller then takes the SVD route."""
         m = self.m
         phi = self.basis(theta)
-        fixed = theta[2 * m:].copy()
-        fixed[self._lin_cols] = 0.0
-        target = self.y - phi @ fixed if fixed.any() else self.y
-        F = phi if self._lin_cols.size == phi.shape[1] else phi[:, self._lin_cols]
+        if self._all_linear_free:                   # nothing held fixed (the default): no target to shift
+            target, F = self.y, phi
+        else:
+            fixed = theta[2 * m:].copy()
+            fixed[self._lin_cols] = 0.0
+            target = self.y - phi @ fixed if fixed.any() else self.y
+            F = phi[:, self._lin_cols]
         solved = scaled_lstsq(F, target)
         if solved is None:
             return None
@@ -243,12 +254,16 @@ class ClosedForm:
         tg = (ec * a + es * b) * self.t[:, None]
         th = (ec * b - es * a) * self.t[:, None]
         root = np.sqrt(1.0 - z * z)
-        free = self.free_idx
-        n_w, n_z = np.count_nonzero(free < m), np.count_nonzero(free < 2 * m)
-        J = np.empty((self.t.size, free.size))
-        J[:, :n_w] = (z * tg - root * th)[:, free[:n_w]]                             # −∂ŷ/∂ω
-        J[:, n_w:n_z] = (w * tg + (w * z / root) * th)[:, free[n_w:n_z] - m]         # −∂ŷ/∂ζ
-        np.negative(phi[:, free[n_z:] - 2 * m], out=J[:, n_z:])                     # −∂ŷ/∂(x₀, b)
+        n_w, n_z = self._n_w, self._n_z
+        J = np.empty((self.t.size, self.free_idx.size))
+        if self._every_w_z:                         # the same values, written in place without a gather
+            np.subtract(z * tg, root * th, out=J[:, :m])                                 # −∂ŷ/∂ω
+            np.add(w * tg, (w * z / root) * th, out=J[:, m:2 * m])                     # −∂ŷ/∂ζ
+        else:
+            J[:, :n_w] = (z * tg - root * th)[:, self._w_cols]
+            J[:, n_w:n_z] = (w * tg + (w * z / root) * th)[:, self._z_cols]
+        cols = self._c_cols
+        np.negative(phi if cols.size == phi.shape[1] else phi[:, cols], out=J[:, n_z:])   # −∂ŷ/∂(x₀, b)
         e = self._e if getattr(self, "_e_key", None) == theta.tobytes() else self.y - phi @ theta[2 * m:]
         return e, J
 
