@@ -383,7 +383,10 @@ def valid_modes(w, z, dt, n) -> bool:
     """Frequencies positive, damped frequency below Nyquist, |ζ| < 0.9, and no mode growing more than
     e²⁰ over the record (a negative ζ lets a mode the record does not determine mimic a trend)."""
     # called for every trial point: a loop over m Python floats costs a quarter of the vectorised test
-    for wi, zi in zip(np.ravel(w).tolist(), np.ravel(z).tolist(), strict=True):
+    # (a 1-D array as it is: np.ravel's wrapper cost as much as the test itself)
+    w = w if isinstance(w, np.ndarray) and w.ndim == 1 else np.ravel(w)
+    z = z if isinstance(z, np.ndarray) and z.ndim == 1 else np.ravel(z)
+    for wi, zi in zip(w.tolist(), z.tolist(), strict=True):
         if not (wi > 0 and abs(zi) < 0.9 and wi * math.sqrt(max(1.0 - zi * zi, 0.0)) * dt < math.pi
                 and -zi * wi * dt * n < MAX_GROWTH_EXPONENT):
             return False
