@@ -38,7 +38,11 @@ import functools
 import math
 
 import numpy as np
-from numpy.linalg import _umath_linalg
+
+try:                                       # numpy's LAPACK kernels (private module; numpy 2.4 is pinned)
+    from numpy.linalg import _umath_linalg
+except ImportError:                        # pragma: no cover - a numpy without it: the public eigh
+    _umath_linalg = None
 
 # casadi and scipy.linalg are imported where the Kalman predictor needs them: the default (output-error)
 # path uses neither, and a pipeline job that only runs it should not pay for their import.
@@ -141,6 +145,8 @@ def symmetric_eigh(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     the bit, a third less time on the searches' 8 × 8 to 17 × 17 matrices (measured 15 → 10 µs; a short
     record's search makes thousands of these calls). Where the kernel did not converge (NaN out), the
     wrapper itself runs and raises as before."""
+    if _umath_linalg is None:
+        return np.linalg.eigh(A)
     lam, V = _umath_linalg.eigh_lo(A, signature="d->dd")
     if not math.isfinite(lam.sum()):
         return np.linalg.eigh(A)

@@ -148,3 +148,17 @@ def test_a_record_without_oscillation_is_not_converged_and_has_no_zero_std(y):
     assert not est.converged
     assert not est.extra["converged_per_mode"].any()
     assert np.all((est.std > 0) | np.isnan(est.std))
+
+
+@pytest.mark.parametrize("p", [0, 1, 9, 17])
+def test_symmetric_eigh_is_numpys_eigh_to_the_bit(p):
+    """The searches' eigendecomposition without numpy's wrapper gives numpy.linalg.eigh's eigenvalues and
+    eigenvectors exactly (same LAPACK kernel): the change is speed only, the searches' paths are unchanged."""
+    rng = np.random.default_rng(p)
+    for _ in range(20):
+        a = rng.standard_normal((max(p, 1) + 3, p))
+        h = a.T @ a
+        lam, v = pp.symmetric_eigh(h)
+        ref_lam, ref_v = np.linalg.eigh(h)
+        assert lam.shape == (p,) and v.shape == (p, p)
+        assert np.array_equal(lam, ref_lam) and np.array_equal(v, ref_v)
