@@ -276,10 +276,13 @@ def method_versions(wildcards):
 # Requests: 1000 MB (~7x the peak); identify 4x the pem cost of its cell, at least 2 minutes (a smoke job takes
 # ~2 s of CPU, ~17 s wall on a machine loaded 8x); dataset 5 minutes (20 s of CPU at N = 2048, R = 100).
 MEM_MB_JOB = 1000
-# Worker processes of one identify batch (its cells handed out as workers free up): with one, a grid's
-# longest method batch (pem: 177 s of the full_paper_methods grid) ran on one core while the other idled
-# after the shorter ones. Snakemake caps it at --cores; `--set-threads identify=N` sets it per run.
-IDENTIFY_THREADS = 2
+# Worker processes of one identify batch (its cells handed out as workers free up; Snakemake caps it at
+# --cores, and `snakemake ... --set-threads identify=N` sets it per run). One by default: on the 2-core
+# machine the full_paper_methods grid took 162 s with one (9.5 % of job time not numerics) and 148 s with
+# two, where each batch's serial start (imports, composing and checking its cells: ~2 s) holds the second
+# core idle (15 %). More workers pay on a machine with more cores than a grid has methods, and on a
+# cluster, where a batch's workers are the CPUs its job asks for.
+IDENTIFY_THREADS = 1
 CPU_S_PER_SAMPLE = 0.0035
 
 

@@ -3,7 +3,7 @@
 # starting up). Its folder is the output: results/<grid>/identify/<method>/<cell>.csv and, beside each table,
 # <cell>.json: the cell's resolved config, the dataset's digest and the code version, which is all the track
 # step reads besides the table. MLflow logging is left to the serial `track` step. The batch's cells are
-# shared by IDENTIFY_THREADS worker processes (common.smk; `--set-threads identify=N` changes it).
+# shared by IDENTIFY_THREADS worker processes (common.smk: 1; `--set-threads identify=N` changes it).
 rule identify:
     input:
         data="results/{grid}/data",
