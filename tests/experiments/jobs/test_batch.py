@@ -5,6 +5,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from experiments.io import read_npz
@@ -95,3 +96,24 @@ def test_composing_once_per_method_gives_each_job_hydras_own_config():
             assert choice == ref_choice
         assert len(composer.cache) == 2                 # one composition per method
         assert got.out == "twice.csv"
+
+
+def test_worker_processes_write_what_one_process_writes(cells):
+    cwd = cells
+    common = ["method=akf", "grid_name=t", "tracking.enabled=false"]
+
+    def jobs(tag):
+        return [common + [f"data.dataset={cwd}/{c}.npz", f"out={cwd}/w{tag}_{c}.csv"] for c in ("a", "b")]
+
+    one = batch(cwd, "identify", jobs(1))
+    two = subprocess.run([sys.executable, "-m", "experiments.jobs.batch", "identify", json.dumps(jobs(2)),
+                          "--workers", "2"], cwd=cwd, capture_output=True, text=True, timeout=300)
+    assert one.returncode == 0 and two.returncode == 0, one.stderr + two.stderr
+    assert "(2 workers)" in two.stdout and "(1 worker)" in one.stdout
+    for c in ("a", "b"):
+        t1, t2 = (pd.read_csv(cwd / f"w{k}_{c}.csv").drop(columns="runtime_s") for k in (1, 2))
+        pd.testing.assert_frame_equal(t1, t2)
+    bad = subprocess.run([sys.executable, "-m", "experiments.jobs.batch", "identify", json.dumps(jobs(3)),
+                          "--workers", "0"], cwd=cwd, capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "--workers 0" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
+    assert not (cwd / "w3_a.csv").exists()
