@@ -28,7 +28,7 @@ import numpy as np
 import scipy.signal
 from filterpy.kalman import ExtendedKalmanFilter
 
-from methods.estimate import Estimate, failed
+from methods.estimate import Estimate, check_inputs, failed, flat_record
 
 MEASUREMENTS = ("position", "acceleration")
 
@@ -87,10 +87,8 @@ def double_integrate(y: np.ndarray, dt: float) -> np.ndarray:
     the homogeneous part of the two integrators, c + v·k: the unknown initial position and velocity.
     A constant bias b in ``y`` becomes exactly b·(kΔt)²/2. The filter estimates c, v and b as states.
     """
-    y = np.asarray(y, dtype=float)         # one record, or records along the last axis
-    zero = np.zeros(y.shape[:-1] + (1,))
-    v = np.concatenate((zero, np.cumsum(0.5 * dt * (y[..., 1:] + y[..., :-1]), axis=-1)), axis=-1)
-    return np.concatenate((zero, np.cumsum(0.5 * dt * (v[..., 1:] + v[..., :-1]), axis=-1)), axis=-1)
+    v = np.concatenate(([0.0], np.cumsum(0.5 * dt * (y[1:] + y[:-1]))))
+    return np.concatenate(([0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))))
 
 
 def drift_transition(n_drift: int, dt: float) -> np.ndarray:
@@ -182,25 +180,23 @@ class _Layout:
         self.n_model = 3 * m + n_drift          # everything but the weighting states
 
 
-def _measurement_row(x: np.ndarray, lay: _Layout, s: FilterSettings) -> tuple[float, np.ndarray]:
-    """h(x) of eq. (9) or eq. (10) with unit tip gains, and its Jacobian row over the model states."""
-    row = np.zeros(lay.n_model)
-    q, v = x[lay.q], x[lay.v]
+def _measurement_row(x: np.ndarray, lay: _Layout, s: FilterSettings):
+    """h(x) of eq. (9) or eq. (10) with unit tip gains, and its Jacobian row over the model states: for one
+    state ``x`` (n,), or for a stack of them (R × n, the lock-step run), h and the rows stacked alike."""
+    row = np.zeros(x.shape[:-1] + (lay.n_model,))
+    q, v = x[..., lay.q], x[..., lay.v]
     if s.measurement == "position":          # eq. (9): Σ q_n + c
-        row[lay.q] = 1.0
-        h = q.sum()
-        if lay.d.size:
-            row[lay.d[0]] = 1.0
-            h += x[lay.d[0]]
+        row[..., lay.q] = 1.0
+        h = q.sum(axis=-1)
     else:                                     # eq. (10): Σ (−ω² q − 2ζω q̇) + b
-        w = x[lay.w]
-        row[lay.q] = -w * w
-        row[lay.v] = -2.0 * s.zeta * w
-        row[lay.w] = -2.0 * w * q - 2.0 * s.zeta * v
-        h = float(row[lay.q] @ q + row[lay.v] @ v)
-        if lay.d.size:
-            row[lay.d[0]] = 1.0
-            h += x[lay.d[0]]
+        w = x[..., lay.w]
+        row[..., lay.q] = -w * w
+        row[..., lay.v] = -2.0 * s.zeta * w
+        row[..., lay.w] = -2.0 * w * q - 2.0 * s.zeta * v
+        h = (row[..., lay.q] * q).sum(axis=-1) + (row[..., lay.v] * v).sum(axis=-1)
+    if lay.d.size:
+        row[..., lay.d[0]] = 1.0
+        h = h + x[..., lay.d[0]]
     return h, row
 
 
@@ -243,6 +239,17 @@ def prepare(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings):
     meas = z if wf is None else wf.apply(z)   # the weighted filter sees y_f, eq. (26)
     ekf, F, H = _build_filter(z, y, dt, prior, lay, s)
     return meas, lay, ekf, F, H
+
+
+def identify_record(y, dt, prior, settings_for) -> Estimate:
+    """The face of ``akf``/``wkf`` on one record: the inputs checked, the method's checked settings for the
+    prior (``settings_for(prior, dt)``), a flat record failed, else :func:`run_filter`."""
+    y, dt, prior = check_inputs(y, dt, prior)
+    settings = settings_for(prior, dt)
+    flat = flat_record(y)
+    if flat:
+        return failed(prior, flat)
+    return run_filter(y, dt, prior, settings)
 
 
 def run_filter(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings, *,

@@ -7,8 +7,8 @@ small numpy/filterpy calls on a 15–17-state model, and their overhead, not the
 
 The model, the initial state and covariance, Q, R, F's constant blocks and H come from the reference
 :func:`~methods._modal_filter.prepare` per record (filterpy's ``ExtendedKalmanFilter`` built as the
-single-record run builds it), and the result of each record from the same
-:func:`~methods._modal_filter.finished`. The step is the reference's, written for a stack:
+single-record run builds it), h(x) from the reference's measurement row on the stack, and the result of
+each record from the same :func:`~methods._modal_filter.finished`. The step is the reference's, written for a stack:
 
 * predict: f(x) with the exact modal transition, F = ∂f/∂x with the exact ∂Φ/∂ω, P ← F P Fᵀ + Q;
 * update (one scalar measurement): PHᵀ, S = H P Hᵀ + R, K = PHᵀ/S, x ← x + K (z − h(x)), and filterpy's
@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from methods._modal_filter import FilterSettings, _divergence, finished, prepare
+from methods._modal_filter import FilterSettings, _divergence, _measurement_row, finished, prepare
 from methods.estimate import Estimate, check_inputs, failed, flat_record
 
 
@@ -37,7 +37,8 @@ def identify_each(y, dt, priors, settings_for) -> list[Estimate]:
     """The batch face of ``akf``/``wkf``: each row of ``y`` (R × n) checked as ``identify`` checks one
     record (a bad one raises ``ValueError`` naming its row), a flat record failed as ``identify`` fails
     it, and the others run in lock-step by :func:`run_filters`. ``priors``: one prior for all rows or one
-    row per record; ``settings_for(prior)``: the method's checked :class:`FilterSettings` for a prior."""
+    row per record; ``settings_for(prior, dt)``: the method's checked :class:`FilterSettings` for a prior
+    (made once per distinct prior: a cell's records usually share one)."""
     y = np.asarray(y, dtype=float) if not isinstance(y, np.ndarray) else y
     if y.ndim != 2:
         raise ValueError(f"records must be a 2-D array (R records × n samples), got shape {np.shape(y)}")
@@ -45,6 +46,7 @@ def identify_each(y, dt, priors, settings_for) -> list[Estimate]:
     priors = np.broadcast_to(priors, (len(y), priors.shape[-1])) if priors.ndim else priors
     out: list[Estimate | None] = [None] * len(y)
     todo, recs, pri, sets = [], [], [], []
+    made: dict[bytes, FilterSettings] = {}
     for r in range(len(y)):
         try:
             rec, dt_s, prior = check_inputs(y[r], dt, priors[r])
@@ -57,7 +59,10 @@ def identify_each(y, dt, priors, settings_for) -> list[Estimate]:
         todo.append(r)
         recs.append(rec)
         pri.append(prior)
-        sets.append(settings_for(prior))
+        key = prior.tobytes()
+        if key not in made:
+            made[key] = settings_for(prior, dt_s)
+        sets.append(made[key])
     if todo:
         for r, est in zip(todo, run_filters(np.array(recs), dt_s, np.array(pri), sets), strict=True):
             out[r] = est
@@ -98,6 +103,8 @@ def run_filters(y: np.ndarray, dt: float, priors: np.ndarray, settings: list[Fil
     with np.errstate(all="ignore"):               # a diverging record is caught after its step
         for k in range(n_samples):
             if k > 0:
+                # Φ and ∂Φ/∂ω: the expressions of the reference's _transition_flat on arrays, in the same
+                # order (modal_transition's rounding moves the acceleration filter's history by ~1e-9)
                 w = x[:, w_]
                 e = np.exp(-zeta * dt * w)
                 arg = r * dt * w
@@ -107,7 +114,7 @@ def run_filters(y: np.ndarray, dt: float, priors: np.ndarray, settings: list[Fil
                 F[:, q_, w_] = 0.0
                 F[:, v_, w_] = 0.0
                 if wf is not None and nonlinear_h:
-                    row = _measurement_rows(x, lay, zeta)[1]
+                    row = _measurement_row(x, lay, s)[1]
                     F[:, f_, :nm] = wf.delta_f[None, :, None] * row[:, None, :]
                     F[:, f_[:, None], w_] = 0.0
                 xn = np.matmul(F, x[:, :, None])[:, :, 0]      # f(x): the ω columns are zero here
@@ -129,7 +136,7 @@ def run_filters(y: np.ndarray, dt: float, priors: np.ndarray, settings: list[Fil
                 np.matmul(buf.fp, buf.ft, out=P)
                 P += Q
             if wf is None and nonlinear_h:
-                h, H[:, :nm] = _measurement_rows(x, lay, zeta)
+                h, H[:, :nm] = _measurement_row(x, lay, s)
             else:
                 h = np.einsum("ri,ri->r", H, x)
             a = np.matmul(P, H[:, :, None])[:, :, 0]           # P Hᵀ
@@ -179,18 +186,3 @@ class _Buffers:
         self.ft = np.empty((n_rec, n, n))
         self.u = np.empty((n_rec, n, 2))
         self.v = np.empty((n_rec, 2, n))
-
-
-def _measurement_rows(x: np.ndarray, lay, zeta: float) -> tuple[np.ndarray, np.ndarray]:
-    """h(x) and its Jacobian rows over the model states for the acceleration measurement (eq. 10), for
-    every row of ``x``: :func:`methods._modal_filter._measurement_row` on a stack."""
-    rows = np.zeros((x.shape[0], lay.n_model))
-    q, v, w = x[:, lay.q], x[:, lay.v], x[:, lay.w]
-    rows[:, lay.q] = -w * w
-    rows[:, lay.v] = -2.0 * zeta * w
-    rows[:, lay.w] = -2.0 * w * q - 2.0 * zeta * v
-    h = np.einsum("ri,ri->r", rows[:, lay.q], q) + np.einsum("ri,ri->r", rows[:, lay.v], v)
-    if lay.d.size:
-        rows[:, lay.d[0]] = 1.0
-        h = h + x[:, lay.d[0]]
-    return h, rows

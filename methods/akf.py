@@ -8,11 +8,12 @@ method's face and its options.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
-from methods._modal_filter import run_filter, settings_from
+from methods._modal_filter import identify_record, settings_from
 from methods._modal_filter_batch import identify_each
-from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
+from methods.estimate import Estimate, make_options
 
 
 @dataclass
@@ -84,22 +85,18 @@ def identify(y, dt, prior, **options) -> Estimate:
         variances; ``history``: (n, m) frequency states after every sample (Fig. 3);
         ``converged=False`` with the reason when the filter diverges.
     """
-    y, dt, prior = check_inputs(y, dt, prior)
-    settings = _settings(prior, dt, options)
-    flat = flat_record(y)
-    if flat:
-        return failed(prior, flat)
-    return run_filter(y, dt, prior, settings)
+    return identify_record(y, dt, prior, functools.partial(_settings, options=options))
 
 
 def identify_batch(y, dt, priors, **options) -> list[Estimate]:
     """:func:`identify` on every row of ``y`` (R records × n samples), row r with ``priors[r]`` (or one
     prior for all): the same Estimates, computed with the R filters in lock-step
     (:mod:`methods._modal_filter_batch`, checked against this module's filterpy run)."""
-    return identify_each(y, dt, priors, lambda prior: _settings(prior, dt, options))
+    return identify_each(y, dt, priors, functools.partial(_settings, options=options))
 
 
 def _settings(prior, dt, options: dict):
+    """The checked filter settings for a prior (options checked by :func:`check_options`)."""
     return settings_from(check_options(prior, dt, **options), prior, "akf")
 
 

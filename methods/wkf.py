@@ -9,15 +9,16 @@ the weighted output (eq. 29).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import cont2discrete
 
 from methods import akf
-from methods._modal_filter import Weighting, run_filter, settings_from
+from methods._modal_filter import Weighting, identify_record, settings_from
 from methods._modal_filter_batch import identify_each
-from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
+from methods.estimate import Estimate, make_options
 
 
 @dataclass
@@ -79,22 +80,17 @@ def identify(y, dt, prior, **options) -> Estimate:
     Estimate
         As :func:`methods.akf.identify`: last frequency states, their filter std, the per-sample history.
     """
-    y, dt, prior = check_inputs(y, dt, prior)
-    settings = _settings(prior, dt, options)
-    flat = flat_record(y)
-    if flat:
-        return failed(prior, flat)
-    return run_filter(y, dt, prior, settings)
+    return identify_record(y, dt, prior, functools.partial(_settings, options=options))
 
 
 def identify_batch(y, dt, priors, **options) -> list[Estimate]:
-    """:func:`identify` on every row of ``y`` (R records × n samples), row r with ``priors[r]`` (or one
-    prior for all): the same Estimates, computed with the R filters in lock-step
-    (:mod:`methods._modal_filter_batch`, checked against this module's filterpy run)."""
-    return identify_each(y, dt, priors, lambda prior: _settings(prior, dt, options))
+    """As :func:`methods.akf.identify_batch`, for this filter: :func:`identify` on every row of ``y``, the
+    R filters in lock-step."""
+    return identify_each(y, dt, priors, functools.partial(_settings, options=options))
 
 
 def _settings(prior, dt, options: dict):
+    """The checked filter settings for a prior, with the discretised weighting filter of eq. (38)."""
     opts = check_options(prior, dt, **options)
     wf = weighting_filter(opts.weight_gain, opts.weight_omega0_rad_s, opts.weight_damping, dt)
     return settings_from(opts, prior, "wkf", weighting=wf, r_f=float(opts.r_f))
