@@ -14,7 +14,7 @@ Every method is a module exposing
 
 Honesty contract of the ``Estimate``: a mode the record does not determine (an all-zero or constant record
 — see ``estimate.flat_record`` —, a peak not above the noise, a filter that learnt nothing) has
-``extra["converged_per_mode"]`` False and a std that is NaN or finite and honest, never 0
+``converged_per_mode`` False and a std that is NaN or finite and honest, never 0
 (tests/methods/test_contract.py checks every registered method).
 
 Optional: ``identify_batch(y, dt, priors, **options) -> list[Estimate]`` on R records at once (``y`` R × n,
@@ -52,18 +52,18 @@ from methods.estimate import Estimate, check_inputs, check_prior, failed, flat_r
 # import of a heavy one (CasADi, filterpy).
 _REGISTRY: dict[str, str] = {
     "fft": "methods.fft",
-    "akf": "methods.akf",
-    "wkf": "methods.wkf",
+    "akf": "methods.kalman.akf",
+    "wkf": "methods.kalman.wkf",
     "pem": "methods.pem",
     "pll": "methods.pll",
-    # the field's established identifiers (optional extra .[peers]; methods/README_peers.md)
-    "era": "methods.era",
-    "n4sid": "methods.n4sid",
-    "ssi_cov": "methods.ssi_cov",
-    "ssi_data": "methods.ssi_data",
-    "lsce": "methods.lsce",
-    "hdmd": "methods.hdmd",
-    "bopdmd": "methods.bopdmd",
+    # the field's established identifiers (optional extra .[peers]; methods/peers/README.md)
+    "era": "methods.peers.era",
+    "n4sid": "methods.peers.n4sid",
+    "ssi_cov": "methods.peers.ssi_cov",
+    "ssi_data": "methods.peers.ssi_data",
+    "lsce": "methods.peers.lsce",
+    "hdmd": "methods.peers.hdmd",
+    "bopdmd": "methods.peers.bopdmd",
 }
 
 # The library each peer method needs (the optional extra .[peers]); checked before a job starts.

@@ -34,7 +34,10 @@ class Estimate:
         Why it stopped, or why it failed.
     extra : dict
         Method-specific diagnostics (plain numbers/arrays), e.g. damping estimates or lock indicators.
-        ``extra["converged_per_mode"]`` (bool per prior entry), when present, is what the scorer uses.
+    converged_per_mode : ndarray of bool, shape (m,)
+        Whether the record determined each mode: what the scorer uses. Defaults to ``converged`` for every
+        mode. (A plugin written before this field may still put it in ``extra["converged_per_mode"]``: it
+        is moved here.)
     """
 
     frequencies: np.ndarray
@@ -44,23 +47,35 @@ class Estimate:
     iterations: int = 0
     message: str = ""
     extra: dict = field(default_factory=dict)
+    converged_per_mode: np.ndarray | None = None
 
     def __post_init__(self):
         freq = np.asarray(self.frequencies, dtype=float).reshape(-1)
         std = np.broadcast_to(np.asarray(self.std, dtype=float), freq.shape).copy()
         object.__setattr__(self, "frequencies", freq)
         object.__setattr__(self, "std", std)
+        per_mode = self.converged_per_mode
+        if "converged_per_mode" in self.extra:
+            extra = dict(self.extra)
+            legacy = extra.pop("converged_per_mode")
+            per_mode = legacy if per_mode is None else per_mode
+            object.__setattr__(self, "extra", extra)
+        if per_mode is None:
+            per_mode = [bool(self.converged)] * freq.size
+        per_mode = np.asarray(per_mode, dtype=bool).reshape(-1)
+        if per_mode.shape != freq.shape:
+            raise ValueError(f"converged_per_mode has {per_mode.size} entries for {freq.size} frequencies")
+        object.__setattr__(self, "converged_per_mode", per_mode)
         if self.history is not None:
             object.__setattr__(self, "history", np.asarray(self.history, dtype=float))
 
 
 def failed(prior: np.ndarray, message: str, *, iterations: int = 0, history=None, **extra) -> Estimate:
     """An Estimate for a run that produced no usable answer: NaN frequencies, ``converged=False``, and
-    ``extra["converged_per_mode"]`` False for every mode."""
+    ``converged_per_mode`` False for every mode."""
     nan = np.full(np.shape(prior), np.nan)
-    extra.setdefault("converged_per_mode", [False] * nan.size)
     return Estimate(nan, nan, history=history, converged=False, iterations=iterations,
-                    message=message, extra=dict(extra))
+                    message=message, extra=dict(extra), converged_per_mode=np.zeros(nan.size, bool))
 
 
 # Largest |sample| accepted, m/s²: ±10⁵ g, the range of the largest shock accelerometers. A tip acceleration

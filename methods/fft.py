@@ -85,7 +85,7 @@ def identify(y, dt, prior, **options) -> Estimate:
     The periodogram is |FFT(w·(y − ȳ))|² over an FFT zero-padded to ``nfft`` points (:func:`fft_length`);
     each peak is refined by a parabola through the log-power of the three bins around it (sub-bin
     interpolation). A mode whose peak does not exceed the noise floor by :func:`detection_threshold` keeps
-    its frequency but is reported not converged (``extra["converged_per_mode"]``); when a prior has no peak
+    its frequency but is reported not converged (``converged_per_mode``); when a prior has no peak
     at all, no mode is.
     """
     y, dt, prior = check_inputs(y, dt, prior)
@@ -139,8 +139,8 @@ def identify(y, dt, prior, **options) -> Estimate:
                    f"{opts.false_alarm:g})")
     message = "; ".join(why) if why else "peaks found near every prior"
     return Estimate(freq, np.full(prior.size, np.nan), converged=bool(detected.all()), iterations=0,
-                    message=message, extra={"nfft": nfft, "nfft_padded": nfft_padded,
-                                            "converged_per_mode": detected.tolist(), "peak_to_floor": ratio,
+                    message=message, converged_per_mode=detected,
+                    extra={"nfft": nfft, "nfft_padded": nfft_padded, "peak_to_floor": ratio,
                                             "detection_threshold": threshold})
 
 

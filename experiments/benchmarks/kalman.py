@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 from experiments.benchmarks import median_seconds  # noqa: E402
 from experiments.simulate.datasets import UG  # noqa: E402
 from experiments.simulate.plant import build_plant  # noqa: E402
-from methods import akf, wkf  # noqa: E402
+from methods.kalman import akf, wkf  # noqa: E402
 
 PRIOR = [3.80, 16.00, 26.00, 46.00]     # Table 3
 DT_S = 0.02

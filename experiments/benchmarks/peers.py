@@ -10,7 +10,7 @@ replicate r's noise from ``replicate_rng(seed, noise, N, r)``, seed 1 by default
 over identifiable (mode, cell) pairs of RMSE/CRLB (offset-unknown bound, what every peer faces), the
 failure rate (not converged, or an identifiable mode more than 5 CRLB std off) and the median time per
 fit. A setting is chosen by the smallest median RMSE/CRLB among those failing in ≤ 5 %; the chosen values
-are the defaults of each ``methods/<peer>.py`` Options (methods/README_peers.md has the table).
+are the defaults of each ``methods/<peer>.py`` Options (methods/peers/README.md has the table).
 
 ``--grid``: instead of tuning, run the named methods (with their configs/method/<name>.yaml prior and
 options) over every cell of a grid file in this one process, and write the per-replicate tables the
@@ -59,7 +59,7 @@ def score(name: str, options: dict, cells: list[dict]) -> tuple[float, float, fl
             times.append(time.perf_counter() - t0)
             err = est.frequencies - truth
             fits += 1
-            bad = ~np.asarray(est.extra.get("converged_per_mode", [est.converged] * 4), bool)
+            bad = ~est.converged_per_mode
             bad |= ~np.isfinite(err) | (ident & (np.abs(err) > 5 * bound))
             failures += bool(bad[ident].any()) if ident.any() else False
             errors.append(np.where(bad, np.nan, err))

@@ -44,9 +44,9 @@ from experiments.report.scoring import identifiable  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 from experiments.simulate.datasets import UG, replicate_rng  # noqa: E402
 from experiments.simulate.plant import build_plant  # noqa: E402
-from methods import _pem_predictor as pp  # noqa: E402
-from methods import _pem_search as search  # noqa: E402
 from methods import pem  # noqa: E402
+from methods.pem import predictor as pp  # noqa: E402
+from methods.pem import search  # noqa: E402
 
 PRIOR = np.array([2.65, 16.73, 17.32, 52.91])        # Table 4
 DT_S = 0.02
@@ -262,11 +262,11 @@ def _versus_least_squares(plant, repeats: int, seed: int) -> None:
     y = plant.tip_acceleration(n, DT_S) + 1000 * UG * replicate_rng(seed, 1000, n, 0).standard_normal(n)
     opts = pem.Options(n_starts=1)
     joint = pem.Options(n_starts=1, separable=False)
-    free = pem._free_mask(m, opts)
+    free = pem.free_mask(m, opts)
     free_idx = np.flatnonzero(free)
     bounds = search.search_bounds(PRIOR, DT_S, opts)
     ev = pp.Evaluator(n, m, free, False, y, np.zeros(2 * m), DT_S)
-    starts = {"pencil": next(pem._starts(y, DT_S, PRIOR, pem.Options(n_starts=1, accept_white=False)))[1:],
+    starts = {"pencil": next(pem.starts(y, DT_S, PRIOR, pem.Options(n_starts=1, accept_white=False)))[1:],
               "Table 4 prior": (PRIOR.copy(), np.full(m, opts.damping_ratio))}
     print(f"\n## Same predictor (CasADi residual), 256 samples, 1000 µg, {free_idx.size} unknowns, one start; "
           f"true ω = {np.array2string(plant.freq_rad_s, precision=2)}")

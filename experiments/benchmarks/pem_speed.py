@@ -10,10 +10,10 @@ record is the Table 5 cell (truth plant, 1000 µg, Table 4 prior, replicate 0 of
 - ``scipy.optimize.least_squares`` (``method='lm'``) on the *same problem* — the closed-form output-error
   residual in all 17 unknowns (ω, ζ, x₀, b) — from the *same starts* ``pem`` uses (pencil, prior, one seeded
   perturbation; x₀ and b at their least-squares values), the lowest cost wins: with 2-point finite-difference
-  and with the analytic Jacobian (:class:`methods._pem_predictor.ClosedForm`).
+  and with the analytic Jacobian (:class:`methods.pem.predictor.ClosedForm`).
 - ``pem`` through the recursive CasADi predictor (``Recursive``, K = 0: the reference path, same search).
-- the peer identifiers that reach the bound on some records (issue 10): ``methods.era``, ``methods.hdmd``,
-  ``methods.n4sid`` with their default options, and ``control.era`` called directly (order 2m + 1,
+- the peer identifiers that reach the bound on some records (issue 10): ``methods.peers.era``, ``methods.peers.hdmd``,
+  ``methods.peers.n4sid`` with their default options, and ``control.era`` called directly (order 2m + 1,
   64 × 64 Hankel blocks); their errors are printed beside the times.
 
 BLAS threads: part ``blas`` (default) runs the warm-fit table twice, each in a fresh child: with the
@@ -35,9 +35,9 @@ import scipy.optimize
 from experiments.benchmarks import interleaved_medians
 from experiments.simulate.datasets import UG, replicate_rng
 from experiments.simulate.plant import build_plant
-from methods import _pem_predictor as pp
-from methods import _pem_search as search
 from methods import pem
+from methods.pem import predictor as pp
+from methods.pem import search
 
 PRIOR = np.array([2.65, 16.73, 17.32, 52.91])        # Table 4
 DT_S = 0.02
@@ -78,19 +78,10 @@ def _scipy_fit(y, jac: bool, labels: set[str] | None):
 
 
 def _reference_fit(y, recursive: bool):
-    """pem through the reference search (methods._pem_search, not the variable-projection fast path);
+    """pem through the reference search (methods.pem.search, not the variable-projection fast path);
     ``recursive``: with the recursive CasADi predictor (K = 0) instead of the closed form."""
-    from methods import _pem_fast
-
-    closed, applies = pp.make_evaluator, _pem_fast.applies
-    _pem_fast.applies = lambda opts: False
-    if recursive:
-        pp.make_evaluator = lambda y_, dt, m, free, K: pp.Recursive(y_.size, m, free, False, y_, np.zeros(2 * m),
-                                                                    dt)
-    try:
+    with pem.reference_path(recursive):
         return pem.identify(y, DT_S, PRIOR).frequencies
-    finally:
-        pp.make_evaluator, _pem_fast.applies = closed, applies
 
 
 def _era_fit(y):
@@ -112,7 +103,7 @@ def warm(repeats: int) -> None:
             lambda: pem.identify(y, DT_S, PRIOR, accept_white=False).frequencies,
             "least_squares lm, analytic Jacobian, pem's three starts": lambda: _scipy_fit(y, True, None),
             "least_squares lm, 2-point finite differences, pem's three starts": lambda: _scipy_fit(y, False, None),
-            "pem through the reference search (methods/_pem_search.py, closed form)":
+            "pem through the reference search (methods/pem/search.py, closed form)":
             lambda: _reference_fit(y, recursive=False),
             "pem through the reference search and the recursive CasADi predictor": lambda: _reference_fit(y, True),
             "pem paper setting (Kalman predictor, GN, 1 start)":

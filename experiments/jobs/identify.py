@@ -225,7 +225,7 @@ def rows_to_csv(rows: list[dict]) -> str:
 
 
 def report_measurement(name: str, prior, est, run_dir: Path) -> None:
-    per_mode = est.extra.get("converged_per_mode", [est.converged] * len(prior))
+    per_mode = est.converged_per_mode
     for i, (w, s) in enumerate(zip(est.frequencies, est.std, strict=True)):
         note = "" if per_mode[i] else " — not determined by the record"
         print(f"mode {i + 1}: {w:.6g} rad/s ± {s:.3g} (prior {prior[i]:g}){note}")

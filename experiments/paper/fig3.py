@@ -38,7 +38,7 @@ from experiments.io import atomic_write_text, markdown_table, save_figure, write
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 from experiments.simulate.datasets import UG, replicate_rng  # noqa: E402
 from experiments.simulate.plant import PlantConfig, build_plant  # noqa: E402
-from methods import akf, wkf  # noqa: E402
+from methods.kalman import akf, wkf  # noqa: E402
 
 FILTERS = {"akf": akf, "wkf": wkf}
 UNIT_PER_METRE = {"m": 1.0, "cm": 100.0, "mm": 1000.0}    # the record in this unit = metres × factor

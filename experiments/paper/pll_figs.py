@@ -30,7 +30,8 @@ from experiments.io import save_figure, write_table  # noqa: E402
 from experiments.simulate.datasets import UG  # noqa: E402
 from experiments.simulate.plant import PlantConfig, build_plant  # noqa: E402
 from methods import pll  # noqa: E402
-from methods.pll_design import (  # noqa: E402
+from methods.estimate import Estimate  # noqa: E402
+from methods.pll.design import (  # noqa: E402
     LoopParameters,
     loop_time_constants,
     omega_l_from_time_constants,
@@ -104,7 +105,7 @@ def _gain_label(gain) -> str:
     return "K = " + ", ".join(f"{g:g}" for g in gain)
 
 
-def _single_loops(params: Params, truth, t, options) -> pll.Estimate:
+def _single_loops(params: Params, truth, t, options) -> Estimate:
     """Fig. 4: loop j alone on sin(ω_j t), A(s) = 1 unless the options say otherwise; results stacked."""
     ests = []
     for j, w in enumerate(truth):
@@ -114,7 +115,7 @@ def _single_loops(params: Params, truth, t, options) -> pll.Estimate:
              for key in ("lock_indicator", "locked", "acquisition_time_s")}
     extra["lock_history"] = np.column_stack([e.extra["lock_history"][:, 0] for e in ests])
     extra["window_s"] = ests[0].extra["window_s"]
-    return pll.Estimate(np.concatenate([e.frequencies for e in ests]), np.concatenate([e.std for e in ests]),
+    return Estimate(np.concatenate([e.frequencies for e in ests]), np.concatenate([e.std for e in ests]),
                         history=np.column_stack([e.history[:, 0] for e in ests]),
                         converged=all(e.converged for e in ests), iterations=t.size,
                         message="; ".join(e.message for e in ests), extra=extra)

@@ -17,7 +17,7 @@ from experiments.io import save_figure  # noqa: E402
 
 METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab:cyan", "D"),
                 "pem": ("tab:red", "^"), "pll": ("tab:green", "v"),
-                # the peers (methods/README_peers.md)
+                # the peers (methods/peers/README.md)
                 "era": ("tab:orange", "P"), "n4sid": ("tab:purple", "X"), "ssi_cov": ("tab:brown", "<"),
                 "ssi_data": ("tab:pink", ">"), "lsce": ("tab:olive", "h"), "hdmd": ("gold", "*"),
                 "bopdmd": ("navy", "p")}

@@ -28,9 +28,7 @@ def replicate_rows(method: str, noise_ug: float, n_samples: int, replicate: int,
     frequency); a method that returned NaN, or said it did not converge, counts as a failure."""
     ident = identifiable(truth_freq, crlb)
     # A bank of independent loops (pll) may lock some modes and not others: it says so per mode.
-    per_mode = estimate.extra.get("converged_per_mode")
-    converged = (np.asarray(per_mode, dtype=bool) if per_mode is not None
-                 else np.full(len(prior), bool(estimate.converged)))
+    converged = np.asarray(estimate.converged_per_mode, dtype=bool)
     rows = []
     for i in range(len(prior)):
         est = float(estimate.frequencies[i])

@@ -7,8 +7,8 @@ import pytest
 import scipy.linalg
 from _signals import DT, damped_modes
 
-from methods import akf
-from methods._modal_filter import double_integrate, modal_transition, run_filter, settings_from
+from methods.kalman import akf
+from methods.kalman._filter import double_integrate, modal_transition, run_filter, settings_from
 
 
 def oscillator(w, zeta):

@@ -32,7 +32,7 @@ def _cases():
 @pytest.mark.parametrize("name, signal", list(_cases()))
 def test_a_record_without_information_is_never_called_converged(name, signal):
     est = methods.get(name)(SIGNALS[signal](), DT, PRIOR)
-    per_mode = np.asarray(est.extra.get("converged_per_mode", [est.converged] * len(PRIOR)), dtype=bool)
+    per_mode = est.converged_per_mode
     assert per_mode.shape == (len(PRIOR),)
     assert not per_mode.any(), f"{name} on {signal}: {est.message}"
     assert not np.any(est.std == 0.0), f"{name} on {signal}: std {est.std}"

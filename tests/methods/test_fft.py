@@ -47,7 +47,7 @@ def test_fft_keeps_a_mode_well_above_the_noise_floor(noisy_record, plant):
     """The detection test (peak ≥ ln(K/α) × the noise floor) must not reject real modes: at 0.01 g on 256
     samples modes 1 and 4 stand orders of magnitude above the floor."""
     est = methods.get("fft")(noisy_record(256, noise_ug=1e4, seed=3), 0.02, [3.8, 16.0, 26.0, 46.0])
-    assert est.converged and all(est.extra["converged_per_mode"]), est.message
+    assert est.converged and est.converged_per_mode.all(), est.message
     assert np.all(est.extra["peak_to_floor"] > 10 * est.extra["detection_threshold"])
     np.testing.assert_allclose(est.frequencies[[0, 3]], plant.freq_rad_s[[0, 3]], rtol=0.02)
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from _signals import DT, other_plant
 
-from methods import akf, wkf
+from methods.kalman import akf, wkf
 
 
 @pytest.mark.parametrize("m", [1, 2, 3, 5])

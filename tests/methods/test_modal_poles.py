@@ -1,4 +1,4 @@
-"""The shared mode picker (methods/modal_poles.py) on hand-made pole sets with known answers.
+"""The shared mode picker (methods/peers/_mode_picker.py) on hand-made pole sets with known answers.
 
 A record made of known damped sinusoids and poles given by hand: the picker must keep oscillatory, not
 growing, below-Nyquist poles, fold conjugate pairs, rank by least-squares energy (a weak noise pole loses
@@ -7,7 +7,7 @@ to a real mode), assign to the prior by log-frequency, and say NaN / not found w
 
 import numpy as np
 
-from methods.modal_poles import continuous_poles, energies, physical, pick_modes
+from methods.peers._mode_picker import continuous_poles, energies, physical, pick_modes
 
 DT = 0.02
 T = np.arange(256) * DT

@@ -1,4 +1,4 @@
-"""The peer identifiers (methods/era.py … bopdmd.py) through the one face.
+"""The peer identifiers (methods/peers/era.py … bopdmd.py) through the one face.
 
 Physics/maths checked: a noise-free record of the plant's four modes (exactly four damped sinusoids, the
 paper's frequencies) is realised exactly by a model of order 2m + 1 + spare, so every library must return
@@ -27,7 +27,7 @@ def test_noise_free_record_gives_the_true_frequencies(name, plant, truth):
     est = methods.get(name)(y, DT, PRIOR)
     assert est.converged, est.message
     np.testing.assert_allclose(est.frequencies, truth, rtol=1e-4)
-    assert est.extra["converged_per_mode"] == [True] * 4
+    assert est.converged_per_mode.tolist() == [True] * 4
     assert np.all(np.isnan(est.std))                 # no peer has an uncertainty by default
 
 
@@ -72,7 +72,7 @@ def test_too_short_record_fails_per_mode(name, plant):
     """20 samples cannot hold these libraries' Hankel matrices for 4 modes: NaN, not converged, no crash."""
     est = methods.get(name)(plant.tip_acceleration(20, DT), DT, PRIOR)
     assert not est.converged and np.all(np.isnan(est.frequencies))
-    assert est.extra["converged_per_mode"] == [False] * 4
+    assert est.converged_per_mode.tolist() == [False] * 4
 
 
 @pytest.mark.slow

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from methods import _pem_predictor as pp
-from methods import _pem_search as search
 from methods import pem
+from methods.pem import _fit, search
+from methods.pem import predictor as pp
 
 DT = 0.02
 UG = 9.80665e-6
@@ -86,7 +86,7 @@ def test_a_gauss_newton_step_that_would_increase_the_loss_is_halved():
     zeta = np.full(4, 0.005)
     y = damped_sinusoids(TRUE_W, zeta, np.array([1.0, -3.9, -5.1, 6.4]), np.zeros(4), n)
     opts = pem.Options(search="gauss_newton", separable=False, max_iterations=1, estimate_damping=False)
-    free = pem._free_mask(m, opts)
+    free = pem.free_mask(m, opts)
     ev = pp.Evaluator(n, m, free, False, y, np.zeros(2 * m), DT)
     start = np.r_[TRUE_W * np.array([1.0, 1.04, 0.97, 1.0]), zeta, np.zeros(2 * m), 0.0]
     theta0, e0, loss0 = search.solve_linear(ev, start, m)
@@ -183,12 +183,12 @@ def test_the_first_start_is_accepted_only_when_it_explains_the_record():
         np.testing.assert_allclose(fast.frequencies, every.frequencies, rtol=1e-9)
     n, rng = 256, np.random.default_rng(0)
     w_std = np.full(4, 1e-3)
-    accepted = [pem._explains_record({"e": rng.standard_normal(n)}, w_std, n, DT) for _ in range(400)]
+    accepted = [_fit._explains_record({"e": rng.standard_normal(n)}, w_std, n, DT) for _ in range(400)]
     assert 0.97 <= np.mean(accepted) < 1.0          # α = 1 %: a few false alarms, not none, not many
     t = np.arange(n) * DT
     missed = rng.standard_normal(n) + 0.6 * np.sin(20.24 * t)   # E/σ² = 0.36·N/2 = 46 > 2 ln(N/2α) = 18.7
-    assert not pem._explains_record({"e": missed}, w_std, n, DT)
-    assert not pem._explains_record({"e": rng.standard_normal(n)}, np.full(4, 1.0), n, DT)  # not detected
+    assert not _fit._explains_record({"e": missed}, w_std, n, DT)
+    assert not _fit._explains_record({"e": rng.standard_normal(n)}, np.full(4, 1.0), n, DT)  # not detected
 
 
 def test_a_damped_mode_of_a_long_record_is_detected_by_its_energy():
@@ -197,6 +197,6 @@ def test_a_damped_mode_of_a_long_record_is_detected_by_its_energy():
     plant, y = paper_record(262144, 1000.0, seed=2)
     est = pem.identify(y, DT, TABLE4_PRIOR)
     assert est.std[3] > pem.detection_std(y.size, DT)                  # the std rule alone would refuse it
-    assert est.converged and est.extra["converged_per_mode"].all(), est.message
+    assert est.converged and est.converged_per_mode.all(), est.message
     assert est.extra["n_starts"] == 1                                  # and the first start is accepted
     np.testing.assert_allclose(est.frequencies, plant.freq_rad_s, rtol=1e-4)

@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from methods import _pem_fast, pem
-from methods import _pem_predictor as pp
+from methods import pem
+from methods.pem import _fast as _pem_fast
+from methods.pem import predictor as pp
 
 DT = 0.02
 TRUE_W = np.array([3.23, 20.24, 22.00, 56.67])        # Table 3
@@ -88,7 +89,7 @@ def test_fast_path_equals_the_reference_path_on_noise_free_data(monkeypatch):
     y = damped_sinusoids(TRUE_W, zeta, np.array([1.0, -3.9, -5.1, 6.4]), np.array([0.2, 0.5, -0.3, 1.0]), 200,
                          offset=0.01)
     fast = pem.identify(y, DT, TABLE4_PRIOR)
-    # the reference search (methods/_pem_search.py) on the closed form, then on the recursive predictor
+    # the reference search (methods/pem/search.py) on the closed form, then on the recursive predictor
     monkeypatch.setattr(_pem_fast, "applies", lambda opts: False)
     closed = pem.identify(y, DT, TABLE4_PRIOR)
     monkeypatch.setattr(pp, "make_evaluator", lambda y_, dt, m, free, K: pp.Recursive(
@@ -103,11 +104,11 @@ def test_fast_path_equals_the_reference_path_on_noise_free_data(monkeypatch):
 
 
 def test_the_fast_search_takes_the_steps_of_the_reference_search():
-    """On a noisy record from the same start: the variable-projection search (methods/_pem_fast.py) and the
-    reference Gauss–Newton (methods/_pem_search.py) end at the same minimum, with the same std of ω and ζ
+    """On a noisy record from the same start: the variable-projection search (methods/pem/_fast.py) and the
+    reference Gauss–Newton (methods/pem/search.py) end at the same minimum, with the same std of ω and ζ
     (the reduced normal equations are the Schur complement of the full ones)."""
-    from methods import _pem_search as search
-    from methods.damped_sinusoids import pencil_start
+    from methods.pem import search
+    from methods.pem._pencil import pencil_start
 
     zeta = np.array([0.005, 0.004, 0.006, 0.005])
     clean = damped_sinusoids(TRUE_W, zeta, np.array([1.0, -3.9, -5.1, 6.4]), np.array([0.2, 0.5, -0.3, 1.0]),
@@ -115,7 +116,7 @@ def test_the_fast_search_takes_the_steps_of_the_reference_search():
     y = clean + 0.05 * np.random.default_rng(3).standard_normal(256)
     for options in ({}, {"estimate_damping": False}, {"bias": "none"}):
         opts = pem.Options(**options)
-        free = pem._free_mask(4, opts)
+        free = pem.free_mask(4, opts)
         bounds = search.search_bounds(TABLE4_PRIOR, DT, opts)
         w0, z0 = pencil_start(y, DT, TABLE4_PRIOR, extra_order=6, default_zeta=0.005)
         z0 = z0 if opts.estimate_damping else np.full(4, opts.damping_ratio)
@@ -146,7 +147,7 @@ def test_a_record_without_oscillation_is_not_converged_and_has_no_zero_std(y):
     """No information about any frequency: converged False per mode and overall, never std 0."""
     est = pem.identify(y, DT, TABLE4_PRIOR)
     assert not est.converged
-    assert not est.extra["converged_per_mode"].any()
+    assert not est.converged_per_mode.any()
     assert np.all((est.std > 0) | np.isnan(est.std))
 
 

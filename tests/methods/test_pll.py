@@ -10,7 +10,7 @@ import pytest
 import scipy.signal
 
 from methods import pll
-from methods.pll_design import (
+from methods.pll.design import (
     LoopParameters,
     band_edges,
     default_filter_bandwidth,
@@ -285,7 +285,7 @@ def test_default_options_accept_any_number_of_priors(m, zeta):
     est = pll.identify(modes(w, np.ones(m), zeta, dt, n, np.random.default_rng(m), 1e-2), dt, 1.1 * w)
     assert est.frequencies.shape == est.std.shape == (m,)
     assert est.history.shape == est.extra["lock_history"].shape == (n, m)
-    assert len(est.extra["locked"]) == len(est.extra["converged_per_mode"]) == m
+    assert len(est.extra["locked"]) == len(est.converged_per_mode) == m
     for key in ("loop_bandwidth_rad_s", "filter_bandwidth_rad_s", "acquisition_time_s", "lock_indicator"):
         assert np.shape(est.extra[key]) == (m,)
     assert np.all(np.isfinite(est.frequencies))

@@ -10,8 +10,8 @@ import pytest
 import scipy.signal
 from _signals import DT, damped_modes
 
-from methods import akf, wkf
-from methods._modal_filter import run_filter, settings_from
+from methods.kalman import akf, wkf
+from methods.kalman._filter import run_filter, settings_from
 
 K, W0, XI = 10.0, 3.0, 0.2          # eq. (38), §4.2
 

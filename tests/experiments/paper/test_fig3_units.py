@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from experiments.paper import fig3
-from methods import akf
+from methods.kalman import akf
 
 
 def test_unknown_unit_is_refused():

@@ -7,9 +7,9 @@ hankel_preprocessing``); the eigenvalues are continuous-time poles s, constraine
 record is real) and to the left half-plane (the record is a free decay; without it, variable projection
 on a short noisy record can diverge to eigenvalues with Re s ~ 10⁴ whose exponentials overflow, and
 LAPACK's least squares on the resulting inf/NaN never returns — seen at 10 µg, N = 20), and
-:func:`methods.modal_poles.pick_modes` picks the m modes.
+:func:`methods.peers._mode_picker.pick_modes` picks the m modes.
 
-Settings (methods/README_peers.md): rank 2m + 1 + ``extra_order``, d = ``delays_fraction``·N delays,
+Settings (methods/peers/README.md): rank 2m + 1 + ``extra_order``, d = ``delays_fraction``·N delays,
 chosen on tuning seed 1 (never the scoring seed). Uncertainty: with ``num_trials`` > 0 BOPDMD bags
 (refits on random subsets of ``trial_size`` of the snapshots) and ``std`` is the library's spread of the
 picked eigenvalue, |std(s)|, over the bags — the library's own uncertainty, not a calibrated one; with
@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods import hdmd
-from methods.modal_poles import check_peer_options, identify_peer, too_short
+from methods.peers import hdmd
+from methods.peers._mode_picker import check_peer_options, identify_peer, too_short
 
 
 @dataclass

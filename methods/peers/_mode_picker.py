@@ -175,15 +175,15 @@ def pick_modes(s, y, dt: float, prior, *, band: float = 0.5, damping_bounds=(-0.
 
 
 def estimate_extra(picked: Picked, **more) -> dict:
-    """The ``Estimate.extra`` entries every peer reports: per-mode convergence, damping, candidates."""
-    return {"converged_per_mode": picked.found.tolist(), "damping": picked.damping.tolist(),
+    """The ``Estimate.extra`` entries every peer reports: damping, candidates."""
+    return {"damping": picked.damping.tolist(),
             "n_physical_poles": picked.n_candidates, **more}
 
 
 def order_rule(m: int, extra: int) -> int:
     """The model order a peer fits by default: one state per mode pair (2m), one for the sensor offset (a
     real pole at z = 1), and ``extra`` spare states that take up the noise (chosen per peer on a tuning
-    seed; methods/README_peers.md)."""
+    seed; methods/peers/README.md)."""
     return 2 * m + 1 + max(int(extra), 0)
 
 
@@ -227,7 +227,8 @@ class PeerOptions:
         picked = pick_modes(s, y, dt, prior, band=self.band, damping_bounds=(self.min_damping, self.max_damping))
         std = np.full(prior.size, np.nan) if std is None else np.where(picked.found, std, np.nan)
         return Estimate(picked.frequencies, std, converged=bool(picked.found.all()), iterations=0,
-                        message=picked.message, extra=estimate_extra(picked, order=int(order), **extra))
+                        message=picked.message, converged_per_mode=picked.found,
+                        extra=estimate_extra(picked, order=int(order), **extra))
 
 
 def check_peer_options(options_cls, options: dict, method: str):

@@ -3,9 +3,9 @@
 A free decay from an initial state, yₖ = C Aᵏ x₀, is the impulse response of (A, x₀, C): its samples are
 the Markov parameters ERA realises. ``control.era`` builds the block Hankel matrix of the record, truncates
 its SVD at the model order and returns a balanced discrete-time realisation; its eigenvalues z become
-continuous-time poles s = log(z)/Δt and :func:`methods.modal_poles.pick_modes` picks the m modes.
+continuous-time poles s = log(z)/Δt and :func:`methods.peers._mode_picker.pick_modes` picks the m modes.
 
-Settings (methods/README_peers.md): order 2m + 1 + ``extra_order`` (modes, offset, spare states for the
+Settings (methods/peers/README.md): order 2m + 1 + ``extra_order`` (modes, offset, spare states for the
 noise) and a Hankel matrix with ``rows_fraction`` of the usable samples as rows, both chosen on tuning
 seeds 1-10 (never the scoring seed); control.era drops the first sample (the feedthrough D), so rows +
 columns = N − 1. ERA gives no uncertainty: ``std`` is NaN.
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.modal_poles import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
+from methods.peers._mode_picker import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
 
 
 @dataclass

@@ -3,10 +3,10 @@
 A scalar record has no spatial snapshots; DMD works on its delay embedding: ``pydmd.HankelDMD`` stacks d
 delayed copies of the record as snapshots, fits the best linear map between successive snapshots in the
 subspace of the truncated SVD (rank = the model order) and returns its eigenvalues z, the discrete-time
-poles; s = log(z)/Δt and :func:`methods.modal_poles.pick_modes` picks the m modes. (This is ERA's
+poles; s = log(z)/Δt and :func:`methods.peers._mode_picker.pick_modes` picks the m modes. (This is ERA's
 realisation up to the choice of basis; the libraries differ in how they truncate and solve.)
 
-Settings (methods/README_peers.md): rank 2m + 1 + ``extra_order``; d = ``delays_fraction``·N delays
+Settings (methods/peers/README.md): rank 2m + 1 + ``extra_order``; d = ``delays_fraction``·N delays
 (at least the rank), chosen on tuning seed 1 (never the scoring seed). No uncertainty: ``std`` is NaN.
 """
 
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.modal_poles import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
+from methods.peers._mode_picker import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
 
 
 @dataclass

@@ -95,7 +95,7 @@ def rule_parameters(omega_l: float, gain: float = 1.0, phase_margin_deg: float =
 
 
 # --------------------------------------------------------------------------------------------------------
-# Defaults derived from the prior (the per-loop options of methods/pll.py left at None)
+# Defaults derived from the prior (the per-loop options of methods/pll/_loop.py left at None)
 # --------------------------------------------------------------------------------------------------------
 
 # Table 6 has ω_L/ω₀ = 0.6/2.8, 4/16, 4/18, 11.3/52 = 0.214, 0.250, 0.222, 0.217.

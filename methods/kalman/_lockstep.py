@@ -1,4 +1,4 @@
-"""The augmented EKF of :mod:`methods._modal_filter` run over R records in lock-step, with stacked arrays.
+"""The augmented EKF of :mod:`methods.kalman._filter` run over R records in lock-step, with stacked arrays.
 
 The pipeline identifies the R replicates of a cell in one job; run one at a time, a filter step is ~40
 small numpy/filterpy calls on a 15–17-state model, and their overhead, not the arithmetic, is the cost
@@ -6,9 +6,9 @@ small numpy/filterpy calls on a 15–17-state model, and their overhead, not the
 (R, n, n) covariances, so the overhead is paid once per step for all replicates.
 
 The model, the initial state and covariance, Q, R, F's constant blocks and H come from the reference
-:func:`~methods._modal_filter.prepare` per record (filterpy's ``ExtendedKalmanFilter`` built as the
+:func:`~methods.kalman._filter.prepare` per record (filterpy's ``ExtendedKalmanFilter`` built as the
 single-record run builds it), h(x) from the reference's measurement row on the stack, and the result of
-each record from the same :func:`~methods._modal_filter.finished`. The step is the reference's, written for a stack:
+each record from the same :func:`~methods.kalman._filter.finished`. The step is the reference's, written for a stack:
 
 * predict: f(x) with the exact modal transition, F = ∂f/∂x with the exact ∂Φ/∂ω, P ← F P Fᵀ + Q;
 * update (one scalar measurement): PHᵀ, S = H P Hᵀ + R, K = PHᵀ/S, x ← x + K (z − h(x)), and filterpy's
@@ -19,7 +19,7 @@ each record from the same :func:`~methods._modal_filter.finished`. The step is t
 
 Written by hand because no kept library steps many filters at once: filterpy's filters hold one state.
 filterpy stays the reference; the tests check that every record's frequencies, standard deviations,
-history and messages equal those of :func:`~methods._modal_filter.run_filter` (tests/methods/
+history and messages equal those of :func:`~methods.kalman._filter.run_filter` (tests/methods/
 test_kalman_batch.py).
 """
 
@@ -29,8 +29,8 @@ import math
 
 import numpy as np
 
-from methods._modal_filter import FilterSettings, _divergence, _measurement_row, finished, prepare
 from methods.estimate import Estimate, check_inputs, failed, flat_record
+from methods.kalman._filter import FilterSettings, _divergence, _measurement_row, finished, prepare
 
 
 def identify_each(y, dt, priors, settings_for) -> list[Estimate]:
@@ -70,7 +70,7 @@ def identify_each(y, dt, priors, settings_for) -> list[Estimate]:
 
 
 def run_filters(y: np.ndarray, dt: float, priors: np.ndarray, settings: list[FilterSettings]) -> list[Estimate]:
-    """Run the filter of :func:`methods._modal_filter.run_filter` on every row of ``y`` (R × n), row r
+    """Run the filter of :func:`methods.kalman._filter.run_filter` on every row of ``y`` (R × n), row r
     with prior ``priors[r]`` and settings ``settings[r]`` (the same but for the prior-derived P0), and
     return one Estimate per row, equal to ``run_filter(y[r], dt, priors[r], settings[r])``."""
     n_rec, n_samples = y.shape

@@ -27,7 +27,7 @@ import numpy as np
 import scipy.signal
 
 from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
-from methods.pll_design import (
+from methods.pll.design import (
     VCO_LOWPASS_TIMES_OMEGA_L,
     LoopParameters,
     default_filter_bandwidth,
@@ -48,13 +48,13 @@ class Options:
     """Keyword options of :func:`identify`.
 
     The per-loop options (one entry per prior, or a single entry for every loop) default to None, i.e.
-    derived from the prior ω₀ and Δt (methods/pll_design.py, README_pll.md), so that any number of modes at
+    derived from the prior ω₀ and Δt (methods/pll/design.py, README_pll.md), so that any number of modes at
     any frequencies works: ω_L = 0.22 min(ω₀, π/Δt − ω₀) with ω_LΔt ≤ 0.25 (Table 6: ω_L/ω₀ ≈ 0.21–0.25);
     T₁, T₂, T₃ by the rule under eq. (37) at phase_margin_deg; T_VCO = 0.5/ω_L (Table 6's ratio); K = 1;
     input-filter bandwidth 0.5 ω₀, capped so that neighbouring pass bands do not overlap. The paper's own
     Table 6 values (for its prior 2.8, 16, 18, 52 rad/s) are written out in configs/method/pll.yaml.
     Fig. 6 of the paper also raises mode 1's K to 5; with a unit-gain detector that loop is unstable
-    (see methods/README_pll.md).
+    (see methods/pll/README.md).
     """
 
     # Table 6 columns, one entry per loop (a single entry is used for every loop); None: from the prior
@@ -334,7 +334,6 @@ def _summarise(history, lock, amplitude, clamped, loops, window, dt, opts, prior
     message = "; ".join(reasons) if reasons else f"all {m} loops locked"
     extra = {
         "locked": locked.tolist(),
-        "converged_per_mode": locked.tolist(),
         "lock_indicator": lock_mean,
         "lock_history": lock,
         "amplitude_m_s2": amplitude,
@@ -343,4 +342,4 @@ def _summarise(history, lock, amplitude, clamped, loops, window, dt, opts, prior
         "vco_clamped_samples": clamped,
     }
     return Estimate(freq, std, history=history, converged=bool(locked.all()), iterations=n,
-                    message=message, extra=extra)
+                    message=message, extra=extra, converged_per_mode=locked)

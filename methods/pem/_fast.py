@@ -1,7 +1,7 @@
 """The default search of :mod:`methods.pem` in few array operations: variable projection for the output-error
-model, the same Levenberg–Marquardt rules as :func:`methods._pem_search.gauss_newton` (the reference path).
+model, the same Levenberg–Marquardt rules as :func:`methods.pem.search.gauss_newton` (the reference path).
 
-The model ŷ = Φ(ω, ζ)·c is linear in c = (x₀, b) (:class:`methods._pem_predictor.ClosedForm`). With c at its
+The model ŷ = Φ(ω, ζ)·c is linear in c = (x₀, b) (:class:`methods.pem.predictor.ClosedForm`). With c at its
 least-squares value for every (ω, ζ), the search runs on (ω, ζ) alone with Kaufman's reduced Jacobian
 
     J_r = P⊥ J_n,   P⊥ = I − Φ(ΦᵀΦ)⁻¹Φᵀ,   J_n = ∂ε/∂(ω, ζ) at fixed c,
@@ -24,8 +24,8 @@ import math
 
 import numpy as np
 
-from methods import _pem_search as search
-from methods._pem_predictor import _BLOCK, _powers, scaled_lstsq
+from methods.pem import search
+from methods.pem.predictor import _BLOCK, _powers, scaled_lstsq
 
 
 class _Model:
@@ -66,7 +66,7 @@ class _Model:
         """J_r = P⊥ ∂ε/∂(ω[, ζ]) (N × m or N × 2m) at a point where c is the least-squares solution.
 
         With pᵢ(t) = e^{(−σᵢ + jω_dᵢ)t} and the mode's complex amplitude αᵢ = Aᵢ − jBᵢ, its output is
-        Re(αᵢpᵢ) = gᵢ and −Im(αᵢpᵢ) = hᵢ (the :class:`methods._pem_predictor.ClosedForm` docstring), so
+        Re(αᵢpᵢ) = gᵢ and −Im(αᵢpᵢ) = hᵢ (the :class:`methods.pem.predictor.ClosedForm` docstring), so
         −∂ŷ/∂ωᵢ = t·Re(αᵢpᵢ·(ζᵢ − j√(1 − ζᵢ²))) and −∂ŷ/∂ζᵢ = t·Re(αᵢpᵢ·(ωᵢ + jωᵢζᵢ/√(1 − ζᵢ²))): the
         chain rule's coefficients folded into one complex factor fⱼ per column. With Re pᵢ, Im pᵢ the basis
         columns, Re(pᵢfⱼ) = Re pᵢ·Re fⱼ − Im pᵢ·Im fⱼ: Jₙ = t·(Φ₁..₂ₘ M), one product with a sparse
@@ -94,7 +94,7 @@ class _Handover(Exception):
 
 
 def _reduced(Jr: np.ndarray, e: np.ndarray, n_unknowns: int, loss: float) -> search.NormalEquations:
-    """The (ω, ζ) normal equations J_rᵀJ_r, column-scaled (:class:`methods._pem_search.NormalEquations`),
+    """The (ω, ζ) normal equations J_rᵀJ_r, column-scaled (:class:`methods.pem.search.NormalEquations`),
     with σ̂² = Σε²/(N − p) for all p = ``n_unknowns`` free unknowns, as in the full system (Σε² = N·loss,
     the fit's own sum)."""
     return search.NormalEquations(None, None, (Jr.T @ Jr, Jr.T @ e, loss * e.size,
@@ -107,7 +107,7 @@ def applies(opts) -> bool:
 
 
 def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
-    """:func:`methods._pem_search.fit_one_start` for the options :func:`applies` to: the same dict (θ, loss,
+    """:func:`methods.pem.search.fit_one_start` for the options :func:`applies` to: the same dict (θ, loss,
     ε, iterations, message, converged, ...; ``J`` None, ``std_free`` with NaN for the linear unknowns).
 
     None — the caller then runs the reference search from the same start — as soon as a mode is not

@@ -329,9 +329,8 @@ def finished(history: np.ndarray, var_history: np.ndarray, final_state: np.ndarr
         message += "; not determined by the record (frequency variance still above half of the prior's): " + \
             ", ".join(f"mode {i + 1} ({prior[i]:g} rad/s, {share[i]:.2f})" for i in np.flatnonzero(~determined))
     return Estimate(history[-1].copy(), std, history=history, converged=True,
-                    iterations=n, message=message,
-                    extra={"std_history": std_history, "final_state": final_state,
-                           "converged_per_mode": determined.tolist(), "variance_share": share})
+                    iterations=n, message=message, converged_per_mode=determined,
+                    extra={"std_history": std_history, "final_state": final_state, "variance_share": share})
 
 
 # A frequency counts as determined by the record when its final filter variance is at most this share of the
@@ -344,7 +343,7 @@ DETERMINED_VARIANCE_SHARE = 0.5
 def _determined(var_w: np.ndarray, n: int, s: FilterSettings) -> tuple[np.ndarray, np.ndarray]:
     """Per mode: whether the record determined the frequency, and the share of its no-information variance
     left (``DETERMINED_VARIANCE_SHARE``). ``run_filter`` reports the overall ``converged`` as "did not
-    diverge" and this per mode, in ``extra["converged_per_mode"]``."""
+    diverge" and this per mode, in ``Estimate.converged_per_mode``."""
     no_info = s.p0_frequency_var + (n - 1) * s.qd_frequency
     with np.errstate(divide="ignore", invalid="ignore"):
         share = np.where(no_info > 0, var_w / no_info, np.nan)

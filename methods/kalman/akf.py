@@ -2,7 +2,7 @@
 
 The modal oscillators of eq. (8) (four in the paper; one per prior frequency here) and as many
 random-walk frequency states (eq. 21) form one state vector; the filter is linearised about the current
-estimate (eq. 24). The model and the filter loop are in :mod:`methods._modal_filter`; this module is the
+estimate (eq. 24). The model and the filter loop are in :mod:`methods.kalman._filter`; this module is the
 method's face and its options.
 """
 
@@ -11,9 +11,9 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass
 
-from methods._modal_filter import identify_record, settings_from
-from methods._modal_filter_batch import identify_each
 from methods.estimate import Estimate, make_options
+from methods.kalman._filter import identify_record, settings_from
+from methods.kalman._lockstep import identify_each
 
 
 @dataclass
@@ -91,7 +91,7 @@ def identify(y, dt, prior, **options) -> Estimate:
 def identify_batch(y, dt, priors, **options) -> list[Estimate]:
     """:func:`identify` on every row of ``y`` (R records × n samples), row r with ``priors[r]`` (or one
     prior for all): the same Estimates, computed with the R filters in lock-step
-    (:mod:`methods._modal_filter_batch`, checked against this module's filterpy run)."""
+    (:mod:`methods.kalman._lockstep`, checked against this module's filterpy run)."""
     return identify_each(y, dt, priors, functools.partial(_settings, options=options))
 
 

@@ -3,9 +3,9 @@
 ``nfoursid.NFourSID`` with the record as its only output column (no input: the excitation is the initial
 state) forms the block Hankel matrices of ``num_block_rows`` past and future rows, its oblique projection
 and SVD, and ``system_identification(rank=order)`` returns (A, B, C, D); the eigenvalues of A become
-continuous-time poles s = log(z)/Δt and :func:`methods.modal_poles.pick_modes` picks the m modes.
+continuous-time poles s = log(z)/Δt and :func:`methods.peers._mode_picker.pick_modes` picks the m modes.
 
-Settings (methods/README_peers.md): order 2m + 1 + ``extra_order``; block rows = ``rows_fraction`` · N,
+Settings (methods/peers/README.md): order 2m + 1 + ``extra_order``; block rows = ``rows_fraction`` · N,
 at least the order; chosen on tuning seed 1 (never the scoring seed). The library's covariance
 matrices describe the innovation, not the frequencies: ``std`` is NaN.
 """
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.modal_poles import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
+from methods.peers._mode_picker import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
 
 
 @dataclass

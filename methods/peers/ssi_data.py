@@ -2,7 +2,7 @@
 
 SSI-data projects the future block rows of the record's Hankel matrix onto the past (an LQ factorisation
 instead of SSI-cov's correlations), takes the SVD truncated at the model order, and A from the shifted
-observability matrix; poles, picking and settings as in :mod:`methods.ssi_cov` (same adapter, another
+observability matrix; poles, picking and settings as in :mod:`methods.peers.ssi_cov` (same adapter, another
 strid class; settings chosen on tuning seed 1, never the scoring seed). ``std`` is NaN.
 """
 
@@ -11,8 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import partial
 
-from methods import ssi_cov
-from methods.modal_poles import check_peer_options, identify_peer
+from methods.peers import ssi_cov
+from methods.peers._mode_picker import check_peer_options, identify_peer
 
 
 @dataclass

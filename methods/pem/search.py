@@ -1,7 +1,7 @@
 """The search of the prediction-error method: Gauss–Newton (eq. 30) from one start, exact derivatives.
 
 Used by :mod:`methods.pem`; ``opts`` is its ``Options``. Unknowns θ = [ω (m), ζ (m), x₀ (2m), b] as in
-:mod:`methods._pem_predictor`; ``free`` selects the estimated ones, ``bounds`` = (lower, upper) of (ω, ζ).
+:mod:`methods.pem.predictor`; ``free`` selects the estimated ones, ``bounds`` = (lower, upper) of (ω, ζ).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from methods import _pem_predictor as pp
+from methods.pem import predictor as pp
 
 MAX_HALVINGS = 40               # the paper's rule: μ = 1, 1/2, 1/4, … until the loss decreases
 LM_HALVINGS = 5                 # with Levenberg–Marquardt damping: halvings before λ grows
@@ -195,7 +195,7 @@ JOINED_MESSAGE = f"joined an earlier start's fit (within {JOIN_STD:g} std)"
 def stop_after_step(opts, improvement: float, loss: float, floor: float, at_join: bool) -> str | None:
     """Why a search ends after an accepted step — the relative loss improvement below ``tol_loss``, the
     loss at the data's rounding level, or the point within ``JOIN_STD`` std of an earlier start's fit
-    (checked in this order) — or None to go on. Shared with :mod:`methods._pem_fast`."""
+    (checked in this order) — or None to go on. Shared with :mod:`methods.pem._fast`."""
     if improvement < opts.tol_loss:
         return f"relative loss improvement below {opts.tol_loss:g}"
     if loss <= floor:
@@ -204,7 +204,7 @@ def stop_after_step(opts, improvement: float, loss: float, floor: float, at_join
 
 
 def damped_step(system, lam: float, loss: float, lm: bool, try_point):
-    """The step rule of eq. (30), shared by this search and :mod:`methods._pem_fast`: from the system's
+    """The step rule of eq. (30), shared by this search and :mod:`methods.pem._fast`: from the system's
     step for damping λ, μ = 1 halved until ``try_point(d, μ)`` — (loss, payload) of the trial point, or
     None where it is not valid — gives a lower loss (40 halvings for pure Gauss–Newton; for
     Levenberg–Marquardt 5, then λ grows ×10 and the step is recomputed; a full step shrinks λ ÷10).

@@ -8,7 +8,7 @@ library's API: it drops the bin at its ``upper`` limit, so the adapter appends o
 Nyquist; and its inverse FFT has an even length, so an odd record loses its last sample.
 
 sdypy-EMA computes every order 1…n (its stabilisation diagram); the adapter takes the poles of order n and
-:func:`methods.modal_poles.pick_modes` picks the m modes. Settings (methods/README_peers.md): n =
+:func:`methods.peers._mode_picker.pick_modes` picks the m modes. Settings (methods/peers/README.md): n =
 ⌈(2m + 1 + ``extra_order``)/2⌉ pole pairs, capped by the library's requirement N > 4n; ``extra_order``
 chosen on tuning seed 1 (never the scoring seed). No uncertainty: ``std`` is NaN.
 """
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.modal_poles import PeerOptions, check_peer_options, identify_peer, too_short
+from methods.peers._mode_picker import PeerOptions, check_peer_options, identify_peer, too_short
 
 
 @dataclass

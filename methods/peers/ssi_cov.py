@@ -3,11 +3,11 @@
 SSI-cov is the operational-modal-analysis workhorse: the record's output correlations at lags 1…2i fill a
 block Toeplitz matrix, whose SVD truncated at the model order gives the observability matrix and, by its
 shift structure, A. The eigenvalues of A become continuous-time poles s = log(z)/Δt and
-:func:`methods.modal_poles.pick_modes` picks the m modes. (SSI assumes a stationary response to white
+:func:`methods.peers._mode_picker.pick_modes` picks the m modes. (SSI assumes a stationary response to white
 excitation; a free decay is not one, and the correlations of a decaying record are biased estimates —
 this is how a practitioner would call it on such a record, and what the benchmark measures.)
 
-Settings (methods/README_peers.md): order 2m + 1 + ``extra_order``; block rows i = ``rows_fraction``·N,
+Settings (methods/peers/README.md): order 2m + 1 + ``extra_order``; block rows i = ``rows_fraction``·N,
 at least the order (strid requires order ≤ i for one output), 2i < N (SSI-cov) or 4i ≤ N + 1
 (SSI-data); chosen on tuning seed 1
 (never the scoring seed). strid gives no frequency uncertainty: ``std`` is NaN.
@@ -20,7 +20,7 @@ from functools import partial
 
 import numpy as np
 
-from methods.modal_poles import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
+from methods.peers._mode_picker import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
 
 
 @dataclass

@@ -1,14 +1,14 @@
 """Prediction-error method with a Gauss–Newton search (paper §3.3, §4.3, eqs. 30–31, Tables 4–5).
 
 The identification model is eq. (8) without the frequency states, with the tip acceleration as output
-(eq. 10), in the innovation form of eq. (31) (:mod:`methods._pem_predictor`). The unknowns are the
+(eq. 10), in the innovation form of eq. (31) (:mod:`methods.pem.predictor`). The unknowns are the
 frequencies, the initial state (as MATLAB's ``pem`` estimates it), optionally the damping ratios and a
 sensor offset. The loss V(θ) = (1/N) Σ ε(k)² is minimised by Gauss–Newton, eq. (30),
 
     θ⁽ⁱ⁺¹⁾ = θ⁽ⁱ⁾ − μ (JᵀJ)⁻¹ Jᵀε,    J = ∂ε/∂θ (exact: closed form, or CasADi for the Kalman predictor),
 
 with μ = 1 halved until the loss decreases (the paper's rule), optionally Levenberg–Marquardt damped and
-with the initial state and offset re-solved exactly at every trial point (:mod:`methods._pem_search`).
+with the initial state and offset re-solved exactly at every trial point (:mod:`methods.pem.search`).
 The covariance σ̂²(JᵀJ)⁻¹ at the optimum, σ̂² = Σε²/(N − p), gives ``Estimate.std``.
 
 Two predictors: ``"kalman"`` — the paper's, steady-state Kalman gain from the discrete Riccati equation with
@@ -16,14 +16,14 @@ Qd = 0.001, Rd = 0.4 (§4.3); ``"output_error"`` — gain zero, the maximum-like
 data's white measurement noise.
 
 Local minima (the paper's first complaint): several starts — a data-driven one (matrix pencil,
-:mod:`methods.damped_sinusoids`, matched to the prior), the prior, seeded perturbations of the prior — the
+:mod:`methods.pem._pencil`, matched to the prior), the prior, seeded perturbations of the prior — the
 lowest loss wins, then modes the record does not determine are restarted from the prior's frequency ratios
 (:func:`_repaired_start`); ``extra["n_agree"]`` says how many starts reached the answer. "Demanding
 calculation" (the second): the output-error predictor and its Jacobian in closed form, O(N), nothing built
 per record shape; one BLAS thread inside the fit (small matrices; OpenBLAS threads only slow it down).
 
 The defaults of :class:`Options` are the measured best setting; the paper's is :data:`PAPER_OPTIONS`.
-See methods/README_pem.md for the choices and the measured numbers.
+See methods/pem/README.md for the choices and the measured numbers.
 """
 
 from __future__ import annotations
@@ -34,11 +34,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from methods import _pem_fast as fast
-from methods import _pem_search as search
-from methods._pem_predictor import modal_basis
-from methods.damped_sinusoids import PENCIL_WINDOW, pencil_start
 from methods.estimate import Estimate, check_inputs, failed, make_options
+from methods.pem import _fast as fast
+from methods.pem import search
+from methods.pem._pencil import PENCIL_WINDOW, pencil_start
+from methods.pem.predictor import modal_basis
 
 PREDICTORS = ("output_error", "kalman")
 SEARCHES = ("levenberg_marquardt", "gauss_newton")
@@ -119,7 +119,7 @@ def _blas():
 
 def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Estimate:
     m, n = prior.size, y.size
-    free = _free_mask(m, opts)
+    free = free_mask(m, opts)
     n_free = int(sum(free))
     if n <= n_free:
         return failed(prior, f"{n} samples cannot determine {n_free} unknowns")
@@ -128,7 +128,7 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
     shape = np.asarray(opts.tip_mode_shape if len(opts.tip_mode_shape) == m else np.ones(m), float)
     bounds = search.search_bounds(prior, dt, opts)
     fits, join = [], None
-    for label, w0, z0 in _starts(y, dt, prior, opts):
+    for label, w0, z0 in starts(y, dt, prior, opts):
         fit = _fit(y, dt, w0, z0, shape, free, opts, bounds, join)
         fit["start"] = label
         fits.append(fit)
@@ -160,8 +160,8 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
 
 
 def _fit(y, dt, w0, z0, shape, free, opts: Options, bounds, join=None) -> dict:
-    """One start's search: the variable-projection path (:mod:`methods._pem_fast`) for the default
-    options, else the reference (:func:`methods._pem_search.fit_one_start`: any predictor and search)."""
+    """One start's search: the variable-projection path (:mod:`methods.pem._fast`) for the default
+    options, else the reference (:func:`methods.pem.search.fit_one_start`: any predictor and search)."""
     if fast.applies(opts):
         fit = fast.fit_one_start(y, dt, w0, z0, free, opts, bounds, join)
         if fit is not None:
@@ -241,7 +241,7 @@ def _explains_record(fit: dict, w_std: np.ndarray, n: int, dt: float, energy: bo
     two close modes merged, a missed mode. Each leaves a sinusoid of the record unexplained, and the
     residual's periodogram shows it: white noise σ² gives 2|E(f)|²/(Nσ²) ~ χ²₂ in each of the N/2 bins,
     which all stay below 2 ln(N/2α) with probability 1 − α (the detection rule of :func:`detection_std`
-    and :mod:`methods.modal_poles`); the spectrum is zero-padded ×2 so a sinusoid between bins still
+    and :mod:`methods.peers._mode_picker`); the spectrum is zero-padded ×2 so a sinusoid between bins still
     shows. A lower minimum elsewhere could only fit the noise differently. On the 1000 µg, N = 256 record
     this ends the search after one start (the other two and the repairs cost 20× the first; measured:
     ``python -m experiments.benchmarks.pem_speed``); where the test fails every start runs as before.
@@ -317,7 +317,7 @@ def check_options(prior, dt, **options) -> Options:
     return opts
 
 
-def _free_mask(m: int, opts: Options) -> tuple[bool, ...]:
+def free_mask(m: int, opts: Options) -> tuple[bool, ...]:
     """Which entries of θ = [ω, ζ, x₀, b] the search estimates."""
     return tuple([True] * m + [opts.estimate_damping] * m + [True] * (2 * m) + [opts.bias == "estimate"])
 
@@ -326,7 +326,7 @@ QUICK = "quick pencil"
 QUICK_PENCIL_COLUMNS = 32     # the quick start's pencil parameter L (the full start's is N/3, up to 120)
 
 
-def _starts(y, dt, prior, opts: Options):
+def starts(y, dt, prior, opts: Options):
     """(label, ω, ζ) of every start, made when asked for: with ``accept_white`` first a quick pencil start
     (L = 32: a fifth of the full pencil's time at N = 256; kept only if its fit explains the record, see
     :func:`_explains_record`), then the ``n_starts``: the pencil start (L = N/3 up to 120: the quick one's
@@ -368,7 +368,7 @@ def detection_std(n: int, dt: float, alpha: float = 0.01) -> float:
 
     A sinusoid of energy E in white noise σ over N samples has std(ω) ≈ √(6σ²/E)/(N·Δt) (its Fisher
     information; damping only raises it). Pure noise exceeds E/σ² = 2 ln(N/2α) with probability α (the
-    largest of N/2 χ²₂ projections, the rule of the fft's peak test and methods.modal_poles), so a mode whose
+    largest of N/2 χ²₂ projections, the rule of the fft's peak test and methods.peers._mode_picker), so a mode whose
     std is above √(3/ln(N/2α))/(N·Δt) — about a tenth of the Fourier resolution 2π/(NΔt) — is not told
     apart from noise.
     """
@@ -401,7 +401,6 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
     converged = converged and bool(per_mode.any())
     std = np.where(np.isfinite(std), std, np.nan)   # a column the record does not move: no std, not inf
     extra = {
-        "converged_per_mode": per_mode,
         "damping": damp, "damping_std": damp_std, "identified": identified,
         "offset_m_s2": float(best["theta"][-1]), "loss": float(best["loss"]),
         "n_starts": len(fits), "n_agree": agree, "best_start": best["start"],
@@ -411,7 +410,7 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
     }
     message = f"{best['message']} (start '{best['start']}', {agree}/{len(fits)} starts agree)"
     return Estimate(freq, std, converged=converged, iterations=int(best["iterations"]),
-                    message=message, extra=extra)
+                    message=message, extra=extra, converged_per_mode=per_mode)
 
 
 def _mode_table(fit: dict, free, m: int):

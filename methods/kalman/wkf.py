@@ -15,15 +15,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import cont2discrete
 
-from methods import akf
-from methods._modal_filter import Weighting, identify_record, settings_from
-from methods._modal_filter_batch import identify_each
 from methods.estimate import Estimate, make_options
+from methods.kalman import akf
+from methods.kalman._filter import Weighting, identify_record, settings_from
+from methods.kalman._lockstep import identify_each
 
 
 @dataclass
 class Options(akf.Options):
-    """Options of the frequency-weighted Kalman filter: those of :class:`methods.akf.Options` (same
+    """Options of the frequency-weighted Kalman filter: those of :class:`methods.kalman.akf.Options` (same
     meaning, same defaults — including P0 of the frequencies derived from the prior, (0.27·ω̄_n)² —, §4.2
     "The initial conditions are as for the augmented Kalman filter") plus the weighting filter of
     eq. (38) and R_f of eq. (29).
@@ -78,13 +78,13 @@ def identify(y, dt, prior, **options) -> Estimate:
     Returns
     -------
     Estimate
-        As :func:`methods.akf.identify`: last frequency states, their filter std, the per-sample history.
+        As :func:`methods.kalman.akf.identify`: last frequency states, their filter std, the per-sample history.
     """
     return identify_record(y, dt, prior, functools.partial(_settings, options=options))
 
 
 def identify_batch(y, dt, priors, **options) -> list[Estimate]:
-    """As :func:`methods.akf.identify_batch`, for this filter: :func:`identify` on every row of ``y``, the
+    """As :func:`methods.kalman.akf.identify_batch`, for this filter: :func:`identify` on every row of ``y``, the
     R filters in lock-step."""
     return identify_each(y, dt, priors, functools.partial(_settings, options=options))
 

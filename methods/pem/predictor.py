@@ -223,7 +223,7 @@ class ClosedForm:
 
     def project(self, theta: np.ndarray):
         """θ with its free linear unknowns (x₀, b) at their least-squares values for θ's (ω, ζ), its ε and
-        loss — :func:`methods._pem_search.solve_linear` for this predictor, in a few array operations (the
+        loss — :func:`methods.pem.search.solve_linear` for this predictor, in a few array operations (the
         search calls it at every trial point): the normal equations of the column-scaled basis, solved
         through their eigendecomposition. None where they are near-singular (scaled condition number above
         1e12): the caller then takes the SVD route."""
