@@ -74,8 +74,9 @@ _REQUIRES: dict[str, str] = {
 
 ENTRY_POINT_GROUP = "spacecraft_modal_id.methods"
 
-__all__ = ["ENTRY_POINT_GROUP", "Estimate", "check_inputs", "check_options", "check_prior", "failed", "flat_record",
-           "get", "get_batch", "module_name", "names", "options_class", "plugins", "require"]
+__all__ = ["ENTRY_POINT_GROUP", "Estimate", "Track", "check_inputs", "check_options", "check_prior",
+           "check_track_options", "failed", "flat_record", "get", "get_batch", "module_name", "names",
+           "options_class", "plugins", "require", "track", "track_names", "track_options_class"]
 
 
 @functools.cache
@@ -147,3 +148,7 @@ def check_options(name: str, prior, dt: float, options: dict | None = None):
     if hasattr(module, "check_options"):
         return module.check_options(np.asarray(prior), dt, **options)
     return make_options(module.Options, options, name)
+
+
+# The tracking face (methods/tracking/): every method run online over a record whose frequencies move.
+from methods.tracking import Track, check_track_options, track, track_names, track_options_class  # noqa: E402
