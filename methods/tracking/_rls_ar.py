@@ -13,12 +13,12 @@ With exponential forgetting λ (memory ≈ 1/(1 − λ) samples), for k = p, p +
 
 which is the minimiser of λ^(k−p+1) θᵀθ/δ + Σ_{j=p..k} λ^(k−j) (y(j) − φ(j)ᵀθ)² (the tests check it against
 ``numpy.linalg.lstsq`` on that weighted regression). Guard against wind-up: when the signal dies out, P/λ
-grows without bound; the division by λ is skipped while tr P exceeds its initial value pδ.
+grows without bound; the division by λ is skipped while tr P exceeds ten times its initial value.
 
 The poles z of A (eigenvalues of its companion matrix, numpy.linalg.eigvals on all samples at once) become
 s = log(z)/Δt; the physical ones (ω_d > 0, |s| below Nyquist, damping ratio in [min_damping, max_damping])
-are assigned to the modes by ``scipy.optimize.linear_sum_assignment`` on |log ω − log ω_ref|, ω_ref the
-mode's previous estimate (the prior at the start), no farther than ``band``. The p − 2m spare poles take up
+are assigned to the modes by ``scipy.optimize.linear_sum_assignment`` on |log ω − log ω_ref| + c|ζ|, ω_ref
+the mode's previous estimate (the prior at the start), no farther than ``band``. The p − 2m spare poles take up
 the noise and the colour of the excitation (the response to a force is ARMA, not AR).
 
 Why by hand: the recursion is eight lines, and the poles and the per-sample P are needed; padasip's
@@ -36,6 +36,9 @@ import scipy.optimize
 from methods.estimate import make_options
 from methods.tracking._track import Track
 
+# Wind-up guard: P/λ is skipped while tr P exceeds this multiple of its initial trace (p + q)·δ.
+WINDUP_TRACE_FACTOR = 10.0
+
 
 @dataclass
 class Options:
@@ -49,20 +52,24 @@ class Options:
         q of the ARMA(p, q) model fitted by pseudo-linear regression; None: 2m (the response of m modes to a
         white force, seen by an accelerometer with white noise, is ARMA(2m, 2m)); 0: the plain AR model.
     forgetting : float
-        λ in (0, 1]; memory ≈ 1/(1 − λ) samples (0.996: 250 samples, 5 s at Δt = 0.02 s).
+        λ in (0, 1]; memory ≈ 1/(1 − λ) samples (0.998: 500 samples, 10 s at Δt = 0.02 s).
     p0 : float
         δ, the initial P = δ I (a weak regularisation of θ towards 0).
     band : float
         A pole may be assigned to a mode when |log(ω/ω_ref)| ≤ log(1 + band).
+    damping_weight : float
+        Assignment cost |log(ω/ω_ref)| + damping_weight·|ζ|: of two poles near a mode, the lightly damped one
+        (a structural mode) wins over a broad one that fits noise.
     min_damping, max_damping : float
         Accepted damping ratios of a physical pole.
     """
 
-    extra_order: int = 8
+    extra_order: int = 16
     ma_order: int | None = None
-    forgetting: float = 0.996
+    forgetting: float = 0.998
     p0: float = 1e4
     band: float = 0.3
+    damping_weight: float = 1.0
     min_damping: float = -0.05
     max_damping: float = 0.3
 
@@ -98,7 +105,7 @@ def rls(y: np.ndarray, order: int, forgetting: float, p0: float, ma_order: int =
     npar = p + ma_order
     theta = np.zeros(npar)
     P = p0 * np.eye(npar)
-    trace_max = npar * p0
+    trace_max = WINDUP_TRACE_FACTOR * npar * p0
     out = np.zeros((n, npar))
     eps = np.full(n, np.nan)
     resid = np.zeros(n)
@@ -112,6 +119,7 @@ def rls(y: np.ndarray, order: int, forgetting: float, p0: float, ma_order: int =
         e = y[k] - phi @ theta
         theta = theta + gain * e
         P = P - np.outer(gain, Pphi)
+        P = 0.5 * (P + P.T)                   # keep P symmetric: round-off otherwise grows with 1/λ
         if forgetting < 1.0 and np.trace(P) < trace_max:
             P /= forgetting
         out[k] = theta
@@ -147,7 +155,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     w = np.abs(s)
     zeta = -s.real / w
     ok = (s.imag > 0) & (w < np.pi / dt) & (zeta >= opts.min_damping) & (zeta <= opts.max_damping)
-    freq, found = _assign(w, ok, prior, np.log1p(opts.band))
+    freq, found = _assign(w, np.where(ok, zeta, np.inf), ok, prior, np.log1p(opts.band), opts.damping_weight)
     memory = order if opts.forgetting == 1.0 else min(order + int(round(1.0 / (1.0 - opts.forgetting))), y.size)
     conv = found & (k >= memory)[:, None]
     return Track(k * dt, freq, np.nan, conv,
@@ -156,8 +164,10 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
                  extra={"order": order, "ma_order": q, "memory_samples": memory})
 
 
-def _assign(w: np.ndarray, ok: np.ndarray, prior: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per sample, the physical poles matched to the modes' previous estimates (module docstring)."""
+def _assign(w: np.ndarray, zeta: np.ndarray, ok: np.ndarray, prior: np.ndarray, limit: float,
+            damping_weight: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per sample, the physical poles matched to the modes' previous estimates (module docstring): cost
+    |log ω − log ω_ref| + damping_weight·|ζ| within the band."""
     n, m = w.shape[0], prior.size
     freq = np.full((n, m), np.nan)
     found = np.zeros((n, m), dtype=bool)
@@ -168,7 +178,7 @@ def _assign(w: np.ndarray, ok: np.ndarray, prior: np.ndarray, limit: float) -> t
         if cand.size == 0:
             continue
         dist = np.abs(cand[:, None] - ref[None, :])
-        cost = np.where(dist <= limit, dist, 1e6)
+        cost = np.where(dist <= limit, dist + damping_weight * np.abs(zeta[i, ok[i]])[:, None], 1e6)
         rows, cols = scipy.optimize.linear_sum_assignment(cost)
         hit = cost[rows, cols] < 1e6
         rows, cols = rows[hit], cols[hit]

@@ -1,14 +1,14 @@
 """Records for the tracking tests: modal oscillators whose frequencies move, driven by white force.
 
-Each mode n is q̈ = −ω_n(t)² q − 2ζω_n(t) q̇ + b_n u(t); the tip acceleration is Σ (q̈_n) + white noise. Per
-sample the frozen oscillator's exact zero-order-hold transition (scipy.signal.cont2discrete) is applied: the
-truth simulator of the tracking track is the experiments' business, this is only a small independent helper.
+Each mode n is q̈ = −ω_n(t)² q − 2ζω_n(t) q̇ + b_n u(t); the tip acceleration is Σ q̈_n + white noise. The frozen
+system's exact zero-order-hold transition (scipy.signal.cont2discrete) is applied while the frequencies stay
+put: the truth simulator of the tracking track is the experiments' business, this is a small helper.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import cont2discrete
+from scipy.signal import cont2discrete, dlsim
 
 DT = 0.02
 UG = 9.80665e-6
@@ -28,25 +28,33 @@ def schedule(n: int, *, drift: float = 0.0, step_at: int | None = None, step: fl
 
 def driven_modes(w: np.ndarray, *, zeta: float = 0.005, force: float = 1.0, noise_ug: float = 100.0,
                  seed: int = 1, gain=GAIN, dt: float = DT) -> np.ndarray:
-    """Tip acceleration of the modes with frequencies ``w`` (n × m, per sample), white force of 1σ ``force``."""
+    """Tip acceleration of the modes with frequencies ``w`` (n × m, per sample), white force of 1σ ``force``:
+    each run of equal rows of ``w`` is one frozen linear system (scipy.signal.dlsim), its final state the
+    next run's initial state."""
     n, m = w.shape
     rng = np.random.default_rng(seed)
     u = force * rng.standard_normal(n)
     gain = np.asarray(gain, float)[:m]
-    x = np.zeros((m, 2))
+    change = np.flatnonzero(np.any(np.diff(w, axis=0) != 0, axis=1)) + 1
+    bounds = np.concatenate(([0], change, [n]))
+    x = np.zeros(2 * m)
     y = np.empty(n)
-    cache: dict[bytes, tuple] = {}
-    for k in range(n):
-        key = w[k].tobytes()
-        if key not in cache:
-            mats = []
-            for wn in w[k]:
-                a = np.array([[0.0, 1.0], [-wn * wn, -2 * zeta * wn]])
-                phi, gam, _, _, _ = cont2discrete((a, np.array([[0.0], [1.0]]), np.eye(2), np.zeros((2, 1))), dt)
-                mats.append((phi, gam[:, 0]))
-            cache[key] = (np.array([p for p, _ in mats]), np.array([g for _, g in mats]))
-        phi, gam = cache[key]
-        acc = -(w[k] ** 2) * x[:, 0] - 2 * zeta * w[k] * x[:, 1] + gain * u[k]
-        y[k] = acc.sum()
-        x = np.einsum("nij,nj->ni", phi, x) + gam * (gain * u[k])[:, None]
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        A, B, C, D = _modes_ss(w[a], zeta, gain)
+        phi, gam, _, _, _ = cont2discrete((A, B, C, D), dt)
+        _, out, states = dlsim((phi, gam, C, D, dt), u[a:b], x0=x)
+        y[a:b] = out[:, 0]
+        x = phi @ states[-1] + gam[:, 0] * u[b - 1]
     return y + noise_ug * UG * rng.standard_normal(n)
+
+
+def _modes_ss(w, zeta, gain):
+    """Continuous state space of the driven modes, output the summed accelerations (with feedthrough)."""
+    m = w.size
+    A = np.zeros((2 * m, 2 * m))
+    A[np.arange(m), np.arange(m, 2 * m)] = 1.0
+    A[np.arange(m, 2 * m), np.arange(m)] = -w * w
+    A[np.arange(m, 2 * m), np.arange(m, 2 * m)] = -2 * zeta * w
+    B = np.concatenate((np.zeros(m), gain))[:, None]
+    C = np.concatenate((-w * w, -2 * zeta * w))[None, :]
+    return A, B, C, np.array([[gain.sum()]])
