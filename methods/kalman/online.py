@@ -80,7 +80,7 @@ def track_filter(y: np.ndarray, dt: float, prior: np.ndarray, method: str, optio
             determined[start:stop] = seg_var[:done] <= DETERMINED_VARIANCE_SHARE * no_info
         if est.converged:
             break
-        divergences.append(f"sample {stop - 1}: {est.message.removeprefix('diverged at sample ')}")
+        divergences.append(est.message.replace(f"at sample {done - 1}", f"at sample {stop - 1}"))
         freq[stop - 1] = np.nan                       # the diverged state is no estimate
         determined[stop - 1] = False
         if len(divergences) > max_restarts:

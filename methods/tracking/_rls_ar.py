@@ -60,6 +60,9 @@ class Options:
     damping_weight : float
         Assignment cost |log(ω/ω_ref)| + damping_weight·|ζ|: of two poles near a mode, the lightly damped one
         (a structural mode) wins over a broad one that fits noise.
+    converged_max_damping : float
+        A mode counts as converged only when its pole's damping ratio is at most this: a structural mode is
+        lightly damped (ζ ≈ 0.005 here), a pole that only fits noise is broad.
     min_damping, max_damping : float
         Accepted damping ratios of a physical pole.
     """
@@ -70,6 +73,7 @@ class Options:
     p0: float = 1e4
     band: float = 0.3
     damping_weight: float = 1.0
+    converged_max_damping: float = 0.05
     min_damping: float = -0.05
     max_damping: float = 0.3
 
@@ -87,6 +91,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: p0 = {opts.p0} must be a positive number")
     if not opts.band > 0:
         raise ValueError(f"{name}: band = {opts.band} must be positive")
+    if not opts.converged_max_damping > 0:
+        raise ValueError(f"{name}: converged_max_damping = {opts.converged_max_damping} must be positive")
     if not opts.min_damping < opts.max_damping:
         raise ValueError(f"{name}: min_damping = {opts.min_damping} must be below max_damping = {opts.max_damping}")
     order = 2 * np.size(prior) + opts.extra_order
@@ -155,21 +161,23 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     w = np.abs(s)
     zeta = -s.real / w
     ok = (s.imag > 0) & (w < np.pi / dt) & (zeta >= opts.min_damping) & (zeta <= opts.max_damping)
-    freq, found = _assign(w, np.where(ok, zeta, np.inf), ok, prior, np.log1p(opts.band), opts.damping_weight)
+    freq, damping, found = _assign(w, np.where(ok, zeta, np.inf), ok, prior, np.log1p(opts.band),
+                                   opts.damping_weight)
     memory = order if opts.forgetting == 1.0 else min(order + int(round(1.0 / (1.0 - opts.forgetting))), y.size)
-    conv = found & (k >= memory)[:, None]
+    conv = found & (k >= memory)[:, None] & (damping <= opts.converged_max_damping)
     return Track(k * dt, freq, np.nan, conv,
                  message=f"RLS on ARMA({order}, {q}), λ = {opts.forgetting}: every mode found in "
                          f"{float(np.mean(found.all(axis=1))):.0%} of the samples",
-                 extra={"order": order, "ma_order": q, "memory_samples": memory})
+                 extra={"order": order, "ma_order": q, "memory_samples": memory, "damping": damping})
 
 
 def _assign(w: np.ndarray, zeta: np.ndarray, ok: np.ndarray, prior: np.ndarray, limit: float,
-            damping_weight: float) -> tuple[np.ndarray, np.ndarray]:
+            damping_weight: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per sample, the physical poles matched to the modes' previous estimates (module docstring): cost
     |log ω − log ω_ref| + damping_weight·|ζ| within the band."""
     n, m = w.shape[0], prior.size
     freq = np.full((n, m), np.nan)
+    damping = np.full((n, m), np.nan)
     found = np.zeros((n, m), dtype=bool)
     ref = np.log(prior)
     logw = np.log(np.where(ok, w, 1.0))
@@ -183,7 +191,8 @@ def _assign(w: np.ndarray, zeta: np.ndarray, ok: np.ndarray, prior: np.ndarray, 
         hit = cost[rows, cols] < 1e6
         rows, cols = rows[hit], cols[hit]
         freq[i, cols] = np.exp(cand[rows])
+        damping[i, cols] = zeta[i, ok[i]][rows]
         found[i, cols] = True
         ref = ref.copy()
         ref[cols] = cand[rows]
-    return freq, found
+    return freq, damping, found
