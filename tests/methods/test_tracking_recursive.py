@@ -4,7 +4,9 @@
   regression (numpy.linalg.lstsq): θ(n) = argmin λ^(n−p+1) θᵀθ/δ + Σ_{k=p..n} λ^(n−k) (y(k) − φ(k)ᵀθ)²;
 * on a stationary record its poles give the modes' frequencies;
 * the online ``akf`` is the batch filter: with the acceleration measurement P0 depends on max |y| only, and a
-  free decay has it in the warm-up, so the tracked states are the batch run's history sample by sample.
+  free decay has it in the warm-up, so the tracked states are the batch run's history sample by sample; after
+  a divergence it restarts;
+* the ``pll`` track is the loop bank's VCO history; the ``next_era`` baseline finds stationary modes.
 """
 
 import numpy as np
@@ -63,3 +65,36 @@ def test_online_akf_is_the_batch_filter_sample_by_sample():
     assert k[0] == 49
     np.testing.assert_allclose(tr.frequencies, batch.history[k], rtol=1e-12)
     np.testing.assert_allclose(tr.std, batch.extra["std_history"][k], rtol=1e-9)
+
+
+def test_online_akf_restarts_after_a_divergence_and_goes_on_tracking():
+    # the acceleration measurement with Rd = 1e-2 (m/s²)² against a force-driven record whose accelerometer
+    # sees the force's feed-through (variance ≈ 50 (m/s²)²): the filter diverges, and must restart
+    y = driven_modes(schedule(1500), noise_ug=300.0, seed=6)
+    tr = methods.track("akf", y, DT, [3.8, 16.0, 26.0, 46.0], measurement="acceleration", max_restarts=3)
+    n_div = tr.extra["n_divergences"]
+    assert n_div >= 1 and "diverged at sample" in tr.message
+    assert np.isnan(tr.frequencies).any(axis=1).sum() >= min(n_div, 4)      # each diverged sample is NaN
+    one = methods.track("akf", y, DT, [3.8, 16.0, 26.0, 46.0], measurement="acceleration", max_restarts=0)
+    assert np.isfinite(tr.frequencies).all(axis=1).sum() > np.isfinite(one.frequencies).all(axis=1).sum()
+
+
+def test_pll_track_is_the_loop_banks_vco_frequency():
+    from methods import pll
+
+    y = damped_modes([3.23, 20.24], [1.0, 4.0], 1500, zeta=0.001, noise_ug=100.0, seed=8)
+    tr = methods.track("pll", y, DT, [3.8, 16.0])
+    batch = pll.identify(y, DT, [3.8, 16.0], remove_mean=False)
+    k = np.round(tr.t_s / DT).astype(int)
+    assert k[0] == tr.extra["lead_in_samples"] - 1
+    np.testing.assert_array_equal(tr.frequencies, batch.history[k])
+    late = tr.t_s > 20.0
+    np.testing.assert_allclose(np.median(tr.frequencies[late], axis=0), [3.23, 20.24], rtol=0.01)
+
+
+def test_next_era_baseline_finds_the_modes_of_a_stationary_driven_record():
+    freq = np.array([5.0, 20.0, 45.0])
+    y = driven_modes(schedule(3000, freq=freq), gain=[3.0, 1.0, 1.0], noise_ug=100.0, seed=9)
+    tr = methods.track("next_era", y, DT, [4.5, 18.0, 50.0])
+    assert tr.converged.mean() > 0.9
+    np.testing.assert_allclose(np.nanmedian(tr.frequencies, axis=0), freq, rtol=0.02)
