@@ -22,6 +22,11 @@ Optional: ``identify_batch(y, dt, priors, **options) -> list[Estimate]`` on R re
 where that shares work (``akf``/``wkf``: the R filters in lock-step). :func:`get_batch` finds it; the jobs
 use it for a cell's replicates; tests/methods/test_contract.py checks it against ``identify`` row by row.
 
+**Tracking.** ``track(name, y, dt, prior, **options) -> Track`` runs a method online over a record whose
+frequencies move (:mod:`methods.tracking`): ``akf``, ``wkf``, ``pll`` natively, every other method here on a
+sliding window, and the trackers ``rls_ar`` and ``next_era``; ``track_names()``, ``track_options_class()``
+and ``check_track_options()`` are the registry's counterparts for trackers.
+
 ``get(name)`` finds a method by name. Adding a method: write ``methods/<name>.py`` with the three names
 above and add one line to ``_REGISTRY``. Nothing here imports the experiments, Hydra, MLflow or the file
 system.
