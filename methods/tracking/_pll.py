@@ -8,7 +8,11 @@ The loop bank of :mod:`methods.pll` is a tracker by design: ω(k) = ω₀ + v(k)
 * the AGC starts at √2 × the RMS of the first max(T_AGC, 2 periods of ω₀) of the filtered input; the track
   starts after the longest of these lead-ins (``extra["lead_in_samples"]``), so no estimate uses a later sample.
 
-``converged``: the loop's lock indicator 2i/Â (≈ cos φₑ, low-passed) is at least ``lock_threshold``.
+``converged``: the batch run's lock test on a trailing window instead of the record's end: over the last
+acquisition time 4π/ω_L of the loop (§3.4), the mean of its lock indicator 2i/Â (≈ cos φₑ, low-passed) is at
+least ``lock_threshold``, the indicator never fell below 0 (no cycle slip), and the mean frequencies of the
+window's two halves agree within ``steady_tolerance`` (not still acquiring); pandas' trailing rolling
+statistics, so the test at sample k sees samples ≤ k only.
 ``std``: NaN (a loop reports no uncertainty).
 """
 
@@ -18,6 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 
 from methods import pll
 from methods.estimate import make_options
@@ -69,8 +74,25 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     if est.history is None:            # a flat record: no loop ran
         nan = np.full((k.size, prior.size), np.nan)
         return Track(k * dt, nan, nan, False, message=est.message)
+    locked = _locked(est.history, est.extra["lock_history"], est.extra["acquisition_time_s"], dt, opts)[k]
     lock = est.extra["lock_history"][k]
-    return Track(k * dt, est.history[k], np.nan, lock >= opts.lock_threshold,
-                 message=f"{prior.size} loops over {y.size} samples; lock indicator ≥ {opts.lock_threshold} in "
-                         f"{float(np.mean(lock >= opts.lock_threshold)):.0%} of the samples",
+    return Track(k * dt, est.history[k], np.nan, locked,
+                 message=f"{prior.size} loops over {y.size} samples; locked in {float(np.mean(locked)):.0%} of "
+                         f"the loop-samples",
                  extra={"lead_in_samples": lead, "lock_indicator": lock})
+
+
+def _locked(history: np.ndarray, lock: np.ndarray, acquisition_s: np.ndarray, dt: float, opts) -> np.ndarray:
+    """(n, m): over each loop's trailing acquisition time, the mean lock indicator ≥ ``lock_threshold``, its
+    minimum ≥ 0, and the mean frequencies of the window's two halves within ``steady_tolerance`` of each
+    other (the batch run's three tests; windows not yet full: not locked)."""
+    out = np.zeros(lock.shape, dtype=bool)
+    for j in range(lock.shape[1]):
+        n_acq = max(2, int(round(float(acquisition_s[j]) / dt)))
+        half = n_acq // 2
+        trail = pd.Series(lock[:, j]).rolling(n_acq, min_periods=n_acq)
+        w_mean = pd.Series(history[:, j]).rolling(half, min_periods=half).mean().to_numpy()
+        earlier = np.concatenate((np.full(half, np.nan), w_mean[:-half]))
+        steady = np.abs(w_mean - earlier) <= opts.steady_tolerance * np.abs(w_mean)
+        out[:, j] = ((trail.mean() >= opts.lock_threshold) & (trail.min() >= 0.0)).to_numpy() & steady
+    return out

@@ -31,6 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 import scipy.optimize
 
 from methods.estimate import make_options
@@ -61,8 +62,11 @@ class Options:
         Assignment cost |log(ω/ω_ref)| + damping_weight·|ζ|: of two poles near a mode, the lightly damped one
         (a structural mode) wins over a broad one that fits noise.
     converged_max_damping : float
-        A mode counts as converged only when its pole's damping ratio is at most this: a structural mode is
-        lightly damped (ζ ≈ 0.005 here), a pole that only fits noise is broad.
+        A mode counts as converged only when its pole's |damping ratio| is at most this: a structural mode is
+        lightly damped (ζ ≈ 0.005 here), a pole that only fits noise is mostly broad.
+    converged_spread : float
+        ... and when its log-frequency has varied by at most this standard deviation over the last memory
+        length (1/(1 − λ) samples): a pole fitting noise wanders.
     min_damping, max_damping : float
         Accepted damping ratios of a physical pole.
     """
@@ -74,6 +78,7 @@ class Options:
     band: float = 0.3
     damping_weight: float = 1.0
     converged_max_damping: float = 0.05
+    converged_spread: float = 0.02
     min_damping: float = -0.05
     max_damping: float = 0.3
 
@@ -91,6 +96,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: p0 = {opts.p0} must be a positive number")
     if not opts.band > 0:
         raise ValueError(f"{name}: band = {opts.band} must be positive")
+    if not opts.converged_spread > 0:
+        raise ValueError(f"{name}: converged_spread = {opts.converged_spread} must be positive")
     if not opts.converged_max_damping > 0:
         raise ValueError(f"{name}: converged_max_damping = {opts.converged_max_damping} must be positive")
     if not opts.min_damping < opts.max_damping:
@@ -158,17 +165,27 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     k = np.arange(order, y.size)
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.log(ar_poles(theta[k, :order])) / dt
-    w = np.abs(s)
-    zeta = -s.real / w
+        w = np.abs(s)
+        zeta = -s.real / w                    # θ = 0 (a zero record): poles at z = 0, s = −∞, no mode
     ok = (s.imag > 0) & (w < np.pi / dt) & (zeta >= opts.min_damping) & (zeta <= opts.max_damping)
     freq, damping, found = _assign(w, np.where(ok, zeta, np.inf), ok, prior, np.log1p(opts.band),
                                    opts.damping_weight)
     memory = order if opts.forgetting == 1.0 else min(order + int(round(1.0 / (1.0 - opts.forgetting))), y.size)
-    conv = found & (k >= memory)[:, None] & (damping <= opts.converged_max_damping)
+    conv = found & (k >= memory)[:, None] & (np.abs(damping) <= opts.converged_max_damping)
+    conv &= _steady(freq, memory - order, opts.converged_spread)
     return Track(k * dt, freq, np.nan, conv,
                  message=f"RLS on ARMA({order}, {q}), λ = {opts.forgetting}: every mode found in "
                          f"{float(np.mean(found.all(axis=1))):.0%} of the samples",
                  extra={"order": order, "ma_order": q, "memory_samples": memory, "damping": damping})
+
+
+def _steady(freq: np.ndarray, n_trail: int, spread: float) -> np.ndarray:
+    """(K, m): the standard deviation of log ω over the trailing ``n_trail`` estimates is at most ``spread``
+    (a pole that fits noise wanders; a mode's stays put within its drift). pandas' trailing rolling std."""
+    n_trail = max(2, n_trail)
+    sd = np.column_stack([pd.Series(np.log(freq[:, j])).rolling(n_trail, min_periods=n_trail).std().to_numpy()
+                          for j in range(freq.shape[1])])
+    return sd <= spread
 
 
 def _assign(w: np.ndarray, zeta: np.ndarray, ok: np.ndarray, prior: np.ndarray, limit: float,

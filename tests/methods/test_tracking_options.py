@@ -65,3 +65,18 @@ def test_every_batch_method_is_a_tracker_and_windowed_ones_take_window_and_hop()
     for name in set(methods.names()) - {"akf", "wkf", "pll"}:
         fields = {f.name for f in dataclasses.fields(methods.track_options_class(name))}
         assert {"window_samples", "hop_samples", "warm_start"} <= fields
+
+
+@pytest.mark.parametrize("name", methods.track_names())
+def test_an_all_zero_record_is_never_tracked_as_converged(name):
+    fields = methods.track_options_class(name).__dataclass_fields__
+    opts = {"window_samples": 256, "hop_samples": 200} if "window_samples" in fields else {}
+    tr = methods.track(name, np.zeros(700), DT, PRIOR, **opts)
+    assert not tr.converged.any(), f"{name}: {tr.message}"
+    assert not np.any(tr.std == 0.0)
+
+
+@pytest.mark.parametrize("name", ["akf", "wkf", "pll", "rls_ar"])
+def test_white_noise_is_never_tracked_as_converged_by_the_recursive_trackers(name):
+    y = 0.01 * np.random.default_rng(11).standard_normal(1500)          # ≈ 1000 µg, no mode
+    assert not methods.track(name, y, DT, PRIOR).converged.any()
