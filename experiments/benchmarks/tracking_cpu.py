@@ -2,6 +2,8 @@
 
     python -m experiments.benchmarks.tracking_cpu [--samples 3000] [--repeats 3] [--trackers akf,pem,...]
 
+A row of ``--trackers`` is a tracker name or a variant ``name:key=value+key=value`` (``pem:predictor=kalman``).
+
 Record: the truth plant's free decay (Table 2's release, Table 3's frequencies) re-excited by a thruster
 pulse every 10 s — the superposition of the same decay started at each pulse, with an amplitude drawn per
 pulse — plus 100 µg of white noise, at Δt = 0.02 s; Table 3's priors; each tracker's default options (the
@@ -52,23 +54,46 @@ def pulsed_record(n: int, seed: int = 0) -> np.ndarray:
     return y + NOISE_UG * UG * rng.standard_normal(n)
 
 
-def measure(names, y: np.ndarray, repeats: int, budget_s: float) -> list[dict]:
+def parse_row(spec: str) -> tuple[str, dict]:
+    """``name`` or ``name:key=value,...`` (a variant: those options over the tracker's defaults)."""
+    name, _, rest = spec.partition(":")
+    options = {}
+    for item in filter(None, rest.split("+")):
+        key, _, value = item.partition("=")
+        for cast in (int, float):
+            try:
+                value = cast(value)
+                break
+            except ValueError:
+                pass
+        options[key] = {"true": True, "false": False}.get(value, value) if isinstance(value, str) else value
+    return name, options
+
+
+def default_rows() -> list[str]:
+    """Every tracker with its defaults, and pem with its second predictor (the innovation form, eq. 31)."""
+    rows = methods.track_names()
+    return rows[: rows.index("pem") + 1] + ["pem:predictor=kalman"] + rows[rows.index("pem") + 1:]
+
+
+def measure(specs, y: np.ndarray, repeats: int, budget_s: float) -> list[dict]:
     rows = []
-    for name in names:
+    for spec in specs:
+        name, options = parse_row(spec)
         times, track = [], None
         for _ in range(repeats):
-            track = methods.track(name, y, DT_S, PRIOR)
+            track = methods.track(name, y, DT_S, PRIOR, **options)
             times.append(track.runtime_s)
             if track.runtime_s > budget_s:
                 break
         cpu = statistics.median(times)
         per_sample = cpu / y.size
-        rows.append({"tracker": name, "runs": len(times), "cpu_s": cpu, "us_per_sample": 1e6 * per_sample,
+        rows.append({"tracker": spec, "runs": len(times), "cpu_s": cpu, "us_per_sample": 1e6 * per_sample,
                      "ms_per_sample_100x": 1e3 * SLOWDOWN * per_sample,
                      "fits": SLOWDOWN * per_sample <= ON_BOARD_BUDGET_S, "estimates": track.t_s.size,
                      "converged": float(track.converged.mean())})
         r = rows[-1]
-        print(f"{name:>9} {r['runs']:>4} {cpu:>8.3f} {r['us_per_sample']:>10.1f} {r['ms_per_sample_100x']:>10.2f} "
+        print(f"{spec:>20} {r['runs']:>4} {cpu:>8.3f} {r['us_per_sample']:>10.1f} {r['ms_per_sample_100x']:>10.2f} "
               f"{'yes' if r['fits'] else 'no':>5} {r['estimates']:>6} {r['converged']:>6.2f}", flush=True)
     return rows
 
@@ -101,19 +126,22 @@ def main(argv=None) -> None:
     parser.add_argument("--samples", type=int, default=3000)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--budget-s", type=float, default=30.0, help="a first run longer than this is not repeated")
-    parser.add_argument("--trackers", default=",".join(methods.track_names()),
-                        help="comma-separated tracker names (default: every tracker)")
+    parser.add_argument("--trackers", default=",".join(default_rows()),
+                        help="comma-separated rows: a tracker name, or name:key=value+key=value for a variant "
+                             "(default: every tracker, and pem:predictor=kalman)")
     parser.add_argument("--out", default=str(OUT))
     args = parser.parse_args(argv)
-    names = [n for n in args.trackers.split(",") if n]
-    for name in names:
-        methods.check_track_options(name, PRIOR, DT_S, {}, n_samples=args.samples)
+    specs = [n for n in args.trackers.split(",") if n]
+    for spec in specs:
+        name, options = parse_row(spec)
+        methods.check_track_options(name, PRIOR, DT_S, options, n_samples=args.samples)
     load = os.getloadavg()[0]
     y = pulsed_record(args.samples)
     print(f"trackers on {args.samples} samples, dt = {DT_S} s; load average {load:.1f}; "
           f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}")
-    print(f"{'tracker':>9} {'runs':>4} {'CPU s':>8} {'us/sample':>10} {'ms@100x':>10} {'fits':>5} {'K':>6} {'conv':>6}")
-    rows = measure(names, y, args.repeats, args.budget_s)
+    print(f"{'tracker':>20} {'runs':>4} {'CPU s':>8} {'us/sample':>10} {'ms@100x':>10} {'fits':>5} {'K':>6} "
+          f"{'conv':>6}")
+    rows = measure(specs, y, args.repeats, args.budget_s)
     path = atomic_write_text(args.out, markdown(rows, args.samples, load))
     print(f"wrote {path}")
 

@@ -8,9 +8,10 @@ determined (``converged_per_mode``), the caller's prior for a mode never determi
 valid prior — crossing, above Nyquist — falls back to the caller's prior). Every method reads its prior as
 the centre of its search (pem: the start and the band ``frequency_band`` around it; the peers and fft: the
 band in which a pole or peak is assigned to a mode), so the search follows a drifting mode. When the previous
-window determined every mode, a method with a cheaper warm setting (:data:`WARM_OPTIONS`) takes it: pem runs
-one Gauss–Newton search from the previous frequencies (``n_starts=1``, no matrix-pencil start) instead of its
-cold multi-start; after a window that lost a mode it pays the cold fit again. The other methods have no
+window determined at least one mode, a method with a cheaper warm setting (:data:`WARM_OPTIONS`) takes it:
+pem runs one Gauss–Newton search from that prior (``n_starts=1``, no matrix-pencil start) instead of its cold
+multi-start (its repair restarts still re-seed a mode the search leaves undetermined, from the prior's
+ratios); after a window that determined no mode it pays the cold fit again. The other methods have no
 iterative search to seed: their cost is the same warm or cold.
 """
 
@@ -81,7 +82,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     conv = np.zeros((ends.size, m), dtype=bool)
     warm_used = np.zeros(ends.size, dtype=bool)
     last_good = np.full(m, np.nan)
-    all_determined = False
+    any_determined = False
     failures: list[str] = []
     nyquist = np.pi / dt
     for j, e in enumerate(ends.tolist()):
@@ -90,20 +91,20 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         p = prior
         if opts.warm_start:
             p = usable_prior(last_good, prior, nyquist)
-            if all_determined and name in WARM_OPTIONS:
+            if any_determined and name in WARM_OPTIONS:
                 kw = own | WARM_OPTIONS[name]
                 warm_used[j] = True
         try:
             est = identify(seg, dt, p, **kw)
         except Exception as exc:        # a library failing on one window loses that window, not the track
             failures.append(f"window ending at sample {e}: {type(exc).__name__}: {exc}")
-            all_determined = False
+            any_determined = False
             continue
         freq[j] = est.frequencies
         std[j] = est.std
         conv[j] = est.converged_per_mode & np.isfinite(est.frequencies)
         last_good = np.where(conv[j], est.frequencies, last_good)
-        all_determined = bool(conv[j].all())
+        any_determined = bool(conv[j].any())
     message = (f"{ends.size} windows of {W} samples every {H}; {int(conv.all(axis=1).sum())} determined "
                f"every mode; {int(warm_used.sum())} warm-started")
     if failures:
