@@ -56,3 +56,15 @@ def test_pem_warm_windows_take_one_search_from_the_previous_frequencies(record):
     cold = methods.track("pem", record, DT, PRIOR, window_samples=W, hop_samples=H, warm_start=False)
     assert not cold.extra["warm_started"].any()
     np.testing.assert_allclose(tr.frequencies, cold.frequencies, rtol=1e-4)
+
+
+def test_pem_with_the_innovation_form_predictor_agrees_with_its_batch_fit(record):
+    y = record[: W + H]                                   # two windows: the Kalman predictor is the slow one
+    tr = methods.track("pem", y, DT, PRIOR, window_samples=W, hop_samples=H, predictor="kalman")
+    for j, e in enumerate(np.round(tr.t_s / DT).astype(int)):
+        cold = methods.get("pem")(y[e - W + 1: e + 1], DT, PRIOR, predictor="kalman")
+        ok = cold.converged_per_mode & tr.converged[j]
+        assert ok.sum() >= 2, f"window {j}: {cold.message}"
+        tol = np.fmax(3 * cold.std, 2e-3 * cold.frequencies)
+        diff = np.abs(tr.frequencies[j] - cold.frequencies)
+        assert np.all(diff[ok] <= tol[ok]), (tr.frequencies[j], cold.frequencies)
