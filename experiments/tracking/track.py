@@ -25,7 +25,7 @@ import pandas as pd
 from experiments.io import atomic_write_text, write_json
 from experiments.report.summary import job_metrics, summarize
 from experiments.tracking.provenance import canonical_json, digest, git_state
-from experiments.tracking.store import dataset_entity, log_run, source_tags
+from experiments.tracking.store import check_store, dataset_entity, log_run, source_tags
 
 IDENTIFY_SOURCE = "experiments/jobs/identify.py"
 
@@ -106,6 +106,11 @@ def main(argv=None) -> int:
                     help="tables/figures (files or folders) to log with the grid's parent run")
     ap.add_argument("results", nargs="+", type=Path, help="the jobs' tables; <table>.json beside each")
     args = ap.parse_args(argv)
+    try:
+        check_store()
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     experiment = f"grid-{args.grid}"
     jobs = []
     for path in sorted(args.results):
