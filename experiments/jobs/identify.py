@@ -27,9 +27,9 @@ import methods
 from experiments.io import CHECKSUM_KEY, atomic_write_text, read_npz, write_json
 from experiments.jobs.app import fail, run_app
 from experiments.jobs.config import methods_named_on, register, variant_label
-from experiments.tracking.store import check_store
 from experiments.report.scoring import COLUMNS, replicate_rows
 from experiments.simulate.scenarios import AXES, result_columns
+from experiments.tracking.store import check_store
 
 
 def load_data(cfg) -> dict:
