@@ -296,7 +296,7 @@ def input_filter_sos(centre: float, bandwidth: float, dt: float, order: int = 3,
 @functools.lru_cache(maxsize=64)
 def _input_filter_sos(centre: float, bandwidth: float, dt: float, order: int, ripple_db: float) -> np.ndarray:
     if order < 1:
-        raise ValueError(f"input filter order {order} must be at least 1")
+        raise ValueError(f"filter_order = {order}: the input filter's order must be at least 1")
     if not ripple_db > 0:
         raise ValueError(f"input filter ripple {ripple_db} dB must be positive")
     w1, w2 = band_edges(centre, bandwidth, dt)

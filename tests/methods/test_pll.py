@@ -157,6 +157,8 @@ def test_invalid_options_raise_value_error():
         pll.identify(np.ones(100), DT, PRIOR, gain=[1.0, 1.0, 1.0])
     with pytest.raises(ValueError, match="design"):
         pll.identify(np.ones(100), DT, PRIOR, design="magic")
+    with pytest.raises(ValueError, match=r"^filter_order = 0: "):     # the option's name, not the helper's
+        pll.check_options(PRIOR, DT, filter_order=0)
 
 
 # --- the design rule under eq. (37) ---------------------------------------------------------------------
