@@ -158,7 +158,7 @@ def test_invalid_options_raise_value_error():
     with pytest.raises(ValueError, match="design"):
         pll.identify(np.ones(100), DT, PRIOR, design="magic")
     with pytest.raises(ValueError, match=r"^filter_order = 0: "):     # the option's name, not the helper's
-        pll.check_options(PRIOR, DT, filter_order=0)
+        pll.check_options(np.array(PRIOR), DT, filter_order=0)
 
 
 # --- the design rule under eq. (37) ---------------------------------------------------------------------
