@@ -15,7 +15,9 @@ from pathlib import Path
 
 import hydra
 from hydra import compose, initialize_config_module
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig, OmegaConf, open_dict
+
+from experiments.io import check_writable
 
 # configs/ travels with the code as the package data `experiments.configs` (experiments/configs links to it in
 # the repository; a wheel holds a copy), so Hydra finds it from any working directory, installed or not.
@@ -67,7 +69,10 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
     if not any(a in ("-m", "--multirun") or a.startswith("-") for a in args):
         try:
             with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
-                cfg = compose(config_name=config_name, overrides=args)
+                cfg = compose(config_name=config_name, overrides=args, return_hydra_config=True)
+            _check_outputs_writable(cfg)
+            with open_dict(cfg):
+                del cfg["hydra"]
             OmegaConf.resolve(cfg)
             if check is not None:
                 check(cfg)
@@ -86,6 +91,18 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
             fail(one_line(exc))
 
     hydra.main(config_path=f"pkg://{CONFIG_MODULE}", config_name=config_name, version_base="1.3")(guarded)()
+
+
+def _check_outputs_writable(cfg: DictConfig) -> None:
+    """Hydra's run folder (``hydra.run.dir``, made before the job starts) and the job's ``out``/``out_dir``
+    must be writable: else one line now instead of an ``os.mkdir`` traceback from Hydra or the job."""
+    run_dir = OmegaConf.select(cfg, "hydra.run.dir", default=None)
+    if run_dir is not None:
+        check_writable(run_dir, "hydra.run.dir")
+    for key in ("out", "out_dir"):
+        value = OmegaConf.select(cfg, key, default=None)
+        if isinstance(value, str) and value:
+            check_writable(value, key)
 
 
 def _remove_empty_run_dir() -> None:

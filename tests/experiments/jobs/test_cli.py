@@ -60,7 +60,7 @@ def assert_one_line_error(proc, *fragments):
     (["method=fft", "data.dataset=cell.npz", "method.options.window=bogus"], ["window = 'bogus'"]),
     (["method=akf", "data.dataset=cell.npz", "method.options.measurement=velocity"], ["measurement", "velocity"]),
     (["method=wkf", "data.dataset=cell.npz", "method.options.weight_gain=-1"], ["weight_gain = -1"]),
-    (["method=pll", "data.dataset=cell.npz", "method.options.filter_order=0"], ["filter order 0"]),
+    (["method=pll", "data.dataset=cell.npz", "method.options.filter_order=0"], ["filter_order = 0"]),
 ])
 def test_identify_rejects_bad_input_with_one_line(workdir, args, fragments):
     before = set(workdir.rglob("*"))
