@@ -62,3 +62,21 @@ def test_the_track_step_refuses_a_truncated_store_in_one_line(tmp_path):
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.startswith("error: the MLflow store") and proc.stderr.count("\n") == 1
     assert not (tmp_path / "runs.json").exists()
+
+
+@pytest.mark.parametrize("content, words", [
+    ("a,b\n1,2\n", "not an identify job's result table (no column method"),
+    (None, "no such result table"),
+    (b"\x8f\x00binary", "not a CSV result table"),
+])
+def test_the_track_step_refuses_a_file_that_is_no_job_table_in_one_line(tmp_path, content, words):
+    table = tmp_path / "x.csv"
+    if isinstance(content, str):
+        table.write_text(content)
+    elif content is not None:
+        table.write_bytes(content)
+    proc = subprocess.run([sys.executable, "-m", "experiments.tracking.track", "--grid", "g", "--out",
+                           str(tmp_path / "runs.json"), str(table)], capture_output=True, text=True,
+                          env={"MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path / 'm.db'}", "PATH": "/usr/bin:/bin"})
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and words in proc.stderr, proc.stderr
+    assert not (tmp_path / "runs.json").exists() and not (tmp_path / "m.db").exists()
