@@ -32,6 +32,7 @@ import tracemalloc
 import numpy as np
 import scipy.optimize
 
+import methods
 from experiments.benchmarks import interleaved_medians
 from experiments.simulate.datasets import UG, replicate_rng
 from experiments.simulate.plant import build_plant
@@ -58,10 +59,10 @@ def _scipy_fit(y, jac: bool, labels: set[str] | None):
     ``labels``, or (None) the default's three — computed inside the timed call as pem computes them; the
     lowest cost wins."""
     m, opts = PRIOR.size, pem.Options(accept_white=labels is not None)
-    free = pem._free_mask(m, opts)
+    free = pem.free_mask(m, opts)
     ev = pp.ClosedForm(y, DT_S, m, free)
     best, todo = None, None if labels is None else set(labels)
-    for label, w0, z0 in pem._starts(y, DT_S, PRIOR, opts):
+    for label, w0, z0 in pem.starts(y, DT_S, PRIOR, opts):
         if todo is not None:
             if label not in todo:
                 continue
@@ -108,14 +109,13 @@ def warm(repeats: int) -> None:
             "pem through the reference search and the recursive CasADi predictor": lambda: _reference_fit(y, True),
             "pem paper setting (Kalman predictor, GN, 1 start)":
             lambda: pem.identify(y, DT_S, PRIOR, **pem.PAPER_OPTIONS).frequencies}
-    import importlib
     peers = []
     for peer in ("era", "hdmd", "n4sid"):                   # the project's peer methods (issue 10), defaults
         try:
-            mod = importlib.import_module(f"methods.{peer}")
-            mod.identify(y, DT_S, PRIOR)
-            name = f"{peer} (methods/{peer}.py, default options) — peer"
-            rows[name] = lambda mod=mod: mod.identify(y, DT_S, PRIOR).frequencies
+            fit = methods.get(peer)
+            fit(y, DT_S, PRIOR)
+            name = f"{peer} (methods/peers/{peer}.py, default options) — peer"
+            rows[name] = lambda fit=fit: fit(y, DT_S, PRIOR).frequencies
             peers.append(name)
         except (ImportError, ValueError) as exc:
             print(f"(no {peer} row: {exc})")

@@ -28,6 +28,8 @@ from pathlib import Path
 
 import pandas as pd
 
+import methods
+
 
 def _numeric_s(table: Path) -> float:
     res = pd.read_csv(table)
@@ -75,7 +77,7 @@ def import_cost_s(method: str, runs: int = 5) -> float:
             subprocess.run([sys.executable, "-c", code], check=True)
             times.append(time.perf_counter() - t0)
         return statistics.median(times)
-    return median(f"import methods.{method}") - median("pass")
+    return median(f"import {methods.module_name(method)}") - median("pass")
 
 
 def main(argv=None) -> int:
