@@ -15,6 +15,7 @@ from pathlib import Path
 
 import hydra
 from hydra import compose, initialize_config_module
+from hydra.errors import OverrideParseException
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from experiments.io import check_writable
@@ -53,6 +54,21 @@ def one_line(exc: BaseException) -> str:
     return re.sub(r"\s+", " ", "; ".join(lines))
 
 
+_KEY_VALUE = re.compile(r"^([+~]{0,2}[\w.@/-]+)=(.*)$", re.S)
+
+
+def quote_unicode_value(arg: str) -> str:
+    """``key=value`` with a non-ASCII character in a plain value (``data.path=mesure_été.csv``) quoted for
+    Hydra, whose override grammar reads only ASCII in unquoted values; anything else is left as it is."""
+    match = _KEY_VALUE.match(arg)
+    if not match or arg.isascii():
+        return arg
+    key, value = match.groups()
+    if any(c in value for c in "'\"\\[]{},"):
+        return arg            # quoted, a list/dict/sweep, or escapes: the user's own syntax stands
+    return f"{key}='{value}'"
+
+
 def fail(message: str) -> None:
     print(f"error: {message}", file=sys.stderr)
     sys.exit(EXIT_BAD_INPUT)
@@ -65,7 +81,7 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
     ``check(cfg)`` raises ``ValueError`` (or FileNotFoundError) for impossible values; ``task(cfg)`` does
     the work. A bad-input exception from either becomes one line on stderr and exit status 2.
     """
-    args = sys.argv[1:]
+    args = sys.argv[1:] = [quote_unicode_value(a) for a in sys.argv[1:]]
     if not any(a in ("-m", "--multirun") or a.startswith("-") for a in args):
         try:
             with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
@@ -76,6 +92,9 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
             OmegaConf.resolve(cfg)
             if check is not None:
                 check(cfg)
+        except OverrideParseException as exc:
+            fail(f"cannot read the override {exc.override}: {one_line(exc)}; a value with brackets, commas, "
+                 f"spaces or quotes is quoted whole, e.g. prior='[3.8,16,26,46]'")
         except Exception as exc:  # noqa: BLE001 - every composition/validation error is bad input
             fail(one_line(exc))
 
