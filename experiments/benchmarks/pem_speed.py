@@ -221,8 +221,9 @@ def main(argv=None) -> None:
             env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
             if threads:
                 env["OPENBLAS_NUM_THREADS"] = threads
-            subprocess.run([sys.executable, "-m", "experiments.benchmarks.pem_speed", "--parts", "warm",
-                            "--repeats", str(args.repeats)], env=env, check=True)
+            print(subprocess.run([sys.executable, "-m", "experiments.benchmarks.pem_speed", "--parts", "warm",
+                                  "--repeats", str(args.repeats)], env=env, check=True,
+                                 stdout=subprocess.PIPE, text=True).stdout, end="")   # onto this run's page
     if "cold" in args.parts:
         cold()
     if "scaling" in args.parts:
@@ -230,4 +231,6 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "pem_speed"))   # prints, and writes results/bench/pem_speed.md
