@@ -117,4 +117,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "pipeline"))   # prints, and writes results/bench/pipeline.md

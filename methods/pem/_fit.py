@@ -317,7 +317,7 @@ MAX_ITERATIONS = 10_000
 
 
 def check_options(prior, dt, **options) -> Options:
-    """The options contract of :mod:`methods` (validated without a record, before any work). Issue 9:
+    """The options contract of :mod:`methods` (validated without a record, before any work):
     keep this function (or its equivalent) when rewriting the module; ``identify`` runs the same checks."""
     opts = make_options(Options, options, "pem")
     _check_options(opts, np.atleast_1d(np.asarray(prior, dtype=float)))

@@ -104,7 +104,7 @@ OMEGA_L_PER_PRIOR = 0.22
 # (rule loop, K = 1: 20.1° continuous, 14.0° at ω_LΔt = 0.226, 13.4° at 0.25, 9.3° at 0.4); cap at 0.25.
 MAX_OMEGA_L_DT = 0.25
 # Input filter: bandwidth 0.5 ω₀, a pass band of about ω₀ ± 25 % — §4.4's "at least 7–8 rad/s" for priors
-# 16 and 18 rad/s that are 21–27 % below the truth (Table 6 itself: 5, 9, 9, 12 rad/s; see README_pll.md).
+# 16 and 18 rad/s that are 21–27 % below the truth (Table 6 itself: 5, 9, 9, 12 rad/s; see methods/pll/README.md).
 FILTER_BANDWIDTH_PER_PRIOR = 0.5
 # Never narrower than 0.1 ω₀ (priors too close to give each loop its own band)
 MIN_FILTER_BANDWIDTH_PER_PRIOR = 0.1
