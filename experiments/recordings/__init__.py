@@ -1,0 +1,17 @@
+"""A practitioner's own measurement: read it, choose the free decay, bring it to a useful band.
+
+The lowest stage of the pipeline beside :mod:`experiments.io` (it imports nothing from the later stages):
+
+- :mod:`~experiments.recordings.read`: one reader per file format, chosen by extension (CSV, UFF 58,
+  LabVIEW .lvm and .tdms, MATLAB .mat), each from a maintained library; channel, units and the sampling
+  step checked once, with one line naming the file and the problem;
+- :mod:`~experiments.recordings.segment`: the free decay after the largest impulse (or the span asked
+  for) and the decimation to the band of interest with an anti-alias filter.
+
+See docs/measurements.md.
+"""
+
+from experiments.recordings.read import FORMATS, Record, read_record
+from experiments.recordings.segment import Segment, choose_segment
+
+__all__ = ["FORMATS", "Record", "Segment", "choose_segment", "read_record"]

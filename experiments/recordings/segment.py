@@ -1,0 +1,178 @@
+"""The part of a measurement to identify: the free decay after the impact, in the band of interest.
+
+A hammer test or a thruster firing records some noise before the blow, the blow itself (a force the
+methods' free-decay model does not contain) and then the free decay, a sum of damped sinusoids. Chosen
+here:
+
+- **span**: ``start_s``/``stop_s`` (file time, s) when given; otherwise from just after the largest impulse
+  (the sample of largest |y − median y|, plus the anti-alias filter's half-length, so that neither the
+  blow nor the filter's response to it is in the record) to the end of the record;
+- **band**: ``band_hz`` = hi or [lo, hi] when given; otherwise up to 1.25 × the highest frequency whose
+  Welch power stands 30 dB above the median (noise) level of the decay's spectrum
+  (``scipy.signal.welch``);
+- **decimation** by q = ⌊f_s / (2.5 f_hi)⌋ (new Nyquist 1.25 f_hi, inside the anti-alias filter's pass
+  band), with ``scipy.signal.resample_poly`` (a Kaiser-windowed FIR, zero phase); applied to the whole
+  record before the span is cut, so its edge transients fall outside the decay.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+MIN_SEGMENT_SAMPLES = 64          # fewer leave the stabilisation diagram and the fit nothing to work with
+AUTO_BAND_DB = 30.0               # a spectral line this far above the median level is signal
+AUTO_BAND_MARGIN = 1.25           # the band's top: this × the highest such line
+OVERSAMPLING = 2.5                # new sampling rate ≥ this × the band's top (Nyquist 1.25 × top)
+FILTER_HALF_LENGTH = 10           # resample_poly's FIR half-length in output samples (10 × q input samples)
+
+
+@dataclass(frozen=True)
+class Segment:
+    """The record to identify and how it was chosen.
+
+    Attributes
+    ----------
+    y : ndarray, shape (n,)
+        Acceleration, m/s², at the (decimated) interval ``dt``.
+    dt : float
+        Sample interval, s.
+    t0 : float
+        File time of ``y[0]``, s.
+    decimation : int
+        q: every q-th sample of the anti-alias filtered record (1: none).
+    band_hz : (float, float)
+        The band searched for modes, Hz.
+    impulse_s : float or None
+        File time of the largest impulse, when the start was chosen automatically.
+    notes : list of str
+        What was chosen, to be printed.
+    """
+
+    y: np.ndarray
+    dt: float
+    t0: float
+    decimation: int
+    band_hz: tuple[float, float]
+    impulse_s: float | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def stop_s(self) -> float:
+        return self.t0 + (self.y.size - 1) * self.dt
+
+
+def parse_band(band_hz, dt: float, where: str) -> tuple[float, float] | None:
+    """``band_hz`` (None, hi, or [lo, hi]) as (lo, hi) in Hz, checked against the Nyquist frequency."""
+    if band_hz is None:
+        return None
+    vals = [float(v) for v in (band_hz if isinstance(band_hz, list | tuple) else [band_hz])]
+    if len(vals) == 1:
+        vals = [0.0, vals[0]]
+    if len(vals) != 2 or not all(math.isfinite(v) for v in vals) or not 0 <= vals[0] < vals[1]:
+        raise ValueError(f"{where}: data.band_hz = {band_hz} must be hi or [lo, hi] with 0 ≤ lo < hi (Hz)")
+    nyquist = 0.5 / dt
+    if vals[1] > nyquist:
+        raise ValueError(f"{where}: data.band_hz = {band_hz} reaches above the Nyquist frequency {nyquist:.6g} Hz "
+                         f"of the record (sampled at {1 / dt:.6g} Hz)")
+    return vals[0], vals[1]
+
+
+def choose_segment(y: np.ndarray, dt: float, t0: float = 0.0, *, start_s: float | None = None,
+                   stop_s: float | None = None, band_hz=None, cover_hz: float = 0.0,
+                   where: str = "record") -> Segment:
+    """The free decay to identify, decimated to its band (module docstring).
+
+    Parameters
+    ----------
+    y : ndarray, shape (N,)
+        The whole record, m/s².
+    dt, t0 : float
+        Sample interval and file time of ``y[0]``, s.
+    start_s, stop_s : float, optional
+        The span in file time; default: from just after the largest impulse to the end.
+    band_hz : float or [float, float], optional
+        The band of interest, Hz; default: from the spectrum.
+    cover_hz : float
+        The automatic band reaches at least this high (a prior's highest mode with margin).
+    where : str
+        Names the record in an error (the file).
+
+    Raises
+    ------
+    ValueError
+        A span outside the record, a band above Nyquist, or fewer than :data:`MIN_SEGMENT_SAMPLES` samples
+        left after segmentation.
+    """
+    n = y.size
+    end_s = t0 + (n - 1) * dt
+    band = parse_band(band_hz, dt, where)
+    for name, v in (("start_s", start_s), ("stop_s", stop_s)):
+        if v is not None and not t0 <= v <= end_s:
+            raise ValueError(f"{where}: data.{name} = {v} s is outside the record ({t0:.6g} s to {end_s:.6g} s)")
+    i1 = n if stop_s is None else int(math.floor((stop_s - t0) / dt + 1e-9)) + 1
+    impulse = None
+    if start_s is None:
+        impulse = int(np.argmax(np.abs(y - np.median(y))))
+        i0 = impulse
+    else:
+        i0 = int(math.ceil((start_s - t0) / dt - 1e-9))
+    notes = []
+    if band is None:
+        band, why = _auto_band(y[i0:i1], dt)
+        if cover_hz > band[1]:
+            band, why = (0.0, min(cover_hz, 0.5 / dt)), "to cover the prior"
+        notes.append(f"band {band[0]:.4g}–{band[1]:.4g} Hz ({why}; set data.band_hz= to choose)")
+    else:
+        notes.append(f"band {band[0]:.4g}–{band[1]:.4g} Hz (data.band_hz)")
+    q = max(1, int(math.floor(1.0 / (dt * OVERSAMPLING * band[1]))))
+    yd = _decimate(y, q)
+    guard = FILTER_HALF_LENGTH if q > 1 else 0
+    # after the impulse: one sample more, and the filter's half-length (its response to the blow)
+    j0 = int(math.ceil(i0 / q)) + (guard + 1 if impulse is not None else 0)
+    j1 = min((i1 - 1) // q + 1, yd.size - guard)
+    seg = yd[j0:j1]
+    dtd = dt * q
+    if q > 1:
+        notes.append(f"decimated by {q} to {1 / dtd:.6g} Hz (anti-alias FIR, scipy.signal.resample_poly)")
+    start = t0 + j0 * dtd
+    if impulse is not None:
+        notes.insert(0, f"free decay from {start:.6g} s, after the largest impulse at {t0 + impulse * dt:.6g} s "
+                        f"(set data.start_s= to choose)")
+    else:
+        notes.insert(0, f"span from {start:.6g} s (data.start_s)")
+    if seg.size < MIN_SEGMENT_SAMPLES:
+        raise ValueError(f"{where}: {seg.size} samples from {start:.6g} s to {t0 + (j1 - 1) * dtd:.6g} s after "
+                         f"segmentation and decimation (by {q}); at least {MIN_SEGMENT_SAMPLES} are needed")
+    notes[0] += f" to {start + (seg.size - 1) * dtd:.6g} s: {seg.size} samples"
+    return Segment(seg, dtd, start, q, band, None if impulse is None else t0 + impulse * dt, notes)
+
+
+def _auto_band(y: np.ndarray, dt: float) -> tuple[tuple[float, float], str]:
+    from scipy.signal import welch
+
+    nyquist = 0.5 / dt
+    if y.size < 16:
+        return (0.0, nyquist), "record too short for a spectrum: the whole band"
+    f, p = welch(y - y.mean(), fs=1.0 / dt, nperseg=min(4096, y.size))
+    floor = np.median(p)
+    lines = np.flatnonzero(p > floor * 10 ** (AUTO_BAND_DB / 10))
+    if floor <= 0 or lines.size == 0:
+        return (0.0, nyquist), f"no line {AUTO_BAND_DB:g} dB above the noise: the whole band"
+    top = float(f[lines[-1]])
+    return (0.0, min(AUTO_BAND_MARGIN * top, nyquist)), (f"highest line {AUTO_BAND_DB:g} dB above the noise "
+                                                         f"at {top:.4g} Hz")
+
+
+def _decimate(y: np.ndarray, q: int) -> np.ndarray:
+    """Every q-th sample after an anti-alias low-pass (``scipy.signal.resample_poly``'s Kaiser FIR, cut-off
+    at the new Nyquist); the record's mean is taken out for the filter and put back, so its zero padding
+    at the ends meets a record near zero."""
+    if q == 1:
+        return np.asarray(y, float)
+    from scipy.signal import resample_poly
+
+    c = float(np.mean(y))
+    return resample_poly(y - c, 1, q) + c
