@@ -130,7 +130,8 @@ def read_record(path, *, channel: str | None = None, units: str | None = None,
     big = np.flatnonzero(np.abs(y) > MAX_ABS_ACCEL_M_S2)
     if big.size:
         r = int(big[0])
-        raise ValueError(f"{path}: row {r + 1}: {name} = {y[r] / UNITS_M_S2[unit]:g} {unit} is not a physical "
+        shown = unit.replace("^2", "²")
+        raise ValueError(f"{path}: row {r + 1}: {name} = {y[r] / UNITS_M_S2[unit]:g} {shown} is not a physical "
                          f"acceleration (|accel| ≤ {MAX_ABS_ACCEL_M_S2:g} m/s², 1e5 g); check the units")
     step, t0, time_note = _time_step(path, raw, dt, y.size)
     notes.append(time_note)
@@ -212,25 +213,36 @@ def uniform_step(path, t: np.ndarray, quantum) -> tuple[float, float, str]:
     Raises
     ------
     ValueError
-        The first row that does not increase, opens a gap (a step over 1.5 Δt) or deviates from the fit by
-        more than its resolution allows (0.6 of a unit of its last digit: rounding gives at most 0.5).
+        The first row that does not increase, opens a gap (a step over 1.5 times the median step), makes a
+        step that differs from the median one by more than the two stamps' resolution allows, or deviates
+        from the fit by more than its resolution allows (0.6 of a unit of its last digit: rounding gives at
+        most 0.5; this catches a drifting clock).
     """
     n = t.size
     step = np.diff(t)
     if np.any(step <= 0):
         r = int(np.flatnonzero(step <= 0)[0]) + 1
         raise ValueError(f"{path}: row {r + 1}: t = {t[r]:.10g} does not increase (previous row t = {t[r - 1]:.10g})")
-    k = np.arange(n, dtype=float)
-    dt, t0 = np.polyfit(k - k.mean(), t, 1)              # centred index: a well-conditioned fit
-    t0 -= dt * k.mean()
     q = _decimal_quantum(t) if quantum is None else np.broadcast_to(np.asarray(quantum, float), t.shape)
-    tol = 0.6 * q + 8 * np.spacing(np.abs(t).max())
-    dev = t - (t0 + dt * k)
-    gap = np.flatnonzero(step > 1.5 * dt)
+    typical = float(np.median(step))
+    gap = np.flatnonzero(step > 1.5 * typical)
     if gap.size:
         r = int(gap[0]) + 1
         raise ValueError(f"{path}: row {r + 1}: t = {t[r]:.10g} breaks the uniform sampling: a gap of "
-                         f"{step[r - 1]:.6g} s after a fitted step of {dt:.10g} s")
+                         f"{step[r - 1]:.6g} s where the step is {typical:.6g} s")
+    # each step between two rounded stamps is off the true one by at most half a unit of each; the mean
+    # step end to end is the true one to within a unit / (N − 1) (a median of rounded steps is not)
+    typical = float((t[-1] - t[0]) / (n - 1))
+    local = np.abs(step - typical) > 0.6 * (q[1:] + q[:-1]) + 8 * np.spacing(np.abs(t[1:]))
+    if local.any():
+        r = int(np.flatnonzero(local)[0]) + 1
+        raise ValueError(f"{path}: row {r + 1}: t = {t[r]:.10g} breaks the uniform sampling (step "
+                         f"{step[r - 1]:.6g} s, expected {typical:.6g} s within the stamps' precision {q[r]:.2g} s)")
+    k = np.arange(n, dtype=float)
+    dt, t0 = np.polyfit(k - k.mean(), t, 1)              # centred index: a well-conditioned fit
+    t0 -= dt * k.mean()
+    tol = 0.6 * q + 8 * np.spacing(np.abs(t).max())
+    dev = t - (t0 + dt * k)
     bad = np.flatnonzero(np.abs(dev) > tol)
     if bad.size:
         r = int(bad[0])
@@ -402,6 +414,8 @@ def _read_tdms(path: Path) -> _Raw:
     except Exception as exc:  # noqa: BLE001 - npTDMS raises anything on a malformed file
         raise ValueError(f"{path}: not a readable TDMS file ({type(exc).__name__}: {' '.join(str(exc).split())})"
                          ) from None
+    if not chans:
+        raise ValueError(f"{path}: not a readable TDMS file (no channel in it)")
     raw = _Raw({}, {})
     steps = set()
     for name, c in chans:
