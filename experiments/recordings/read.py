@@ -255,34 +255,31 @@ def uniform_step(path, t: np.ndarray, quantum) -> tuple[float, float, str]:
 
 
 def _decimal_quantum(t: np.ndarray) -> np.ndarray:
-    """The resolution of stamps stored as floats: 10^-d for the fewest decimals d that reproduce every stamp
-    (a logger's rounding survives in the float), else the float's own spacing."""
+    """The resolution of each stamp as its writer printed it, read back from the floats.
+
+    A decimal text read as a float is the float nearest it, so the fewest decimals dᵢ that reproduce a stamp
+    (``numpy.round(t, d) == t`` to a few ulp) are the decimals its writer printed, trailing zeros dropped.
+    A writer prints either a fixed number of decimals (then the finest unit seen, 10^-max d, is every
+    stamp's) or a fixed number S of significant digits (the most seen; each stamp's unit is that of its
+    S-th digit); trailing zeros make a stamp look coarser than it is, so its resolution is its own printed
+    one, but no coarser than the finer of those two rules. No decimals reproduce a stamp: the float's own
+    spacing (a binary time channel).
+    """
+    t = np.asarray(t, float)
     ulp = 4 * np.spacing(np.abs(t))
-    for d in range(16):
-        if np.all(np.abs(np.round(t, d) - t) <= ulp):
-            return np.full(t.shape, 10.0 ** -d)
-    return ulp
-
-
-def _printed_quantum(text) -> np.ndarray:
-    """The resolution of each stamp as printed. A writer prints either a fixed number of decimals (the
-    finest unit seen, 10^-d) or a fixed number of significant digits S (the most seen: the unit of the
-    S-th digit of each stamp); trailing zeros it dropped make a stamp look coarser than it is, so each
-    stamp's resolution is its printed one, but no coarser than the finer of those two writer's rules."""
-    import pandas as pd
-
-    s = pd.Series(text, dtype=str).str.strip().str.lower()
-    parts = s.str.extract(r"^[+-]?(\d*)(?:\.(\d*))?(?:e([+-]?\d+))?$")
-    whole, frac = parts[0].fillna(""), parts[1].fillna("")
-    decimals = frac.str.len().to_numpy(dtype=float)
-    exponent = pd.to_numeric(parts[2], errors="coerce").fillna(0).to_numpy(dtype=float)
-    printed = 10.0 ** (exponent - decimals)
-    sig = (whole + frac).str.lstrip("0").str.len().to_numpy(dtype=float)
-    value = np.abs(pd.to_numeric(s, errors="coerce").to_numpy(dtype=float))
+    d = np.full(t.shape, -1)
+    for k in range(16):                                  # 16 vectorised passes
+        hit = (d < 0) & (np.abs(np.round(t, k) - t) <= ulp)
+        d[hit] = k
+    if (d < 0).any():
+        return np.maximum(ulp, 1e-300)
+    printed = 10.0 ** -d.astype(float)
+    fixed = printed.min()
     with np.errstate(divide="ignore"):
-        by_digits = 10.0 ** (np.floor(np.log10(np.where(value > 0, value, np.nan))) - sig.max() + 1)
-    writer = np.fmax(printed.min(), np.nan_to_num(by_digits, nan=printed.min()))
-    return np.minimum(printed, writer)
+        magnitude = np.floor(np.log10(np.abs(t)))
+    digits = np.where(np.isfinite(magnitude), d + magnitude + 1, 1)
+    by_digits = np.where(np.isfinite(magnitude), 10.0 ** (magnitude - digits.max() + 1), fixed)
+    return np.minimum(printed, np.fmax(fixed, by_digits))
 
 
 # -------------------------------------------------------------------------------------------- readers
@@ -297,31 +294,53 @@ def _split_header(col: str) -> tuple[str, str | None]:
 
 
 def _read_csv(path: Path) -> _Raw:
-    """Columns by pandas' C parser; the time column also as text, for the precision of its stamps. An
-    empty field or ``NA`` is an error, never a silent NaN (``keep_default_na=False``)."""
+    """Columns by pandas' C parser, straight to floats (10⁵ rows in a few tens of ms; every value the float
+    nearest its text, as ``float()`` reads it); when a field is not a number, read again as text to name
+    the first such row. An empty field or ``NA`` is an error, never a silent NaN (``keep_default_na=False``).
+    The stamps' printed precision is read back from the floats (:func:`_decimal_quantum`)."""
+    import pandas as pd
+
+    try:
+        df = pd.read_csv(path, dtype=float, keep_default_na=False, skipinitialspace=True)
+        if not np.isfinite(df.to_numpy()).all():
+            df = None
+    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError):
+        df = None
+    if df is None:
+        df = _read_csv_text(path)
+    if df.shape[1] == 0 or len(df) == 0:
+        raise ValueError(f"{path}: not a readable CSV (no columns or no rows)")
+    raw = _Raw({}, {})
+    for col in df.columns:
+        name, unit = _split_header(str(col))
+        num = df[col].to_numpy(dtype=float)
+        if name.lower() in TIME_NAMES and raw.time is None:
+            if unit is not None and unit.strip().lower() not in ("s", "sec", "seconds"):
+                raise ValueError(f"{path}: time column '{col}' is in '{unit}'; give it in s")
+            raw.time, raw.time_quantum = num, None
+        else:
+            raw.channels[name], raw.units[name] = num, unit
+    return raw
+
+
+def _read_csv_text(path: Path):
+    """The CSV as text, each field checked: ``ValueError`` naming the first field that is not a number."""
     import pandas as pd
 
     try:
         df = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:
         raise ValueError(f"{path}: not a readable CSV ({' '.join(str(exc).split())})") from None
-    if df.shape[1] == 0 or len(df) == 0:
-        raise ValueError(f"{path}: not a readable CSV (no columns or no rows)")
-    raw = _Raw({}, {})
+    out = {}
     for col in df.columns:
-        name, unit = _split_header(str(col))
         num = pd.to_numeric(df[col].str.strip(), errors="coerce").to_numpy(dtype=float)
         bad = np.flatnonzero(~np.isfinite(num))
         if bad.size:
             r = int(bad[0])
+            name = _split_header(str(col))[0]
             raise ValueError(f"{path}: row {r + 1}: {name} = '{df[col].iloc[r]}' is not a finite number")
-        if name.lower() in TIME_NAMES and raw.time is None:
-            if unit is not None and unit.strip().lower() not in ("s", "sec", "seconds"):
-                raise ValueError(f"{path}: time column '{col}' is in '{unit}'; give it in s")
-            raw.time, raw.time_quantum = num, _printed_quantum(df[col].to_numpy())
-        else:
-            raw.channels[name], raw.units[name] = num, unit
-    return raw
+        out[col] = num
+    return pd.DataFrame(out)
 
 
 UFF_ACCELERATION = 12                 # ordinate_spec_data_type of an acceleration (UFF 58, record 8)

@@ -6,7 +6,8 @@ here:
 
 - **span**: ``start_s``/``stop_s`` (file time, s) when given; otherwise from just after the largest impulse
   (the sample of largest |y − median y|, plus the anti-alias filter's half-length, so that neither the
-  blow nor the filter's response to it is in the record) to the end of the record;
+  blow nor the filter's response to it is in the record) to where the decay has sunk into the noise
+  (:func:`_decay_end`);
 - **band**: ``band_hz`` = hi or [lo, hi] when given; otherwise up to 1.25 × the highest frequency whose
   Welch power stands 30 dB above the median (noise) level of the decay's spectrum
   (``scipy.signal.welch``);
@@ -26,6 +27,7 @@ MIN_SEGMENT_SAMPLES = 64          # fewer leave the stabilisation diagram and th
 AUTO_BAND_DB = 30.0               # a spectral line this far above the median level is signal
 AUTO_BAND_MARGIN = 1.25           # the band's top: this × the highest such line
 OVERSAMPLING = 2.5                # new sampling rate ≥ this × the band's top (Nyquist 1.25 × top)
+NOISE_MARGIN = 1.2               # the decay has ended where the moving rms is within 20 % of the noise's
 FILTER_HALF_LENGTH = 10           # resample_poly's FIR half-length in output samples (10 × q input samples)
 
 
@@ -112,7 +114,6 @@ def choose_segment(y: np.ndarray, dt: float, t0: float = 0.0, *, start_s: float 
     for name, v in (("start_s", start_s), ("stop_s", stop_s)):
         if v is not None and not t0 <= v <= end_s:
             raise ValueError(f"{where}: data.{name} = {v} s is outside the record ({t0:.6g} s to {end_s:.6g} s)")
-    i1 = n if stop_s is None else int(math.floor((stop_s - t0) / dt + 1e-9)) + 1
     impulse = None
     if start_s is None:
         impulse = int(np.argmax(np.abs(y - np.median(y))))
@@ -120,6 +121,12 @@ def choose_segment(y: np.ndarray, dt: float, t0: float = 0.0, *, start_s: float 
     else:
         i0 = int(math.ceil((start_s - t0) / dt - 1e-9))
     notes = []
+    if stop_s is None:
+        i1, why = _decay_end(y, i0, impulse)
+        if why:
+            notes.append(why + " (set data.stop_s= to choose)")
+    else:
+        i1 = int(math.floor((stop_s - t0) / dt + 1e-9)) + 1
     if band is None:
         band, why = _auto_band(y[i0:i1], dt)
         if cover_hz > band[1]:
@@ -148,6 +155,25 @@ def choose_segment(y: np.ndarray, dt: float, t0: float = 0.0, *, start_s: float 
                          f"segmentation and decimation (by {q}); at least {MIN_SEGMENT_SAMPLES} are needed")
     notes[0] += f" to {start + (seg.size - 1) * dtd:.6g} s: {seg.size} samples"
     return Segment(seg, dtd, start, q, band, None if impulse is None else t0 + impulse * dt, notes)
+
+
+def _decay_end(y: np.ndarray, i0: int, impulse: int | None) -> tuple[int, str]:
+    """Where the decay sinks into the noise: the first sample after ``i0`` whose moving rms (window W =
+    max(64, N/200) samples) is within :data:`NOISE_MARGIN` of the noise level, plus W; the noise level is
+    the robust std (1.4826 × MAD) of the record before the impulse, or, with fewer than W samples there, of
+    its last W samples. The record beyond holds no information on the modes, and costs time."""
+    from scipy.ndimage import uniform_filter1d
+
+    n = y.size
+    w = max(64, n // 200)
+    quiet = y[: impulse - w] if impulse is not None and impulse > 2 * w else y[-w:]
+    sigma = 1.4826 * float(np.median(np.abs(quiet - np.median(quiet))))
+    rms = np.sqrt(uniform_filter1d((y - np.median(quiet)) ** 2, w))
+    below = np.flatnonzero(rms[i0:] < NOISE_MARGIN * sigma)
+    if sigma <= 0 or below.size == 0 or i0 + below[0] + w >= n:
+        return n, ""
+    end = i0 + int(below[0]) + w
+    return end, (f"decay into the noise ({sigma:.3g} m/s² rms) by sample {end} of {n}: the rest is left out")
 
 
 def _auto_band(y: np.ndarray, dt: float) -> tuple[tuple[float, float], str]:

@@ -8,7 +8,8 @@ import json
 
 import numpy as np
 import pytest
-from _impact import FS_HZ, simulate
+
+from experiments.simulate.impact import FS_HZ, simulate
 
 # One record for every format (a format is a container: the same record must give the same answer in each),
 # seed 1, the first of the physics tests' seeds, taken as it came. Each bound below is a 2σ check per mode.

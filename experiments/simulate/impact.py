@@ -1,4 +1,5 @@
-"""A simulated impact test of a steel cantilever, as a practitioner's logger records it.
+"""A simulated impact test of a steel cantilever, as a practitioner's logger records it (the record of
+docs/measurements.md, its tests and experiments.benchmarks.measurement).
 
 Three bending modes of a clamped–free steel strip (0.5 m × 30 mm × 5 mm: 16.7, 104.7, 293.1 Hz from
 experiments.simulate.beam's eigenvalues), tip acceleration in g sampled at 2048 Hz, white sensor noise
@@ -27,6 +28,8 @@ NOISE_G = 0.003
 
 @dataclass
 class Impact:
+    """The record (``t`` s, ``accel_g``), the time of the blow and the modes' truth."""
+
     t: np.ndarray
     accel_g: np.ndarray
     t_hit: float
@@ -50,9 +53,10 @@ def cantilever_frequencies_rad_s(n_modes: int = 3) -> np.ndarray:
     return np.array([cantilever_beta_l(k) ** 2 * scale for k in range(1, n_modes + 1)])
 
 
-def simulate(seed: int) -> Impact:
+def simulate(seed: int, n_samples: int | None = None) -> Impact:
+    """The impact record of ``seed`` (``n_samples`` at :data:`FS_HZ`, default :data:`DURATION_S` of them)."""
     rng = np.random.default_rng(seed)
-    t = np.arange(int(DURATION_S * FS_HZ)) / FS_HZ
+    t = np.arange(int(DURATION_S * FS_HZ) if n_samples is None else int(n_samples)) / FS_HZ
     t_hit = float(rng.uniform(0.5, 2.0))
     w = cantilever_frequencies_rad_s()
     y = NOISE_G * rng.standard_normal(t.size)
