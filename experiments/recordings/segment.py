@@ -10,9 +10,10 @@ here:
   (:func:`_decay_end`);
 - **band**: ``band_hz`` = hi or [lo, hi] when given; otherwise up to 1.25 × the highest frequency whose
   Welch power stands 30 dB above the median (noise) level of the decay's spectrum
-  (``scipy.signal.welch``);
+  (``scipy.signal.welch``'s estimate, :mod:`experiments.recordings.spectral`);
 - **decimation** by q = ⌊f_s / (2.5 f_hi)⌋ (new Nyquist 1.25 f_hi, inside the anti-alias filter's pass
-  band), with ``scipy.signal.resample_poly`` (a Kaiser-windowed FIR, zero phase); applied to the whole
+  band), with ``scipy.signal.resample_poly``'s filter (a Kaiser-windowed FIR, zero phase; computed by
+  :mod:`experiments.recordings.spectral`, which says why); applied to the whole
   record before the span is cut, so its edge transients fall outside the decay.
 """
 
@@ -143,7 +144,7 @@ def choose_segment(y: np.ndarray, dt: float, t0: float = 0.0, *, start_s: float 
     seg = yd[j0:j1]
     dtd = dt * q
     if q > 1:
-        notes.append(f"decimated by {q} to {1 / dtd:.6g} Hz (anti-alias FIR, scipy.signal.resample_poly)")
+        notes.append(f"decimated by {q} to {1 / dtd:.6g} Hz (anti-alias FIR, as scipy.signal.resample_poly)")
     start = t0 + j0 * dtd
     if impulse is not None:
         notes.insert(0, f"free decay from {start:.6g} s, after the largest impulse at {t0 + impulse * dt:.6g} s "
@@ -184,12 +185,12 @@ def _moving_mean(x: np.ndarray, w: int) -> np.ndarray:
 
 
 def _auto_band(y: np.ndarray, dt: float) -> tuple[tuple[float, float], str]:
-    from scipy.signal import welch
+    from experiments.recordings.spectral import welch
 
     nyquist = 0.5 / dt
     if y.size < 16:
         return (0.0, nyquist), "record too short for a spectrum: the whole band"
-    f, p = welch(y - y.mean(), fs=1.0 / dt, nperseg=min(4096, y.size))
+    f, p = welch(y - y.mean(), 1.0 / dt, min(4096, y.size))
     floor = np.median(p)
     lines = np.flatnonzero(p > floor * 10 ** (AUTO_BAND_DB / 10))
     if floor <= 0 or lines.size == 0:
@@ -201,11 +202,11 @@ def _auto_band(y: np.ndarray, dt: float) -> tuple[tuple[float, float], str]:
 
 def _decimate(y: np.ndarray, q: int) -> np.ndarray:
     """Every q-th sample after an anti-alias low-pass (``scipy.signal.resample_poly``'s Kaiser FIR, cut-off
-    at the new Nyquist); the record's mean is taken out for the filter and put back, so its zero padding
-    at the ends meets a record near zero."""
+    at the new Nyquist, :func:`experiments.recordings.spectral.decimate`); the record's mean is taken out
+    for the filter and put back, so its zero padding at the ends meets a record near zero."""
     if q == 1:
         return np.asarray(y, float)
-    from scipy.signal import resample_poly
+    from experiments.recordings.spectral import decimate
 
     c = float(np.mean(y))
-    return resample_poly(y - c, 1, q) + c
+    return decimate(y - c, q) + c

@@ -1,7 +1,8 @@
 """The one figure of a run on a user's measurement: is the fit believable?
 
 Top: the segment identified with the fitted model (the modes' damped sinusoids, least squares) and,
-below it, the residual on its own scale. Bottom left: the segment's spectrum (``scipy.signal.welch``) with
+below it, the residual on its own scale. Bottom left: the segment's spectrum (Welch's estimate,
+:func:`experiments.recordings.spectral.welch`) with
 each identified mode marked and shaded over ±2σ of its frequency. Bottom right, when no prior was given:
 the stabilisation diagram (model order against frequency; stable poles filled, others open) with the
 modes it gave. Written as PNG and SVG beside ``estimate.json``.
@@ -24,7 +25,8 @@ def measurement_figure(stem, *, y, dt: float, t0: float, model, residual, freq_r
     drawn in g. ``diagram``: a :class:`methods.peers.stabilisation.Diagram`, or None."""
     import matplotlib.ticker
     from matplotlib.figure import Figure  # not pyplot: no backend machinery, 0.3 s less import
-    from scipy.signal import welch
+
+    from experiments.recordings.spectral import welch
 
     t = t0 + np.arange(y.size) * dt
     # fixed margins: constrained layout cost 0.6 s of the job's 3 s (measured, experiments.benchmarks.measurement)
@@ -45,8 +47,8 @@ def measurement_figure(stem, *, y, dt: float, t0: float, model, residual, freq_r
     ax_res.set_xlabel("time (s)")
     ax_res.text(0.01, 0.9, f"rms {rms / G_M_S2:.3g} g ({100 * rms / max(np.std(y), 1e-300):.2g} % of the record's)",
                 transform=ax_res.transAxes, fontsize=8, va="top")
-    f, p = welch(y - y.mean(), fs=1.0 / dt, nperseg=min(2048, y.size))
-    fr, pr = welch(residual, fs=1.0 / dt, nperseg=min(2048, y.size))
+    f, p = welch(y - y.mean(), 1.0 / dt, min(2048, y.size))
+    fr, pr = welch(residual, 1.0 / dt, min(2048, y.size))
     ax_psd.semilogy(f, p / G_M_S2**2, lw=0.8, color="0.35", label="record")
     ax_psd.semilogy(fr, pr / G_M_S2**2, lw=0.6, color="C0", alpha=0.7, label="residual")
     ax_psd.set_xlabel("frequency (Hz)")
