@@ -29,6 +29,7 @@ from experiments.jobs.app import fail, run_app
 from experiments.jobs.config import methods_named_on, register, variant_label
 from experiments.report.scoring import COLUMNS, replicate_rows
 from experiments.simulate.scenarios import AXES, result_columns
+from experiments.tracking.store import check_store
 
 
 def load_data(cfg) -> dict:
@@ -100,6 +101,8 @@ def check(cfg) -> None:
                              f"{data['source']}, replicate {r}: {exc}") from None
     methods.check_options(cfg.method.name, priors[0], data["dt"],
                           OmegaConf.to_container(cfg.method.options, resolve=True))
+    if cfg.tracking.enabled:
+        check_store()          # an empty or corrupt MLflow store: one line now, not a traceback after the work
 
 
 # A single record this long gets an info line (the progress bar counts records, and there is one).
