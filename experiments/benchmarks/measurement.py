@@ -8,7 +8,8 @@ runs of the job as a user types it (``python -m experiments.jobs.identify ...``,
 
 - no prior (stabilisation diagram, then pem), MLflow tracking off and on (a fresh SQLite store);
 - with ``--before``: the same jobs run by another checkout (``PYTHONPATH``), e.g. the release before
-  this one, on the same record as a plain ``t,accel`` CSV in m/s² with the prior given (what it reads).
+  this one, on the same record as a plain ``t,accel`` CSV in m/s² with the prior given (what it reads);
+  and both checkouts on the first 512 samples of that CSV with the prior (the first user's record size).
 
 Wall time on a shared machine is noisy: the CPU time of the child (user + system) is given beside it, and
 the load average. Where the time goes: one run under ``cProfile`` (cumulative time of the job's phases;
@@ -31,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.io import atomic_write_text
 from experiments.simulate.impact import G, simulate
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -39,7 +39,8 @@ JOB = ["-m", "experiments.jobs.identify", "method=pem"]
 # The job's phases, as (label, profiled function: file suffix, function name), in the order they run.
 PHASES = [
     ("command line composed and checked before Hydra starts (app.run_app's pre-check)", "hydra/compose.py", "compose"),
-    ("file read, segmented, decimated (measurements._load)", "jobs/measurements.py", "_load"),
+    ("file read (read_record)", "recordings/read.py", "read_record"),
+    ("segmented, decimated (choose_segment)", "recordings/segment.py", "choose_segment"),
     ("stabilisation diagram (pyOMA2 SSI-cov, clusters, detection)", "peers/stabilisation.py", "stabilisation_diagram"),
     ("pem refines the modes (run_records)", "jobs/identify.py", "run_records"),
     ("figure, PNG and SVG (measurement_figure)", "report/measurement_figure.py", "measurement_figure"),
@@ -77,7 +78,7 @@ def run_job(args: list[str], cwd: Path, pythonpath: Path, env: dict | None = Non
 def timed(label: str, args: list[str], cwd: Path, pythonpath: Path, repeats: int, env=None) -> dict:
     runs = [run_job(args, cwd, pythonpath, env) for _ in range(repeats)]
     walls, cpus = [r[0] for r in runs], [r[1] for r in runs]
-    print(f"{label}: wall {np.median(walls):.2f} s, CPU {np.median(cpus):.2f} s", flush=True)
+    print(f"{label}: wall {np.median(walls):.2f} s, CPU {np.median(cpus):.2f} s", file=sys.stderr, flush=True)
     return {"label": label, "wall": float(np.median(walls)), "cpu": float(np.median(cpus)),
             "wall_min": float(min(walls)), "cpu_min": float(min(cpus)), "stdout": runs[-1][2]}
 
@@ -95,17 +96,21 @@ def profile_phases(args: list[str], cwd: Path) -> tuple[list[tuple[str, float]],
     return rows, total
 
 
-def import_times(args: list[str], cwd: Path, top: int = 12) -> list[tuple[str, float]]:
-    """Cumulative import time (s) of each top-level package, from ``python -X importtime``."""
+def import_times(args: list[str], cwd: Path, pythonpath: Path = ROOT, env=None,
+                 top: int = 12) -> list[tuple[str, float]]:
+    """Import time (s) per package (scipy per subpackage), summed over every module's own time, from
+    ``python -X importtime``."""
     proc = subprocess.run([sys.executable, "-X", "importtime", *args], cwd=cwd, capture_output=True, text=True,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+                          env={**os.environ, "PYTHONPATH": str(pythonpath), **(env or {})})
     per = {}
     for line in proc.stderr.splitlines():
-        m = re.match(r"import time:\s+\d+ \|\s+(\d+) \|( *)(\S+)", line)
-        if m and len(m.group(2)) == 1:                      # a top-level import (one space of nesting)
-            pkg = m.group(3).split(".")[0]
+        m = re.match(r"import time:\s+(\d+) \|\s+\d+ \|\s*(\S+)", line)
+        if m:
+            parts = m.group(2).split(".")
+            pkg = ".".join(parts[:2]) if parts[0] == "scipy" and len(parts) > 1 else parts[0]
             per[pkg] = per.get(pkg, 0.0) + int(m.group(1)) * 1e-6
-    return sorted(per.items(), key=lambda kv: -kv[1])[:top]
+    total = sum(per.values())
+    return [("all imports", total), *sorted(per.items(), key=lambda kv: -kv[1])[:top]]
 
 
 def main(argv=None) -> None:
@@ -113,11 +118,12 @@ def main(argv=None) -> None:
     parser.add_argument("--samples", type=int, default=100_000)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--before", type=Path, default=None, help="another checkout to time on the same record")
-    parser.add_argument("--out", type=Path, default=Path("results/bench/measurement.md"))
     a = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         files = write_records(d, a.samples)
+        small = d / "small_plain.csv"
+        small.write_text("".join(files["plain"].read_text().splitlines(keepends=True)[:513]))
         prior = "[" + ",".join(f"{w:.1f}" for w in files["prior"] * 0.98) + "]"
         store = {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow.db'}"}
         new = [*JOB, f"data.path={files['logger']}", "hydra.run.dir=run"]
@@ -129,35 +135,44 @@ def main(argv=None) -> None:
                            a.before, a.repeats),
                      timed("before (--before), prior given, MLflow tracking on", old, d, a.before, a.repeats,
                            {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_before.db'}"})]
+            for label, path in (("before (--before)", a.before), ("this release", ROOT)):
+                args = [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_small"]
+                rows += [timed(f"{label}, 512 samples, prior given, tracking off", [*args, "tracking.enabled=false"],
+                               d, path, a.repeats),
+                         timed(f"{label}, 512 samples, prior given, MLflow tracking on", args, d, path, a.repeats,
+                               {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})]
         phases, total = profile_phases([*new, "hydra.run.dir=run_prof"], d)
         os.environ.update(store)
-        imports = import_times([*new, "hydra.run.dir=run_imp", "tracking.enabled=false"], d)
+        imports = {"this release, tracking off": import_times([*new, "hydra.run.dir=run_imp",
+                                                               "tracking.enabled=false"], d),
+                   "this release, tracking on": import_times([*new, "hydra.run.dir=run_imp2"], d)}
+        if a.before is not None:
+            imports["before, 512 samples, tracking on"] = import_times(
+                [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_imp3"], d, a.before,
+                {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})
         answer = rows[0]["stdout"]
-    text = report(a, rows, phases, total, imports, answer)
-    atomic_write_text(a.out, text)
-    print(f"wrote {a.out}")
+    print(report(a, rows, phases, total, imports, answer))
 
 
 def report(a, rows, phases, total, imports, answer) -> str:
-    load = os.getloadavg()
-    lines = [f"# The identify job on a {a.samples}-sample measurement file", "",
-             f"`python -m experiments.benchmarks.measurement --samples {a.samples} --repeats {a.repeats}"
-             + (" --before <old checkout>`" if a.before else "`"),
-             f", {time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} cores, load average "
-             f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} (wall times on a shared machine are noisy; CPU "
-             "time is the child's user + system).", "",
+    lines = [f"The identify job on a {a.samples}-sample logger CSV and on 512 samples, each a fresh process "
+             f"(median and min of {a.repeats}; wall times on a shared machine are noisy, CPU time is the "
+             "child's user + system):", "",
              "| job | wall (median) | CPU (median) | wall (min) | CPU (min) |", "|---|---|---|---|---|"]
     lines += [f"| {r['label']} | {r['wall']:.2f} s | {r['cpu']:.2f} s | {r['wall_min']:.2f} s | {r['cpu_min']:.2f} s |"
               for r in rows]
     lines += ["", f"## Where the time goes (one run under cProfile, {total:.2f} s profiled, tracking on)", "",
               "| phase | cumulative |", "|---|---|"]
     lines += [f"| {label} | {cum:.2f} s |" for label, cum in phases]
-    lines += ["", "Imports before and during the job (`python -X importtime`, cumulative per top-level package, "
-              "tracking off):", "", "| package | import |", "|---|---|"]
-    lines += [f"| {pkg} | {sec:.2f} s |" for pkg, sec in imports]
+    for label, table in imports.items():
+        lines += ["", f"Imports, {label} (`python -X importtime`, each module's own time summed per package; "
+                  "scipy per subpackage):", "", "| package | import |", "|---|---|"]
+        lines += [f"| {pkg} | {sec:.2f} s |" for pkg, sec in table]
     lines += ["", "The answer of the first run:", "", "```", answer.strip(), "```", ""]
     return "\n".join(lines)
 
 
 if __name__ == "__main__":
-    main()
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "measurement"))   # prints, and writes results/bench/measurement.md
