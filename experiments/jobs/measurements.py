@@ -29,7 +29,7 @@ def load(d, prior=None) -> dict:
     """The segment of the file ``d.path`` to identify (``d``: the job's ``data`` config), as the job's
     data dict; read once per process (the job's check and its task both ask)."""
     path = Path(d.path)
-    band = list(d.band_hz) if isinstance(d.band_hz, list | tuple) or hasattr(d.band_hz, "__len__") else d.band_hz
+    band = d.band_hz if isinstance(d.band_hz, str | int | float) or d.band_hz is None else list(d.band_hz)
     cover = 1.25 * max(prior) / (2 * np.pi) if prior is not None and len(prior) else 0.0
     stamp = os.stat(path).st_mtime_ns if path.is_file() else None
     return _load(str(path), stamp, d.channel, d.units, d.dt, d.start_s, d.stop_s,

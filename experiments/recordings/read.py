@@ -378,12 +378,15 @@ def _read_uff(path: Path) -> _Raw:
             continue
         raw.channels[name] = np.real(np.asarray(s["data"]))
         raw.units[name] = s.get("ordinate_axis_units_lab") or None
+        if int(s.get("abscissa_spacing", 1)) == 0:            # uneven: the abscissae are the time stamps
+            raw.time = np.asarray(s["x"], float)
         steps.add((float(s.get("abscissa_inc")), float(s.get("abscissa_min", 0.0))))
     if not raw.channels:
         raise ValueError(f"{path}: no acceleration time record among its {len(sets)} type-58 sets")
     if len(steps) > 1:
         raise ValueError(f"{path}: the channels have different sampling ({sorted(steps)})")
-    raw.dt, raw.t0 = steps.pop()
+    if raw.time is None:
+        raw.dt, raw.t0 = steps.pop()
     return raw
 
 

@@ -7,7 +7,8 @@ here:
 - **span**: ``start_s``/``stop_s`` (file time, s) when given; otherwise from just after the largest impulse
   (the sample of largest |y − median y|, plus the anti-alias filter's half-length, so that neither the
   blow nor the filter's response to it is in the record) to where the decay has sunk into the noise
-  (:func:`_decay_end`);
+  (:func:`_decay_end`); a record with no quiet stretch before its largest sample (:func:`_quiet_before`)
+  starts in its decay, and all of it is used;
 - **band**: ``band_hz`` = hi or [lo, hi] when given; otherwise up to 1.25 × the highest frequency whose
   Welch power stands 30 dB above the median (noise) level of the decay's spectrum
   (``scipy.signal.welch``'s estimate, :mod:`experiments.recordings.spectral`);
@@ -71,7 +72,10 @@ def parse_band(band_hz, dt: float, where: str) -> tuple[float, float] | None:
     """``band_hz`` (None, hi, or [lo, hi]) as (lo, hi) in Hz, checked against the Nyquist frequency."""
     if band_hz is None:
         return None
-    vals = [float(v) for v in (band_hz if isinstance(band_hz, list | tuple) else [band_hz])]
+    try:
+        vals = [float(v) for v in (band_hz if isinstance(band_hz, list | tuple) else [band_hz])]
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: data.band_hz = {band_hz!r} must be hi or [lo, hi] in Hz") from None
     if len(vals) == 1:
         vals = [0.0, vals[0]]
     if len(vals) != 2 or not all(math.isfinite(v) for v in vals) or not 0 <= vals[0] < vals[1]:
@@ -116,16 +120,22 @@ def choose_segment(y: np.ndarray, dt: float, t0: float = 0.0, *, start_s: float 
         if v is not None and not t0 <= v <= end_s:
             raise ValueError(f"{where}: data.{name} = {v} s is outside the record ({t0:.6g} s to {end_s:.6g} s)")
     impulse = None
+    notes = []
     if start_s is None:
         impulse = int(np.argmax(np.abs(y - np.median(y))))
-        i0 = impulse
+        if not _quiet_before(y, impulse):
+            impulse = None         # a record that starts in its free decay: all of it is the decay
+            notes.append("the record starts in its decay (no quiet stretch before its largest sample): "
+                         "from its first sample")
+        i0 = impulse or 0
     else:
         i0 = int(math.ceil((start_s - t0) / dt - 1e-9))
-    notes = []
-    if stop_s is None:
+    if stop_s is None and impulse is not None:      # the noise level is known from before the blow
         i1, why = _decay_end(y, i0, impulse)
         if why:
             notes.append(why + " (set data.stop_s= to choose)")
+    elif stop_s is None:
+        i1 = n
     else:
         i1 = int(math.floor((stop_s - t0) / dt + 1e-9)) + 1
     if band is None:
@@ -149,8 +159,10 @@ def choose_segment(y: np.ndarray, dt: float, t0: float = 0.0, *, start_s: float 
     if impulse is not None:
         notes.insert(0, f"free decay from {start:.6g} s, after the largest impulse at {t0 + impulse * dt:.6g} s "
                         f"(set data.start_s= to choose)")
-    else:
+    elif start_s is not None:
         notes.insert(0, f"span from {start:.6g} s (data.start_s)")
+    else:
+        notes.insert(0, f"span from {start:.6g} s")
     if seg.size < MIN_SEGMENT_SAMPLES:
         raise ValueError(f"{where}: {seg.size} samples from {start:.6g} s to {t0 + (j1 - 1) * dtd:.6g} s after "
                          f"segmentation and decimation (by {q}); at least {MIN_SEGMENT_SAMPLES} are needed")
@@ -158,14 +170,26 @@ def choose_segment(y: np.ndarray, dt: float, t0: float = 0.0, *, start_s: float 
     return Segment(seg, dtd, start, q, band, None if impulse is None else t0 + impulse * dt, notes)
 
 
-def _decay_end(y: np.ndarray, i0: int, impulse: int | None) -> tuple[int, str]:
+def _quiet_before(y: np.ndarray, k: int) -> bool:
+    """Whether the record is quiet before sample k (a pre-trigger stretch): at least 32 samples before it
+    whose robust spread (1.4826 × median absolute deviation: the rise of the blow itself does not count)
+    is under a tenth of the rms of the 16 samples from k."""
+    if k < 32:
+        return False
+    before = y[:k]
+    level = np.median(before)
+    spread = 1.4826 * np.median(np.abs(before - level))
+    return bool(spread < 0.1 * np.sqrt(np.mean((y[k:k + 16] - level) ** 2)))
+
+
+def _decay_end(y: np.ndarray, i0: int, impulse: int) -> tuple[int, str]:
     """Where the decay sinks into the noise: the first sample after ``i0`` whose moving rms (window W =
     max(64, N/200) samples) is within :data:`NOISE_MARGIN` of the noise level, plus W; the noise level is
-    the robust std (1.4826 × MAD) of the record before the impulse, or, with fewer than W samples there, of
-    its last W samples. The record beyond holds no information on the modes, and costs time."""
+    the robust std (1.4826 × MAD) of the record before the impulse. The record beyond holds no information
+    on the modes, and costs time."""
     n = y.size
     w = max(64, n // 200)
-    quiet = y[: impulse - w] if impulse is not None and impulse > 2 * w else y[-w:]
+    quiet = y[:impulse]
     sigma = 1.4826 * float(np.median(np.abs(quiet - np.median(quiet))))
     rms = np.sqrt(_moving_mean((y - np.median(quiet)) ** 2, w))
     below = np.flatnonzero(rms[i0:] < NOISE_MARGIN * sigma)

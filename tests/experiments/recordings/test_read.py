@@ -98,3 +98,16 @@ def test_segment_starts_after_the_impulse_and_refuses_a_band_above_nyquist():
         choose_segment(y, dt, band_hz=[10, 600])
     with pytest.raises(ValueError, match="samples from .* at least 64"):
         choose_segment(y, dt, start_s=2.9)
+
+
+def test_a_record_that_starts_in_its_decay_is_kept_whole_and_a_short_pretrigger_is_found():
+    dt = 0.02
+    t = np.arange(256) * dt        # the spacecraft's free decay from release: its largest sample comes later
+    y = sum(a * np.cos(w * t) for a, w in [(1.04, 3.32), (-4.10, 20.36), (-4.84, 22.02), (6.42, 56.78)])
+    assert np.argmax(np.abs(y)) > 0
+    seg = choose_segment(y, dt, band_hz=[0.1, 24.0])
+    assert seg.impulse_s is None and seg.t0 == 0.0 and seg.y.size == 256
+    rng = np.random.default_rng(5)
+    hit = np.r_[0.001 * rng.standard_normal(64), 2 * np.exp(-0.5 * t[:192]) * np.sin(20 * t[:192] + 0.5)]
+    seg = choose_segment(hit, dt, band_hz=20.0)
+    assert seg.impulse_s is not None and seg.t0 > 64 * dt
