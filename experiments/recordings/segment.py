@@ -13,9 +13,10 @@ here:
   Welch power stands 30 dB above the median (noise) level of the decay's spectrum
   (``scipy.signal.welch``'s estimate, :mod:`experiments.recordings.spectral`);
 - **decimation** by q = ⌊f_s / (2.5 f_hi)⌋ (new Nyquist 1.25 f_hi, inside the anti-alias filter's pass
-  band), with ``scipy.signal.resample_poly``'s filter (a Kaiser-windowed FIR, zero phase; computed by
-  :mod:`experiments.recordings.spectral`, which says why); applied to the whole
-  record before the span is cut, so its edge transients fall outside the decay.
+  band), never below :data:`KEEP_SAMPLES` samples of the span, with ``scipy.signal.resample_poly``'s
+  filter (a Kaiser-windowed FIR, zero phase; computed by :mod:`experiments.recordings.spectral`, which
+  says why); applied to the whole record before the span is cut, so its edge transients fall outside the
+  decay.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ AUTO_BAND_DB = 30.0               # a spectral line this far above the median le
 AUTO_BAND_MARGIN = 1.25           # the band's top: this × the highest such line
 OVERSAMPLING = 2.5                # new sampling rate ≥ this × the band's top (Nyquist 1.25 × top)
 NOISE_MARGIN = 1.2               # the decay has ended where the moving rms is within 20 % of the noise's
+KEEP_SAMPLES = 512               # decimation leaves at least this many samples of the span (or all it has)
 FILTER_HALF_LENGTH = 10           # resample_poly's FIR half-length in output samples (10 × q input samples)
 
 
@@ -146,6 +148,7 @@ def choose_segment(y: np.ndarray, dt: float, t0: float = 0.0, *, start_s: float 
     else:
         notes.append(f"band {band[0]:.4g}–{band[1]:.4g} Hz (data.band_hz)")
     q = max(1, int(math.floor(1.0 / (dt * OVERSAMPLING * band[1]))))
+    q = min(q, max(1, (i1 - i0) // KEEP_SAMPLES))         # a short record is not decimated below this
     yd = _decimate(y, q)
     guard = FILTER_HALF_LENGTH if q > 1 else 0
     # after the impulse: one sample more, and the filter's half-length (its response to the blow)
