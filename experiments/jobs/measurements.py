@@ -102,8 +102,9 @@ def report(name: str, prior, est, data: dict, run_dir: Path, diagram=None) -> li
                       "damping_std": float(damping_std[i]), "amplitude_m_s2": float(fit.amplitude[i]),
                       "amplitude_g": float(fit.amplitude[i] / G_M_S2), "determined": ok,
                       "prior_rad_s": float(prior[i])})
-        print(f"mode {i + 1}: {w / (2 * np.pi):.7g} Hz ± {s / (2 * np.pi):.2g} ({w:.7g} rad/s ± {s:.2g}), "
-              f"damping ratio {damping[i]:.4g} ± {damping_std[i]:.2g}, amplitude {fit.amplitude[i] / G_M_S2:.3g} g"
+        print(f"mode {i + 1}: {_digits(w, s)} rad/s ± {s:.2g} ({_digits(w / (2 * np.pi), s / (2 * np.pi))} Hz ± "
+              f"{s / (2 * np.pi):.2g}), "
+              f"damping ratio {_digits(damping[i], damping_std[i])} ± {damping_std[i]:.2g}, amplitude {fit.amplitude[i] / G_M_S2:.3g} g"
               + ("" if ok else " — not determined by the record"))
     print(f"how: {how}")
     print(f"converged: {est.converged} ({est.message})")
@@ -128,6 +129,13 @@ def report(name: str, prior, est, data: dict, run_dir: Path, diagram=None) -> li
         "figure": [p.name for p in figures]})
     print(f"wrote {path}, {', '.join(str(p) for p in figures)}")
     return [path, *figures]
+
+
+def _digits(value: float, std: float) -> str:
+    """``value`` with the decimals its 1σ ``std`` warrants (down to the std's second digit), else 6 digits."""
+    if not (np.isfinite(std) and std > 0 and np.isfinite(value)):
+        return f"{value:.6g}"
+    return f"{value:.{max(0, 1 - int(np.floor(np.log10(std))))}f}"
 
 
 def log(record: dict, est, paths: list[Path]) -> None:

@@ -249,6 +249,7 @@ def uniform_step(path, t: np.ndarray, quantum) -> tuple[float, float, str]:
         raise ValueError(f"{path}: row {r + 1}: t = {t[r]:.10g} breaks the uniform sampling: it is "
                          f"{dev[r]:.3g} s off the fitted step {dt:.10g} s, more than its precision "
                          f"{q[r]:.3g} s allows (largest deviation {np.abs(dev).max():.3g} s)")
+    t0 = float(np.round(t0 / np.median(q)) * np.median(q))     # the first stamp, to the stamps' resolution
     return float(dt), float(t0), (f"time step {dt:.10g} s ({1 / dt:.6g} Hz) fitted to {n} time stamps; "
                                   f"they deviate from it by at most {np.abs(dev).max():.2g} s, within their "
                                   f"printed precision ({float(np.median(q)):.2g} s)")

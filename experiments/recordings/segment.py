@@ -83,7 +83,7 @@ def parse_band(band_hz, dt: float, where: str) -> tuple[float, float] | None:
     if len(vals) != 2 or not all(math.isfinite(v) for v in vals) or not 0 <= vals[0] < vals[1]:
         raise ValueError(f"{where}: data.band_hz = {band_hz} must be hi or [lo, hi] with 0 ≤ lo < hi (Hz)")
     nyquist = 0.5 / dt
-    if vals[1] > nyquist:
+    if vals[1] > nyquist * (1 + 1e-9):          # the fitted step: Nyquist to rounding
         raise ValueError(f"{where}: data.band_hz = {band_hz} reaches above the Nyquist frequency {nyquist:.6g} Hz "
                          f"of the record (sampled at {1 / dt:.6g} Hz)")
     return vals[0], vals[1]
