@@ -103,8 +103,8 @@ def report(name: str, prior, est, data: dict, run_dir: Path, diagram=None) -> li
                       "amplitude_g": float(fit.amplitude[i] / G_M_S2), "determined": ok,
                       "prior_rad_s": float(prior[i])})
         print(f"mode {i + 1}: {_digits(w, s)} rad/s ± {s:.2g} ({_digits(w / (2 * np.pi), s / (2 * np.pi))} Hz ± "
-              f"{s / (2 * np.pi):.2g}), "
-              f"damping ratio {_digits(damping[i], damping_std[i])} ± {damping_std[i]:.2g}, amplitude {fit.amplitude[i] / G_M_S2:.3g} g"
+              f"{s / (2 * np.pi):.2g}), damping ratio {_digits(damping[i], damping_std[i])} ± {damping_std[i]:.2g}, "
+              f"amplitude {fit.amplitude[i] / G_M_S2:.3g} g"
               + ("" if ok else " — not determined by the record"))
     print(f"how: {how}")
     print(f"converged: {est.converged} ({est.message})")
