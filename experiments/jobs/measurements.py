@@ -146,9 +146,14 @@ def log(record: dict, est, paths: list[Path]) -> None:
     record = {**record, "grid": "measurement"}
     key = run_key(record)
     metrics = {}
+    m = est.frequencies.size
+    damping = np.asarray(est.extra.get("damping", np.full(m, np.nan)), float).reshape(-1)
+    damping_std = np.asarray(est.extra.get("damping_std", np.full(m, np.nan)), float).reshape(-1)
     for i, (w, s) in enumerate(zip(est.frequencies, est.std, strict=True)):
         metrics[f"freq_rad_s.mode{i + 1}"] = float(w)
         metrics[f"std_rad_s.mode{i + 1}"] = float(s)
+        metrics[f"damping.mode{i + 1}"] = float(damping[i])
+        metrics[f"damping_std.mode{i + 1}"] = float(damping_std[i])
     metrics["converged"] = float(bool(est.converged))
     ds = record["dataset"]
     _, created = log_run(
