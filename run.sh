@@ -15,7 +15,7 @@ if [ ! -x .venv/bin/python ] || [ pyproject.toml -nt .venv/.installed ]; then
     || { echo "error: Python 3.11 is required (found $("$PYTHON" --version 2>&1))" >&2; exit 2; }
   [ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
   .venv/bin/python -m pip install --quiet --upgrade pip
-  .venv/bin/python -m pip install --quiet -e '.[dev,peers,tuning,cluster]'
+  .venv/bin/python -m pip install --quiet -e '.[dev,peers,tuning,cluster,measurements]'
   touch .venv/.installed
 fi
 export PATH="$PWD/.venv/bin:$PATH"

@@ -101,8 +101,9 @@ def test_a_long_single_record_says_what_it_is_doing(workdir):
     t = np.arange(100_000) * 0.02
     y = np.cos(3.0 * t) + 0.1 * np.random.default_rng(6).standard_normal(t.size)
     (workdir / "long.csv").write_text("t,accel\n" + "".join(f"{a:.2f},{b:.6f}\n" for a, b in zip(t, y, strict=True)))
+    # the band up to Nyquist: without it the job would decimate this record to its 0.6-Hz band first
     proc = run("experiments.jobs.identify", "method=fft", "data.path=long.csv", "prior=[2.5]", "hydra.run.dir=long",
-               cwd=workdir)
+               "data.band_hz=25", cwd=workdir)
     assert proc.returncode == 0, proc.stderr
     info = [ln for ln in proc.stderr.splitlines() if ln.startswith("info: ")]
     assert len(info) == 2 and "100000 samples" in info[0] and "done in" in info[1], proc.stderr
