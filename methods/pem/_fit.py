@@ -29,11 +29,11 @@ See methods/pem/README.md for the choices and the measured numbers.
 from __future__ import annotations
 
 import functools
-import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from methods import labels
 from methods.estimate import Estimate, check_inputs, failed, make_options
 from methods.pem import _fast as fast
 from methods.pem import search
@@ -156,7 +156,7 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         if not fit["loss"] < best["loss"]:
             break
         best = fit
-    return _estimate(best, fits, prior, free, n, dt, opts.predictor == "output_error")
+    return _estimate(best, fits, prior, free, n, dt, opts, opts.predictor == "output_error")
 
 
 def _fit(y, dt, w0, z0, shape, free, opts: Options, bounds, join=None) -> dict:
@@ -266,7 +266,7 @@ def _repaired_start(best: dict, free, prior: np.ndarray, opts: Options):
     modes alike), so they are the natural place to restart the spare modes from.
     """
     m = prior.size
-    w, w_std, z, _, slot = _labelled(best, free, prior)
+    w, w_std, z, _, slot, _ = _labelled(best, free, prior, opts)
     w, w_std, z = w[slot], w_std[slot], z[slot]
     determined = w_std <= search.IDENTIFIED_REL_STD * w
     if determined.all() or not determined.any():
@@ -375,17 +375,18 @@ def detection_std(n: int, dt: float, alpha: float = 0.01) -> float:
     return float(np.sqrt(3.0 / np.log(n / (2.0 * alpha))) / (n * dt))
 
 
-def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float,
+def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float, opts: Options,
               energy: bool = True) -> Estimate:
-    """The winning fit as an Estimate, its modes labelled with the prior entries (:func:`_label_modes`)."""
-    w, w_std, z, z_std, slot = _labelled(best, free, prior)
+    """The winning fit as an Estimate, its modes labelled with the prior entries (:func:`_label_modes`);
+    a mode whose entry is uncertain is not determined."""
+    w, w_std, z, z_std, slot, placed = _labelled(best, free, prior, opts)
     detected = _detected(best, w_std, n, dt, 0.01, energy)[slot]
     freq, std, damp, damp_std = w[slot], w_std[slot], z[slot], z_std[slot]
     identified = std <= search.IDENTIFIED_REL_STD * freq
     agree, agree_converged = 0, False
     for f in fits:
         if np.isfinite(f["loss"]):
-            fw, _, _, _, fw_slot = _labelled(f, free, prior)
+            fw, _, _, _, fw_slot, _ = _labelled(f, free, prior, opts)
             fw = fw[fw_slot]
             if (np.abs(fw - freq)[identified] <= 3 * std[identified]).all():
                 agree += 1
@@ -397,7 +398,7 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
     # within 10 % of ω) and detects it (below); no such mode — an all-zero, constant or pure-noise record
     # — is no answer at all
     per_mode = (converged & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
-                & detected)
+                & detected & placed)
     converged = converged and bool(per_mode.any())
     std = np.where(np.isfinite(std), std, np.nan)   # a column the record does not move: no std, not inf
     extra = {
@@ -429,41 +430,40 @@ def _free_index(free: tuple[bool, ...]) -> np.ndarray:
     return index
 
 
-def _labelled(fit: dict, free, prior: np.ndarray):
-    """:func:`_mode_table` of a fit and its :func:`_label_modes` slots, computed once per fit (the repair
-    rule, the agreement count and the estimate all ask for the winning fit's); read-only arrays."""
+def _labelled(fit: dict, free, prior: np.ndarray, opts: Options):
+    """:func:`_mode_table` of a fit, its :func:`_label_modes` slots and which slots are placed, computed
+    once per fit (the repair rule, the agreement count and the estimate all ask for the winning fit's)."""
     if "labelled" not in fit:
         w, w_std, z, z_std = _mode_table(fit, free, prior.size)
-        fit["labelled"] = (w, w_std, z, z_std, _label_modes(w, w_std, prior))
+        band = np.inf if opts.frequency_band is None else opts.frequency_band
+        fit["labelled"] = (w, w_std, z, z_std, *_label_modes(w, w_std, prior, band))
     return fit["labelled"]
 
 
-def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray) -> np.ndarray:
-    """Which fitted mode answers for each prior entry: ``slot[i]`` is the mode reported for ``prior[i]``.
+def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray, band: float = 0.5):
+    """Which fitted mode answers for each prior entry, and whether its slot is certain.
 
-    Modes the data determine (std ≤ 1 % of ω) keep their frequency order and take the prior entries that
-    fit them best in log distance (an order-preserving choice of entries); the undetermined ones — a model
-    with more modes than the record supports parks them anywhere, e.g. above the highest mode — fill the
-    remaining entries in frequency order. With every mode determined this is plain sorting.
+    Returns ``slot`` (``slot[i]`` is the mode reported for ``prior[i]``) and ``placed`` (per prior entry).
+    Modes the data determine (std ≤ 1 % of ω) take prior entries by :func:`methods.labels.assign`: in
+    frequency order (with every mode determined this is plain sorting), the entries of the others told by
+    the common scale factor of the determined ones; one whose entry is uncertain is not placed. The
+    undetermined modes — a model with more modes than the record supports parks them anywhere, e.g. above
+    the highest mode — fill the remaining entries in frequency order, placed only where that keeps the
+    reported frequencies increasing and within the band of their entry.
     """
     m = prior.size
-    by_prior = prior.argsort()
     good = np.flatnonzero(w_std <= search.IDENTIFIED_REL_STD * w)
     good = good[w[good].argsort()]
-    if good.size == m:                                             # every mode determined: plain sorting
-        slot = np.empty(m, int)
-        slot[by_prior] = good
-        return slot
+    lab = labels.assign(w[good], prior, band=band)
+    slot, placed = np.empty(m, int), np.zeros(m, bool)
+    slot[lab.slot], placed[lab.slot] = good, lab.placed
     rest = np.setdiff1d(np.arange(m), good)
     rest = rest[np.argsort(w[rest])]
-    best_cost, best_slots = np.inf, by_prior[:good.size]
-    for ranks in itertools.combinations(range(m), good.size):      # increasing: order-preserving
-        slots = by_prior[list(ranks)]
-        cost = np.sum(np.abs(np.log(w[good] / prior[slots])))
-        if cost < best_cost:
-            best_cost, best_slots = cost, slots
-    slot = np.empty(m, int)
-    slot[best_slots] = good
-    free_slots = by_prior[~np.isin(by_prior, best_slots)]          # in prior order
+    free_slots = np.setdiff1d(np.arange(m), lab.slot)                 # in prior order
     slot[free_slots] = rest
-    return slot
+    if good.size < m:
+        f = w[slot]
+        lo, hi = np.r_[0.0, f[:-1]], np.r_[f[1:], np.inf]
+        in_band = np.abs(np.log(f / prior)) <= np.log1p(band)
+        placed[free_slots] = ((lo < f) & (f < hi) & in_band)[free_slots]
+    return slot, placed

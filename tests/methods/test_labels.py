@@ -96,3 +96,17 @@ def test_mode_picker_leaves_an_ambiguous_mode_unplaced():
     y = _record([21.0], [1.0])
     picked = pick_modes([-0.21 + 21.0j], y, 0.02, PRIOR)
     assert not picked.found.any() and np.isnan(picked.frequencies).all()
+
+
+def test_pem_labels_a_missing_mode_by_the_scale_and_keeps_order():
+    # pem's labelling of a fit: modes 1, 3, 4 determined at 0.75× the prior, mode 2 undetermined (std 30 %)
+    # parked at 16 × 0.75 = 12: mode 3 goes to entry 3 (not the nearer entry 2), the spare fills entry 2 and, being out
+    # of order (12 > mode 3's 10.5), is not placed
+    from methods.pem._fit import _label_modes
+
+    prior = np.array([3.0, 10.0, 14.0, 40.0])
+    w = np.array([40.0, 3.0, 16.0, 14.0]) * 0.75
+    w_std = np.array([0.001, 0.001, 0.3, 0.001]) * w
+    slot, placed = _label_modes(w, w_std, prior)
+    assert slot.tolist() == [1, 2, 3, 0]
+    assert placed.tolist() == [True, False, True, True]
