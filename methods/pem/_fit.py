@@ -30,13 +30,14 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from methods import labels
-from methods.estimate import Estimate, check_inputs, failed, make_options
+from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
 from methods.pem import _fast as fast
-from methods.pem import search
+from methods.pem import _map, search
 from methods.pem._pencil import PENCIL_WINDOW, pencil_start
 from methods.pem.predictor import modal_basis
 
@@ -71,6 +72,10 @@ class Options:
     max_iterations: int = 50             # Gauss–Newton iterations per start
     tol_loss: float = 1e-10              # stop when the relative loss improvement falls below this
     tol_step: float = 1e-4               # stop when every step is below this many standard deviations
+    # 1σ of the prior frequencies, rad/s (a list, or one number for every mode): a Gaussian prior, and the
+    # fit is the MAP one (methods/pem/_map.py); None: no prior information, the ML fit. Typed Any because
+    # OmegaConf's structured configs take no union of a list and a number; _check_prior_std checks it.
+    prior_std_rad_s: Any = None
 
 
 # The paper's setting (§4.3): Kalman predictor with its LQE tuning, damping fixed, mean removed (§4 —
@@ -107,6 +112,8 @@ def identify(y, dt, prior, **options) -> Estimate:
     # One BLAS thread inside the fit: its matrices are small (p ≤ 4m + 1 columns), and OpenBLAS's own
     # threads made it 2.6–5× slower on 2 cores (measured: experiments.benchmarks.pem_speed --parts warm blas).
     with _blas().limit(limits=1, user_api="blas"):
+        if opts.prior_std_rad_s is not None:
+            return _identify_map(y, dt, prior, opts)
         return _identify(y, dt, prior, opts)
 
 
@@ -157,6 +164,41 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
             break
         best = fit
     return _estimate(best, fits, prior, free, n, dt, opts, opts.predictor == "output_error")
+
+
+def prior_std(opts: Options, prior: np.ndarray) -> np.ndarray | None:
+    """``prior_std_rad_s`` as m numbers (rad/s), or None when absent."""
+    if opts.prior_std_rad_s is None:
+        return None
+    return np.broadcast_to(np.asarray(opts.prior_std_rad_s, dtype=float), prior.shape).copy()
+
+
+def _identify_map(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Estimate:
+    """The MAP fit (:mod:`methods.pem._map`) as an Estimate: frequencies in prior order (the prior term
+    names each mode), the posterior std (Laplace), a mode flagged not determined where the fit crossed a
+    neighbour."""
+    if why := flat_record(y):
+        return failed(prior, why)
+    m = prior.size
+    free = free_mask(m, opts)
+    if opts.bias == "subtract_mean":
+        y = y - y.mean()
+    fit = _map.map_fit(y, dt, prior, prior_std(opts, prior), opts, search.search_bounds(prior, dt, opts), free)
+    if "failed" in fit:
+        return failed(prior, fit["failed"])
+    freq, z = fit["theta"][:m], fit["theta"][m:2 * m]
+    std, z_std = fit["std_free"][:m], (fit["std_free"][m:2 * m] if opts.estimate_damping else np.full(m, np.nan))
+    lo, hi = np.r_[0.0, freq[:-1]], np.r_[freq[1:], np.inf]
+    # per mode: the search stopped on a tolerance, the posterior locates the mode (std ≤ 10 % of ω, as
+    # for the ML fit) and it kept its place between its neighbours
+    per_mode = (fit["converged"] & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
+                & (lo < freq) & (freq < hi))
+    extra = {"damping": z, "damping_std": z_std, "offset_m_s2": float(fit["theta"][-1]), "loss": fit["loss"],
+             "posterior_cost": fit["cost"], "noise_std_m_s2": float(np.sqrt(fit["sigma2"])),
+             "data_dof": fit["edf"], "best_start": fit["start"], "total_iterations": fit["iterations"]}
+    message = f"MAP: {fit['message']} (start '{fit['start']}', {fit['iterations']} iterations)"
+    return Estimate(freq, std, converged=bool(per_mode.any()), iterations=int(fit["iterations"]),
+                    message=message, extra=extra, converged_per_mode=per_mode)
 
 
 def _fit(y, dt, w0, z0, shape, free, opts: Options, bounds, join=None) -> dict:
@@ -307,6 +349,28 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError("start_spread, tol_loss and tol_step must be non-negative")
     if opts.pencil_extra_order < 0:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
+    if opts.prior_std_rad_s is not None:
+        _check_prior_std(opts, prior)
+
+
+def _check_prior_std(opts: Options, prior: np.ndarray) -> None:
+    """``prior_std_rad_s``: one positive finite number, or one per mode; only with the output-error model."""
+    value = opts.prior_std_rad_s
+    if hasattr(value, "_content"):                       # an OmegaConf ListConfig from a Hydra job
+        value = list(value)
+    if isinstance(value, (bool, str, dict)):
+        raise ValueError(f"prior_std_rad_s = {value!r} must be a number or a list of numbers in rad/s")
+    try:
+        std = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"prior_std_rad_s = {value!r} must be a number or a list of numbers in rad/s") from None
+    if std.ndim > 1 or (std.ndim == 1 and std.size != prior.size):
+        raise ValueError(f"prior_std_rad_s = {value!r} must be one number or {prior.size} (one per mode)")
+    if not (np.all(np.isfinite(std)) and np.all(std > 0)):
+        raise ValueError(f"prior_std_rad_s = {value!r} must be positive and finite (absent: no prior)")
+    if not (opts.predictor == "output_error" and opts.separable):
+        raise ValueError(f"prior_std_rad_s needs predictor = 'output_error' and separable = true "
+                         f"(got predictor = '{opts.predictor}', separable = {opts.separable})")
 
 
 def check_options(prior, dt, **options) -> Options:
