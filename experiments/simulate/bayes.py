@@ -18,13 +18,13 @@ information is not the information of the average).
 
 **Attainable limit**: the RMSE of the posterior-mean (MMSE) estimator, which no estimator beats on truths
 drawn from the prior. For each of R records (truth drawn from the prior, noise of σ), E[ω | y] is computed
-by importance sampling with the prior as proposal: K prior draws ωₖ, weights wₖ ∝ p(y | ωₖ) with the linear
-unknowns (the amplitudes and phases as cos/sin coefficients, and the offset) **projected out** — set to
-their least-squares values, p(y | ω) ∝ exp(−RSS(ω)/2σ²) — and the damping held at its value (known, so the
-limit is slightly optimistic). Then RMSE = √(mean over records of (E[ω|y] − ω_true)²). The prior draws are
-shared by all records (one basis SVD per draw). The effective sample size (Σw)²/Σw² of every record is
-returned: where it is small (long records, sharp likelihoods) the importance estimate is unreliable, and
-the van Trees bound, then tight, is the yardstick.
+by importance sampling, weights wₖ ∝ p(y | ωₖ)·prior(ωₖ)/q(ωₖ) with the linear unknowns (the amplitudes
+and phases as cos/sin coefficients, and the offset) **projected out** — set to their least-squares values,
+p(y | ω) ∝ exp(−RSS(ω)/2σ²) — and the damping held at its value (known, so the limit is slightly
+optimistic). Importance sampling from the prior alone collapses (effective sample size ~1) as soon as one
+mode is sharply determined (mode 4 at 1 mg from N = 32 on), so the posterior is reached by sequential Monte
+Carlo with likelihood tempering (:func:`smc_posterior_mean`): importance sampling in stages with
+resampling and Metropolis moves. Then RMSE = √(mean over records of (E[ω|y] − ω_true)²).
 
 Written here because no kept library computes either quantity for this model.
 """
@@ -48,7 +48,8 @@ def fisher_information(freq_rad_s, damping, amplitude, phase, n_samples: int, dt
 
 
 def van_trees_std(prior_mean, prior_std, damping, amplitude, phase, n_samples: int, dt_s: float,
-                  noise_std: float, *, offset: bool = False, points: int = 5) -> np.ndarray:
+                  noise_std: float, *, offset: bool = False, points: int = 5,
+                  known_damping: bool = False) -> np.ndarray:
     """√diag of B = (E_prior[J_data] + J_prior)⁻¹ on the frequencies (module docstring), rad/s.
 
     Parameters
@@ -62,6 +63,8 @@ def van_trees_std(prior_mean, prior_std, damping, amplitude, phase, n_samples: i
         A constant sensor offset unknown too.
     points : int
         Gauss–Hermite nodes per mode (points^m evaluations of J_data).
+    known_damping : bool
+        The damping ratios known (their rows and columns dropped from J), as the MMSE limit assumes.
 
     Returns
     -------
@@ -82,6 +85,10 @@ def van_trees_std(prior_mean, prior_std, damping, amplitude, phase, n_samples: i
                                                           noise_std, offset=offset)
     omega = 4 * np.arange(m) + 2
     expected[omega, omega] += 1.0 / s**2
+    if known_damping:
+        keep = np.setdiff1d(np.arange(p), 4 * np.arange(m) + 3)
+        expected = expected[np.ix_(keep, keep)]
+        omega = np.searchsorted(keep, omega)
     # inverse through the column-scaled eigendecomposition: J is as badly conditioned as in crlb.py
     d = np.sqrt(np.diag(expected))
     d[d == 0] = 1.0
@@ -127,11 +134,88 @@ def orthonormal_bases(freq_draws, damping, t, offset: bool, rcond: float = 1e-10
     return U * (sv > rcond * sv[:, :1])[:, None, :]
 
 
+MOVES = 3              # Metropolis moves per tempering stage
+ESS_TARGET = 0.5       # each stage keeps this share of the particles' effective sample size
+
+
+def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles: int = 1000,
+                       ordered: bool = True, offset: bool = True, max_stages: int = 200):
+    """E[ω | y] by sequential Monte Carlo with likelihood tempering (Del Moral, Doucet & Jasra 2006).
+
+    Particles start as prior draws and move through π_β ∝ prior(ω)·p(y | ω)^β, β: 0 → 1. Each stage picks
+    the next β by bisection so that the incremental weights keep an effective sample size of
+    ``ESS_TARGET`` × particles, resamples (systematic), and moves every particle by :data:`MOVES` random-walk
+    Metropolis steps with covariance 2.38²/m × the particles' covariance. The likelihood has the linear
+    unknowns projected out (:func:`projected_log_likelihood`). Plain importance sampling from the prior is
+    the one-stage case; it fails as soon as one mode is sharply determined (effective sample size ~1 for
+    mode 4 at 1 mg from N = 32 on), which tempering avoids.
+
+    Returns (E[ω | y] as the weighted particle mean at β = 1, the ESS of that last weighting, stages).
+    """
+    mu, s = np.asarray(mu, float), np.asarray(s, float)
+    m = mu.size
+
+    def log_prior(x):
+        lp = -0.5 * np.sum(((x - mu) / s) ** 2, axis=1)
+        ok = np.all(x > 0, axis=1)
+        if ordered:
+            ok &= np.all(np.diff(x, axis=1) > 0, axis=1)
+        return np.where(ok, lp, -np.inf)
+
+    def log_lik(x):
+        out = np.full(x.shape[0], -np.inf)
+        ok = np.all(x > 0, axis=1) & np.all(x * np.sqrt(1 - np.asarray(damping) ** 2) * (t[1] - t[0]) < np.pi,
+                                            axis=1)
+        if ok.any():
+            out[ok] = projected_log_likelihood(y, orthonormal_bases(x[ok], damping, t, offset), noise_std)
+        return out
+
+    x = draw_prior(rng, mu, s, particles, ordered)
+    ll = log_lik(x)
+    beta = 0.0
+    for stage in range(1, max_stages + 1):
+        def ess(b, beta=beta, ll=ll):
+            lw = (b - beta) * ll
+            lw = lw - lw.max()
+            w = np.exp(lw)
+            return w.sum() ** 2 / np.sum(w**2)
+
+        if ess(1.0) >= ESS_TARGET * particles or stage == max_stages:
+            nxt = 1.0
+        else:
+            lo, hi = beta, 1.0
+            for _ in range(40):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if ess(mid) >= ESS_TARGET * particles else (lo, mid)
+            nxt = lo if lo > beta else 0.5 * (beta + hi)
+        lw = (nxt - beta) * ll
+        w = np.exp(lw - scipy.special.logsumexp(lw))
+        if nxt >= 1.0:
+            return w @ x, float(1.0 / np.sum(w**2)), stage
+        beta = nxt
+        # systematic resampling
+        idx = np.searchsorted(np.cumsum(w), (rng.random() + np.arange(particles)) / particles)
+        idx = np.minimum(idx, particles - 1)
+        x, ll = x[idx], ll[idx]
+        cov = np.cov(x, rowvar=False).reshape(m, m) * 2.38**2 / m + 1e-12 * np.diag(s**2)
+        chol = np.linalg.cholesky(cov + 1e-12 * np.trace(cov) * np.eye(m))
+        lp = log_prior(x)
+        for _ in range(MOVES):
+            prop = x + rng.standard_normal((particles, m)) @ chol.T
+            lp_new = log_prior(prop)
+            ll_new = np.full(particles, -np.inf)
+            finite = np.isfinite(lp_new)
+            ll_new[finite] = log_lik(prop[finite])
+            accept = np.log(rng.random(particles)) < (lp_new + beta * ll_new) - (lp + beta * ll)
+            x[accept], ll[accept], lp[accept] = prop[accept], ll_new[accept], lp_new[accept]
+    raise AssertionError("unreachable: the last stage sets β = 1")
+
+
 def mmse_rmse(prior_mean, prior_std, damping, amplitude, phase, n_samples: int, dt_s: float, noise_std: float,
-              *, offset: bool = False, records: int = 200, draws: int = 4000, seed: int = 0,
+              *, offset: bool = False, records: int = 200, draws: int = 1000, seed: int = 0,
               ordered: bool = True) -> dict:
     """The attainable limit (module docstring): RMSE per mode of the posterior mean over ``records``
-    truths drawn from the prior, by importance sampling with ``draws`` prior draws.
+    truths drawn from the prior, each by :func:`smc_posterior_mean` with ``draws`` particles.
 
     ``ordered``: the prior is truncated to increasing frequencies (a draw that crosses two modes is redrawn),
     for the truths and the importance draws alike — the prior of a labelled mode list.
@@ -144,12 +228,11 @@ def mmse_rmse(prior_mean, prior_std, damping, amplitude, phase, n_samples: int, 
     rng = np.random.default_rng(seed)
     t = np.arange(int(n_samples)) * float(dt_s)
     truths = draw_prior(rng, mu, s, records, ordered)
-    samples = draw_prior(rng, mu, s, draws, ordered)
-    U = orthonormal_bases(samples, z, t, offset)
     err, ess = np.zeros((records, mu.size)), np.zeros(records)
     for r, w in enumerate(truths):
         y = signal(w, z, amp, ph, t) + noise_std * rng.standard_normal(t.size)
-        est, ess[r] = posterior_mean(projected_log_likelihood(y, U, noise_std), samples)
+        est, ess[r], _ = smc_posterior_mean(y, t, mu, s, z, noise_std, rng, particles=draws, ordered=ordered,
+                                            offset=offset)
         err[r] = est - w
     return {"rmse": np.sqrt(np.mean(err**2, axis=0)), "prior_rmse": np.sqrt(np.mean((truths - mu) ** 2, axis=0)),
             "ess_median": float(np.median(ess)), "ess_min": float(ess.min())}

@@ -76,6 +76,7 @@ class Options:
     # fit is the MAP one (methods/pem/_map.py); None: no prior information, the ML fit. Typed Any because
     # OmegaConf's structured configs take no union of a list and a number; _check_prior_std checks it.
     prior_std_rad_s: Any = None
+    damping_prior_std: float | None = None   # with prior_std_rad_s: ζ ~ N(damping_ratio, this²); None: ζ free
 
 
 # The paper's setting (§4.3): Kalman predictor with its LQE tuning, damping fixed, mean removed (§4 —
@@ -351,6 +352,9 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
     if opts.prior_std_rad_s is not None:
         _check_prior_std(opts, prior)
+    if opts.damping_prior_std is not None and not (np.isfinite(opts.damping_prior_std)
+                                                   and opts.damping_prior_std > 0):
+        raise ValueError(f"damping_prior_std = {opts.damping_prior_std} must be positive (None: no prior on ζ)")
 
 
 def _check_prior_std(opts: Options, prior: np.ndarray) -> None:

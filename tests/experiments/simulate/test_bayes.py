@@ -66,7 +66,7 @@ def test_yardstick_orders_van_trees_mmse_and_prior_on_a_short_record():
     mu, s = np.array([20.0]), np.array([1.0])
     args = ([0.005], [1.0], [0.0], 20, 0.02, 0.3)
     vt = bayes.van_trees_std(mu, s, *args, offset=True)
-    lim = bayes.mmse_rmse(mu, s, *args, offset=True, records=300, draws=3000, seed=1)
+    lim = bayes.mmse_rmse(mu, s, *args, offset=True, records=120, draws=1500, seed=1)
     assert vt[0] <= 1.1 * lim["rmse"][0]
     assert lim["rmse"][0] < 0.9 * lim["prior_rmse"][0]
     assert lim["ess_median"] > 50
