@@ -103,6 +103,8 @@ def basis(freq_rad_s, damping, t, offset: bool) -> np.ndarray:
     ``freq_rad_s`` may be (K, m): then (K, N, 2m [+1])."""
     w = np.atleast_2d(np.asarray(freq_rad_s, float))
     z = np.asarray(damping, float)
+    if z.ndim == 2:                                          # one damping vector per draw
+        z = z[:, None, :]
     tt = np.asarray(t, float)[None, :, None]
     env = np.exp(-z * w[:, None, :] * tt)
     arg = w[:, None, :] * np.sqrt(1 - z**2) * tt
@@ -139,7 +141,7 @@ ESS_TARGET = 0.5       # each stage keeps this share of the particles' effective
 
 
 def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles: int = 1000,
-                       ordered: bool = True, offset: bool = True, max_stages: int = 200):
+                       ordered: bool = True, offset: bool = True, max_stages: int = 200, damping_std=None):
     """E[ω | y] by sequential Monte Carlo with likelihood tempering (Del Moral, Doucet & Jasra 2006).
 
     Particles start as prior draws and move through π_β ∝ prior(ω)·p(y | ω)^β, β: 0 → 1. Each stage picks
@@ -150,27 +152,40 @@ def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles
     the one-stage case; it fails as soon as one mode is sharply determined (effective sample size ~1 for
     mode 4 at 1 mg from N = 32 on), which tempering avoids.
 
+    ``damping_std``: the damping ratios unknown too, with the Gaussian prior N(``damping``, damping_std²)
+    (|ζ| < 0.9); the particles then carry (ω, ζ) and the mean returned is that of ω. None: ζ known.
+
     Returns (E[ω | y] as the weighted particle mean at β = 1, the ESS of that last weighting, stages).
     """
     mu, s = np.asarray(mu, float), np.asarray(s, float)
     m = mu.size
+    z0 = np.broadcast_to(np.asarray(damping, float), (m,))
+    centre, spread = mu, s
+    if damping_std is not None:
+        centre, spread = np.r_[mu, z0], np.r_[s, np.broadcast_to(np.asarray(damping_std, float), (m,))]
+    d = centre.size
 
     def log_prior(x):
-        lp = -0.5 * np.sum(((x - mu) / s) ** 2, axis=1)
-        ok = np.all(x > 0, axis=1)
+        lp = -0.5 * np.sum(((x - centre) / spread) ** 2, axis=1)
+        ok = np.all(x[:, :m] > 0, axis=1) & np.all(np.abs(x[:, m:]) < 0.9, axis=1)
         if ordered:
-            ok &= np.all(np.diff(x, axis=1) > 0, axis=1)
+            ok &= np.all(np.diff(x[:, :m], axis=1) > 0, axis=1)
         return np.where(ok, lp, -np.inf)
 
     def log_lik(x):
         out = np.full(x.shape[0], -np.inf)
-        ok = np.all(x > 0, axis=1) & np.all(x * np.sqrt(1 - np.asarray(damping) ** 2) * (t[1] - t[0]) < np.pi,
-                                            axis=1)
+        w, z = x[:, :m], (x[:, m:] if damping_std is not None else z0)
+        ok = np.all(w > 0, axis=1) & np.all(w * np.sqrt(1 - z**2) * (t[1] - t[0]) < np.pi, axis=1)
+        if damping_std is not None:
+            ok &= np.all(np.abs(z) < 0.9, axis=1)
         if ok.any():
-            out[ok] = projected_log_likelihood(y, orthonormal_bases(x[ok], damping, t, offset), noise_std)
+            zk = z[ok] if damping_std is not None else z0
+            out[ok] = projected_log_likelihood(y, orthonormal_bases(w[ok], zk, t, offset), noise_std)
         return out
 
     x = draw_prior(rng, mu, s, particles, ordered)
+    if damping_std is not None:
+        x = np.hstack([x, z0 + spread[m:] * rng.standard_normal((particles, m))])
     ll = log_lik(x)
     beta = 0.0
     for stage in range(1, max_stages + 1):
@@ -191,17 +206,17 @@ def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles
         lw = (nxt - beta) * ll
         w = np.exp(lw - scipy.special.logsumexp(lw))
         if nxt >= 1.0:
-            return w @ x, float(1.0 / np.sum(w**2)), stage
+            return w @ x[:, :m], float(1.0 / np.sum(w**2)), stage
         beta = nxt
         # systematic resampling
         idx = np.searchsorted(np.cumsum(w), (rng.random() + np.arange(particles)) / particles)
         idx = np.minimum(idx, particles - 1)
         x, ll = x[idx], ll[idx]
-        cov = np.cov(x, rowvar=False).reshape(m, m) * 2.38**2 / m + 1e-12 * np.diag(s**2)
-        chol = np.linalg.cholesky(cov + 1e-12 * np.trace(cov) * np.eye(m))
+        cov = np.cov(x, rowvar=False).reshape(d, d) * 2.38**2 / d + 1e-12 * np.diag(spread**2)
+        chol = np.linalg.cholesky(cov + 1e-12 * np.trace(cov) * np.eye(d))
         lp = log_prior(x)
         for _ in range(MOVES):
-            prop = x + rng.standard_normal((particles, m)) @ chol.T
+            prop = x + rng.standard_normal((particles, d)) @ chol.T
             lp_new = log_prior(prop)
             ll_new = np.full(particles, -np.inf)
             finite = np.isfinite(lp_new)

@@ -82,6 +82,17 @@ def test_bad_prior_std_is_refused_with_one_line(value, match):
         methods.check_options("pem", TRUE_W, DT, {"prior_std_rad_s": value})
 
 
+def test_damping_prior_holds_the_damping_near_its_assumed_value_on_a_short_record():
+    # N = 20: the record barely informs any ζ; with ζ ~ N(0.005, 0.001²) every ζ stays within 5 sd of
+    # 0.005 (the search bounds allow ±0.8), and a bad value is refused
+    y = _record(20, 1000 * 9.80665e-6, 2)
+    s = 0.03 * TRUE_W
+    held = pem.identify(y, DT, TRUE_W, prior_std_rad_s=s.tolist(), damping_prior_std=0.001)
+    assert np.all(np.abs(np.asarray(held.extra["damping"]) - 0.005) <= 0.005)
+    with pytest.raises(ValueError, match="damping_prior_std"):
+        methods.check_options("pem", TRUE_W, DT, {"prior_std_rad_s": 1.0, "damping_prior_std": -0.1})
+
+
 def test_prior_std_needs_the_output_error_model():
     with pytest.raises(ValueError, match="output_error"):
         methods.check_options("pem", TRUE_W, DT, {"prior_std_rad_s": 1.0, "predictor": "kalman"})
