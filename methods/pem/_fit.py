@@ -191,9 +191,11 @@ def _identify_map(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) ->
     std, z_std = fit["std_free"][:m], (fit["std_free"][m:2 * m] if opts.estimate_damping else np.full(m, np.nan))
     lo, hi = np.r_[0.0, freq[:-1]], np.r_[freq[1:], np.inf]
     # per mode: the search stopped on a tolerance, the posterior locates the mode (std ≤ 10 % of ω, as
-    # for the ML fit) and it kept its place between its neighbours
+    # for the ML fit), the record determined it (at least as much information from the data as from the
+    # prior: posterior variance ≤ half the prior's; else the answer is the prior's, and says so) and it
+    # kept its place between its neighbours
     per_mode = (fit["converged"] & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
-                & (lo < freq) & (freq < hi))
+                & (std <= prior_std(opts, prior) / np.sqrt(2.0)) & (lo < freq) & (freq < hi))
     extra = {"damping": z, "damping_std": z_std, "offset_m_s2": float(fit["theta"][-1]), "loss": fit["loss"],
              "posterior_cost": fit["cost"], "noise_std_m_s2": float(np.sqrt(fit["sigma2"])),
              "data_dof": fit["edf"], "best_start": fit["start"], "total_iterations": fit["iterations"]}
