@@ -45,7 +45,7 @@ import yaml  # noqa: E402
 import methods  # noqa: E402
 from experiments.io import write_json  # noqa: E402
 from experiments.report.scoring import identifiable  # noqa: E402
-from experiments.report.success import mode_success  # noqa: E402
+from experiments.report.success import mode_success, tolerance  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 
 STREAM = 0x4241
@@ -101,17 +101,24 @@ def trials(s: dict, scales, spread: float, draws: int, seed: int):
     return out
 
 
-def label_outcome(s: dict, freq, per_mode) -> tuple[bool, bool]:
-    """(any mode called determined but wrong, any mode honestly not determined) of one trial.
+def label_outcome(s: dict, freq, per_mode) -> tuple[bool, bool, bool]:
+    """(any mode called determined but wrong, any mode honestly not determined, any crossed label) of one
+    trial.
 
     A mode is *called determined* when the method's ``converged_per_mode`` says so and its frequency is
     finite; it is wrong when it is not within the success tolerance of its true mode
-    (experiments.report.success.tolerance: 5 CRLB std or 0.5 %, at most half-way to the neighbour).
+    (experiments.report.success.tolerance: 5 CRLB std or 0.5 %, at most half-way to the neighbour). A wrong
+    one is a *crossed label* when it is within the tolerance of another true mode (the right frequency in
+    the wrong slot), else an inaccurate one.
     """
     freq = np.asarray(freq, float)
     called = np.asarray(per_mode, bool) & np.isfinite(freq)
     right = mode_success(s["freq"], s["crlb"], freq, called)
-    return bool((called & ~right).any()), bool((~called).any())
+    wrong = called & ~right
+    tol = tolerance(s["freq"], s["crlb"])
+    near = np.abs(np.where(np.isfinite(freq), freq, np.inf)[:, None] - s["freq"][None, :]) <= tol[None, :]
+    np.fill_diagonal(near, False)
+    return bool(wrong.any()), bool((~called).any()), bool((wrong & near.any(axis=1)).any())
 
 
 def run(args) -> dict:
@@ -133,10 +140,10 @@ def run(args) -> dict:
                 freq, conv, msg = np.full(prior.size, np.nan), False, f"{type(exc).__name__}: {exc}"
                 per_mode = np.zeros(prior.size, bool)
             ok = bool(mode_success(s["freq"], s["crlb"], freq, [conv] * prior.size).all())
-            wrong, undetermined = label_outcome(s, freq, per_mode)
+            wrong, undetermined, crossed = label_outcome(s, freq, per_mode)
             rows.append({"k": k, "m": s["freq"].size, "offset": s["offset"] != 0, "kind": kind, "value": value,
                          "success": ok, "converged": conv, "wrong_determined": wrong,
-                         "not_determined": undetermined})
+                         "not_determined": undetermined, "crossed": crossed})
             if not ok:
                 failures.append({"structure": k, "kind": kind, "value": value, "true_rad_s": s["freq"],
                                  "damping": s["zeta"], "offset": s["offset"], "prior_rad_s": prior,
@@ -160,10 +167,12 @@ def report(result: dict, args) -> str:
         return f"{100 * sub['success'].mean():.1f} % of {len(sub)} (not converged {failed:.1f} %)"
 
     n_struct = df["k"].nunique()
-    by_structure = df.groupby("k")[["wrong_determined", "not_determined"]].any()
+    by_structure = df.groupby("k")[["wrong_determined", "not_determined", "crossed"]].any()
     lines.append(f"called determined but wrong: {100 * df['wrong_determined'].mean():.1f} % of {len(df)} trials, "
                  f"{int(by_structure['wrong_determined'].sum())} of {n_struct} structures "
                  f"({100 * by_structure['wrong_determined'].mean():.1f} %)")
+    lines.append(f"  of which a crossed label (another true mode's frequency): {100 * df['crossed'].mean():.1f} % "
+                 f"of trials, {int(by_structure['crossed'].sum())} of {n_struct} structures")
     lines.append(f"honestly not determined (some mode): {100 * df['not_determined'].mean():.1f} % of trials, "
                  f"{int(by_structure['not_determined'].sum())} of {n_struct} structures")
     for kind, g in df.groupby("kind"):
