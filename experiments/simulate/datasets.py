@@ -16,6 +16,7 @@ File schema (every entry a plain numpy array; ``numpy.load(path)`` reads it, no 
 | ``provenance_json`` | () str | the config, seed scheme, package versions |
 | ``scenario_json`` | () str | the cell's scenario axis values (JSON; only in cells with an axis) |
 | ``prior_rad_s`` | (R, 4) | the harness's prior per replicate (only in cells with a prior axis) |
+| ``prior_std_rad_s`` | (4,) | the 1σ spread those priors were drawn with, c·ωᵢ·s/√3 (same cells) |
 | ``checksum_sha256`` | () str | SHA-256 of all the other arrays (``experiments.io.array_checksum``) |
 
 Read a cell with ``experiments.io.read_npz`` (or ``numpy.load``): it verifies the checksum, so a file
@@ -146,6 +147,7 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
         provenance["plant_in_cell"] = asdict(scenarios.apply_to_plant(cfg.plant, axes))
     if scenarios.has_prior_axis(axes):
         extra["prior_rad_s"] = scenarios.harness_prior(truth["freq_rad_s"], axes, cfg.seed, cfg.replicates)
+        extra["prior_std_rad_s"] = scenarios.prior_std(truth["freq_rad_s"], axes)
         provenance["prior_scheme"] = ("prior[r] = sort(prior_scale * truth * (1 + prior_spread * "
                                       f"default_rng([seed, {scenarios.PRIOR_STREAM}, r]).uniform(-1, 1, m)))")
     return {

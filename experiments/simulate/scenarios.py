@@ -140,6 +140,20 @@ def harness_prior(freq_rad_s, axes: dict, seed: int, replicates: int) -> np.ndar
     return np.sort(prior, axis=1)
 
 
+def prior_std(freq_rad_s, axes: dict) -> np.ndarray:
+    """The 1σ spread the harness's priors are drawn with, per mode: c·ωᵢ·s/√3, rad/s.
+
+    prior = c·ω·(1 + s·u) with u ~ U(−1, 1) has std c·ω·s/√3 around c·ω (the std of U(−1, 1) is 1/√3).
+    The common factor c is a fixed error of the cell, not a spread: a cell with ``prior_scale`` alone has
+    spread 0 (its prior is wrong by a known-to-the-harness bias that a method's prior_std_rad_s does not
+    describe). This is what a method's ``prior_std_rad_s`` would state for the cell's priors.
+    """
+    w = np.asarray(freq_rad_s, dtype=float)
+    c = float(axes.get("prior_scale") or 1.0)
+    s = float(axes.get("prior_spread") or 0.0)
+    return c * w * s / math.sqrt(3.0)
+
+
 def check_cell(axes: dict, plant_cfg, dt_s: float) -> None:
     """Raise ``ValueError`` (one sentence naming the value) for an impossible cell: mode order broken by the
     gap, a mode or a prior at or above Nyquist, a measurement no method reads."""
