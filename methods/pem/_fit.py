@@ -36,7 +36,7 @@ import numpy as np
 
 from methods.estimate import Estimate, check_inputs, failed, make_options
 from methods.pem import _fast as fast
-from methods.pem import search
+from methods.pem import _residual, search
 from methods.pem._pencil import PENCIL_WINDOW, pencil_start
 from methods.pem.predictor import modal_basis
 
@@ -409,8 +409,24 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
         "total_iterations": int(sum(f["iterations"] for f in fits)),
     }
     message = f"{best['message']} (start '{best['start']}', {agree}/{len(fits)} starts agree)"
+    std, message = _residual_hook(best, slot, free, dt, std, extra, message)
     return Estimate(freq, std, converged=converged, iterations=int(best["iterations"]),
                     message=message, extra=extra, converged_per_mode=per_mode)
+
+
+def _residual_hook(best, slot, free, dt, std, extra, message):
+    """extra["residual_check"] (:func:`methods.pem._residual.assess_fit`); when the residual is not white,
+    the reported std is the Newey–West robust one (the white-noise one kept in extra["white_noise_std"])."""
+    check = _residual.assess_fit(best, slot, int(sum(free)), dt)
+    extra["residual_check"] = check
+    if check is None or check["white"]:
+        return std, message
+    robust = check["robust_std_rad_s"]
+    extra["white_noise_std"] = std
+    std = np.where(np.isfinite(robust) & np.isfinite(std), robust, std)
+    return std, (f"{message}; residual not white (Ljung-Box p = {check['ljung_box_p']:.2g}, peak "
+                 f"{check['peak_over_floor']:.3g}x floor at {check['peak_rad_s']:.4g} rad/s): std is the "
+                 "Newey-West robust one")
 
 
 def _mode_table(fit: dict, free, m: int):

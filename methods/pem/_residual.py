@@ -1,0 +1,163 @@
+"""Does the model explain the record? The residual's whiteness, and a std that survives a wrong noise model.
+
+Two questions about a fit's residual ε (N samples, p free unknowns):
+
+**Is ε white?** (:func:`residual_check`)
+
+- Ljung–Box portmanteau test on the first h = min(10, N/5) autocorrelations ρ̂ₖ of ε,
+
+      Q = N(N + 2) Σₖ₌₁ʰ ρ̂ₖ² / (N − k)  ~  χ²_h  under white noise;
+
+- the periodogram Pⱼ = |Σₖ εₖ e^{−2πijk/N}|²/N against the white-noise floor σ̂²_w = median(P)/ln 2 (for
+  white noise Pⱼ/σ² is exponential with mean 1, whose median is ln 2; the median ignores a few peaks):
+  the largest of the M = N/2 − 1 ratios Pⱼ/σ̂²_w exceeds ln(M/α) with probability ≈ α;
+- ``variance_ratio`` = var(ε)/σ̂²_w: 1 for white noise, above 1 when the residual's power sits in a few
+  bands (coloured noise, an unmodelled mode, a drifting frequency);
+- ``white``: both tests pass at level α each.
+
+Hand-written with ``scipy.stats.chi2`` rather than statsmodels' ``acorr_ljungbox``: the statistic is the
+one line above, and statsmodels (with patsy) would be a large dependency for it.
+
+**A model-robust std** (:func:`sandwich_std`). The white-noise covariance σ̂²(JᵀJ)⁻¹ assumes ε white with
+constant variance. The sandwich with a Newey–West (Bartlett-kernel) estimate of the scores' long-run
+covariance does not:
+
+    Cov(θ̂) = (JᵀJ)⁻¹ S (JᵀJ)⁻¹ · N/(N − p),
+    S = Γ₀ + Σₗ₌₁ᴸ (1 − l/(L + 1)) (Γₗ + Γₗᵀ),   Γₗ = Σₖ gₖ gₖ₋ₗᵀ,   gₖ = Jₖᵀ εₖ,
+
+with the bandwidth L from Andrews' (1991) AR(1) plug-in rule for the Bartlett kernel,
+L = 1.1447 (α̂ N)^{1/3}, α̂ = 4ρ̂²/((1 − ρ̂)²(1 + ρ̂)²), ρ̂ the residual's lag-1 autocorrelation (L ≤ N/4).
+O(N p L) here (L products of N × p matrices); statsmodels' ``cov_hac`` computes the same thing but needs
+the full regression result object. For the variable-projection fit J is Kaufman's reduced Jacobian
+P⊥∂ε/∂(ω, ζ): the (ω, ζ) rows of the full (JᵀJ)⁻¹Jᵀ are exactly (J_rᵀJ_r)⁻¹J_rᵀ (partitioned inverse), so
+the sandwich on J_r is the (ω, ζ) block of the full one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import stats
+
+ALPHA = 0.01            # false-alarm rate of each whiteness test on a white residual
+MAX_LB_LAGS = 10        # Ljung–Box lags: min(10, N/5) (the common default, e.g. statsmodels')
+
+
+def autocorrelation(e: np.ndarray, lags: int) -> np.ndarray:
+    """ρ̂ₖ = Σ ε̃ᵢε̃ᵢ₊ₖ / Σ ε̃ᵢ², k = 1…lags, ε̃ = ε − mean(ε) (the biased estimator; FFT, O(N log N))."""
+    x = np.asarray(e, float) - np.mean(e)
+    n = x.size
+    spec = np.fft.rfft(x, 2 * n)
+    acov = np.fft.irfft(spec * spec.conj(), 2 * n)[:lags + 1]
+    return acov[1:] / acov[0] if acov[0] > 0 else np.zeros(lags)
+
+
+def residual_check(e, dt: float, alpha: float = ALPHA) -> dict:
+    """Whiteness of a residual: Ljung–Box, the periodogram's largest peak against the floor, the variance
+    ratio and the verdict (see the module docstring for the equations).
+
+    Parameters
+    ----------
+    e : array_like, shape (N,)
+        The fit's residual (prediction errors), m/s².
+    dt : float
+        Sample interval, s (gives the peak's frequency in rad/s).
+    alpha : float
+        False-alarm rate of each test on a white residual.
+
+    Returns
+    -------
+    dict
+        ``white`` (bool), ``ljung_box_q``, ``ljung_box_lags``, ``ljung_box_p``, ``noise_floor_m_s2``
+        (σ̂_w), ``variance_ratio``, ``peak_over_floor``, ``peak_threshold``, ``peak_rad_s``.
+    """
+    e = np.asarray(e, float)
+    n = e.size
+    if n < 10 or not np.isfinite(e).all():
+        raise ValueError(f"a residual of {n} samples (finite: {bool(np.isfinite(e).all())}) cannot be tested")
+    h = max(1, min(MAX_LB_LAGS, n // 5))
+    rho = autocorrelation(e, h)
+    k = np.arange(1, h + 1)
+    q = float(n * (n + 2) * np.sum(rho ** 2 / (n - k)))
+    p_lb = float(stats.chi2.sf(q, h))
+    x = e - e.mean()
+    power = (np.abs(np.fft.rfft(x)) ** 2 / n)[1:(n - 1) // 2 + 1]       # no DC, no Nyquist bin
+    floor = float(np.median(power) / math.log(2.0))
+    variance = float(x @ x / n)
+    if floor > 0:
+        ratio = power / floor
+        j = int(np.argmax(ratio))
+        peak, var_ratio = float(ratio[j]), variance / floor
+    else:                                   # a residual at rounding level: nothing left to explain
+        j, peak, var_ratio = 0, 0.0, 1.0
+    threshold = float(math.log(max(power.size, 1) / alpha))
+    return {"white": bool(p_lb >= alpha and peak <= threshold), "ljung_box_q": q, "ljung_box_lags": h,
+            "ljung_box_p": p_lb, "noise_floor_m_s2": math.sqrt(max(floor, 0.0)), "variance_ratio": var_ratio,
+            "peak_over_floor": peak, "peak_threshold": threshold,
+            "peak_rad_s": float(2 * np.pi * (j + 1) / (n * dt))}
+
+
+def bartlett_bandwidth(e: np.ndarray) -> int:
+    """Andrews' (1991) AR(1) plug-in bandwidth for the Bartlett kernel, L = ⌈1.1447 (α̂N)^{1/3}⌉ with
+    α̂ = 4ρ̂²/((1 − ρ̂)²(1 + ρ̂)²) and ρ̂ the lag-1 autocorrelation (clipped to ±0.97); 1 ≤ L ≤ N/4."""
+    n = e.size
+    rho = float(np.clip(autocorrelation(e, 1)[0], -0.97, 0.97))
+    a = 4 * rho ** 2 / ((1 - rho) ** 2 * (1 + rho) ** 2)
+    return int(min(max(math.ceil(1.1447 * (a * n) ** (1 / 3)), 1), max(n // 4, 1)))
+
+
+def sandwich_std(J, e, n_params: int | None = None, bandwidth: int | None = None) -> tuple[np.ndarray, int]:
+    """Newey–West sandwich std of the unknowns of J: √diag((JᵀJ)⁻¹ S (JᵀJ)⁻¹ · N/(N − p)).
+
+    Parameters
+    ----------
+    J : array_like, shape (N, q)
+        ∂ε/∂θ at the optimum (or the reduced Jacobian of a separable fit).
+    e : array_like, shape (N,)
+        The residual at the optimum.
+    n_params : int, optional
+        p of the degrees-of-freedom factor N/(N − p) (all free unknowns of the fit); default q.
+    bandwidth : int, optional
+        L; default :func:`bartlett_bandwidth` of ``e``.
+
+    Returns
+    -------
+    std : ndarray, shape (q,)
+        NaN for a column the record does not determine.
+    bandwidth : int
+        The L used.
+    """
+    J, e = np.asarray(J, float), np.asarray(e, float)
+    n, q = J.shape
+    if e.shape != (n,):
+        raise ValueError(f"residual of shape {e.shape} does not match a Jacobian of {n} rows")
+    L = bartlett_bandwidth(e) if bandwidth is None else int(bandwidth)
+    g = J * e[:, None]
+    S = g.T @ g
+    for lag in range(1, min(L, n - 1) + 1):
+        gamma = g[lag:].T @ g[:-lag]
+        S += (1.0 - lag / (L + 1.0)) * (gamma + gamma.T)
+    norms = np.linalg.norm(J, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    bread = np.linalg.pinv((J / norms).T @ (J / norms), rcond=1e-13, hermitian=True) / np.outer(norms, norms)
+    p = q if n_params is None else int(n_params)
+    var = np.diag(bread @ S @ bread) * n / max(n - p, 1)
+    return np.where(var > 0, np.sqrt(np.abs(var)), np.nan), L
+
+
+def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: float = ALPHA) -> dict | None:
+    """:func:`residual_check` of a pem fit's residual and the :func:`sandwich_std` of its frequencies in
+    prior order (``slot`` as in ``methods.pem._fit._label_modes``), under ``robust_std_rad_s``; None when
+    the fit kept no residual or Jacobian (a failed start). The Jacobian is the fast path's reduced one
+    (``fit["Jr"]``) or the reference search's full one (``fit["J"]``); ω is its first m columns either way."""
+    e = fit.get("e")
+    J = fit.get("Jr") if fit.get("Jr") is not None else fit.get("J")
+    m = slot.size
+    if e is None or J is None or e.size < 10 or J.shape[1] < m or not (np.isfinite(e).all()
+                                                                     and np.isfinite(J).all()):
+        return None
+    check = residual_check(e, dt, alpha)
+    std, bandwidth = sandwich_std(J, e, n_params)
+    check.update(robust_std_rad_s=std[:m][slot], hac_bandwidth=bandwidth)
+    return check
