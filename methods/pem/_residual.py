@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.ndimage
 from scipy import stats
 
 ALPHA = 0.01            # false-alarm rate of each whiteness test on a white residual
@@ -147,9 +148,10 @@ def sandwich_std(J, e, n_params: int | None = None, bandwidth: int | None = None
 
 
 def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: float = ALPHA) -> dict | None:
-    """:func:`residual_check` of a pem fit's residual and the :func:`sandwich_std` of its frequencies in
-    prior order (``slot`` as in ``methods.pem._fit._label_modes``), under ``robust_std_rad_s``; None when
-    the fit kept no residual or Jacobian (a failed start). The Jacobian is the fast path's reduced one
+    """:func:`residual_check` of a pem fit's residual and the robust std of its frequencies in prior order
+    (``slot`` as in ``methods.pem._fit._label_modes``); None when the fit kept no residual or Jacobian (a
+    failed start). ``robust_std_rad_s`` is the larger of :func:`sandwich_std` (``hac_std_rad_s``) and
+    :func:`spectral_sandwich_std` (``spectral_std_rad_s``). The Jacobian is the fast path's reduced one
     (``fit["Jr"]``) or the reference search's full one (``fit["J"]``); ω is its first m columns either way."""
     e = fit.get("e")
     J = fit.get("Jr") if fit.get("Jr") is not None else fit.get("J")
@@ -159,5 +161,41 @@ def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: flo
         return None
     check = residual_check(e, dt, alpha)
     std, bandwidth = sandwich_std(J, e, n_params)
-    check.update(robust_std_rad_s=std[:m][slot], hac_bandwidth=bandwidth)
+    spectral = spectral_sandwich_std(J, e, n_params)
+    # the larger of two kernel estimates: the lag window copes with a residual whose size changes over the
+    # record (clipping, a decaying mismatch), the tapered spectrum with strong lines away from the modes
+    robust = np.fmax(std, spectral)
+    check.update(robust_std_rad_s=robust[:m][slot], hac_std_rad_s=std[:m][slot], hac_bandwidth=bandwidth,
+                 spectral_std_rad_s=spectral[:m][slot])
     return check
+
+
+def spectral_sandwich_std(J, e, n_params: int | None = None, half_width: int | None = None) -> np.ndarray:
+    """The sandwich with the meat in the frequency domain: √diag((JᵀJ)⁻¹ M (JᵀJ)⁻¹ · N/(N − p)),
+
+        M = (1/N) Σⱼ cⱼ Re(Ĵⱼᴴ Ĵⱼ) Ŝⱼ,   Ĵⱼ = Σₖ Jₖ e^{−2πijk/N}  (rfft bins j, cⱼ = 2 but 1 at 0 and N/2),
+
+    Ŝ the residual's spectral density: its Hann-tapered periodogram averaged over 2K + 1 bins (Daniell,
+    K = ``half_width``, default max(4, N/64)). For white ε (Ŝ ≡ σ²) M = σ²JᵀJ (Parseval). A kernel HAC
+    like the Newey–West one, smoothing the spectrum instead of weighting lags: J's columns for ω are narrow-band
+    at the modes, so M needs the residual's spectrum there only, and the taper keeps a strong line elsewhere
+    (an unmodelled mode) from leaking in, which the Bartlett lag window's sidelobes do not."""
+    J, e = np.asarray(J, float), np.asarray(e, float)
+    n, q = J.shape
+    k = max(4, n // 64) if half_width is None else int(half_width)
+    x = e - e.mean()
+    win = np.hanning(n + 1)[:n]                  # periodic Hann
+    power = np.abs(np.fft.rfft(x * win)) ** 2 / (win @ win)
+    density = scipy.ndimage.uniform_filter1d(power, 2 * k + 1, mode="mirror")
+    c = np.full(power.size, 2.0)
+    c[0] = 1.0
+    if n % 2 == 0:
+        c[-1] = 1.0
+    F = np.fft.rfft(J, axis=0)
+    M = ((F.conj().T * (c * density)) @ F).real / n
+    norms = np.linalg.norm(J, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    bread = np.linalg.pinv((J / norms).T @ (J / norms), rcond=1e-13, hermitian=True) / np.outer(norms, norms)
+    p = q if n_params is None else int(n_params)
+    var = np.diag(bread @ M @ bread) * n / max(n - p, 1)
+    return np.where(var > 0, np.sqrt(np.abs(var)), np.nan)
