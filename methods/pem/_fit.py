@@ -35,8 +35,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from methods.estimate import Estimate, check_inputs, failed, make_options
+from methods.pem import _drift, _residual, search
 from methods.pem import _fast as fast
-from methods.pem import _residual, search
 from methods.pem._pencil import PENCIL_WINDOW, pencil_start
 from methods.pem.predictor import modal_basis
 
@@ -71,6 +71,7 @@ class Options:
     max_iterations: int = 50             # Gauss–Newton iterations per start
     tol_loss: float = 1e-10              # stop when the relative loss improvement falls below this
     tol_step: float = 1e-4               # stop when every step is below this many standard deviations
+    drift_segments: int = 3              # segments of the drift test when the residual is not white; 0: off
 
 
 # The paper's setting (§4.3): Kalman predictor with its LQE tuning, damping fixed, mean removed (§4 —
@@ -107,7 +108,7 @@ def identify(y, dt, prior, **options) -> Estimate:
     # One BLAS thread inside the fit: its matrices are small (p ≤ 4m + 1 columns), and OpenBLAS's own
     # threads made it 2.6–5× slower on 2 cores (measured: experiments.benchmarks.pem_speed --parts warm blas).
     with _blas().limit(limits=1, user_api="blas"):
-        return _identify(y, dt, prior, opts)
+        return _drift.attach(_identify(y, dt, prior, opts), y, dt, prior, opts)
 
 
 @functools.cache
@@ -305,6 +306,8 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError(f"max_iterations = {opts.max_iterations} must be at least 1")
     if not (opts.start_spread >= 0 and opts.tol_loss >= 0 and opts.tol_step >= 0):
         raise ValueError("start_spread, tol_loss and tol_step must be non-negative")
+    if opts.drift_segments != 0 and opts.drift_segments < 2:
+        raise ValueError(f"drift_segments = {opts.drift_segments} must be 0 (off) or at least 2")
     if opts.pencil_extra_order < 0:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
 
