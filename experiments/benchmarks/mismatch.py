@@ -9,8 +9,9 @@ with its own config's prior and options (``configs/method/<name>.yaml``), and th
 plant's eigenfrequencies are scored by ``experiments.report.coverage.coverage`` on the modes each
 replicate determined (``converged_per_mode``). For pem three stds are scored: ``reported`` (what it
 answers: the white-noise std, or the Newey–West robust one when its residual check fails), ``white`` (the
-white-noise std σ̂√diag((JᵀJ)⁻¹) always: the "before") and ``robust`` (the sandwich always); and
-``flagged``, the share of records whose residual check failed. Writes ``coverage.csv`` / ``coverage.md``.
+white-noise std σ̂√diag((JᵀJ)⁻¹) always: the "before") and ``robust`` (the sandwich always, without the
+drift term); ``flagged``, the share of records whose residual check failed; and on the Duffing cells the
+drift test's claims (:func:`drift_claims`). Writes ``coverage.csv`` / ``coverage.md``.
 """
 
 from __future__ import annotations
@@ -74,16 +75,34 @@ def std_kinds(est) -> dict[str, np.ndarray]:
     return out
 
 
-def score(estimates: list, truth: np.ndarray) -> list[dict]:
-    """Coverage rows (one per std kind) of a method's R estimates."""
+def drift_claims(est, truth: np.ndarray, amplitude: np.ndarray, delta: float) -> dict:
+    """What pem's drift test claims on a Duffing record, as (error, std) pairs: ``small_amplitude`` — the
+    amplitude line's ω₀ ± its std against the linear frequency; ``at_reference_amplitude`` — the answer ±
+    its std against the backbone ω√(1 + 2δ(a_ref/a)²) at the amplitude a_ref the answer says it refers to."""
+    drift = est.extra.get("drift") if isinstance(est.extra, dict) else None
+    if drift is None:
+        return {}
+    ref = np.asarray(drift["reference_amplitude_m_s2"], float)
+    at_ref = mismatch.backbone_rad_s(truth, ref / amplitude, delta)
+    drifting = np.asarray(drift["drifting"], bool) & est.converged_per_mode
+    return {"small_amplitude": (np.where(drifting, drift["small_amplitude_rad_s"] - truth, np.nan),
+                                drift["small_amplitude_std"]),
+            "at_reference_amplitude": (np.where(drifting, est.frequencies - at_ref, np.nan), est.std)}
+
+
+def score(estimates: list, truth: np.ndarray, claims=None) -> list[dict]:
+    """Coverage rows (one per std kind) of a method's R estimates; ``claims(est)``: more (error, std)
+    pairs by name (:func:`drift_claims`)."""
     pooled: dict[str, tuple[list, list]] = {}
     flagged = []
     for est in estimates:
         ok = est.converged_per_mode & np.isfinite(est.frequencies)
         err = np.where(ok, est.frequencies - truth, np.nan)
-        for kind, std in std_kinds(est).items():
+        pairs = {kind: (err, std) for kind, std in std_kinds(est).items()}
+        pairs.update(claims(est) if claims is not None else {})
+        for kind, (error, std) in pairs.items():
             e, s = pooled.setdefault(kind, ([], []))
-            e.append(err)
+            e.append(np.asarray(error, float))
             s.append(np.asarray(std, float))
         check = est.extra.get("residual_check") if isinstance(est.extra, dict) else None
         if check is not None:
@@ -112,7 +131,11 @@ def run(grid: dict, replicates: int | None = None, method_names: list[str] | Non
             t0 = time.perf_counter()
             estimates = run_method(name, records, dt)
             seconds = time.perf_counter() - t0
-            for row in score(estimates, truth["freq_rad_s"]):
+            claims = None
+            if axes.get("duffing"):
+                def claims(est, delta=float(axes["duffing"])):
+                    return drift_claims(est, truth["freq_rad_s"], truth["amplitude_m_s2"], delta)
+            for row in score(estimates, truth["freq_rad_s"], claims):
                 rows.append({"axis": axis, "value": value, "method": name, **row, "seconds": seconds})
             print(f"{axis:>16} {value:>6} {name:>10}: {seconds:6.1f} s", flush=True)
     return pd.DataFrame(rows)
