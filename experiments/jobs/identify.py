@@ -27,6 +27,7 @@ import methods
 from experiments.io import CHECKSUM_KEY, atomic_write_text, read_npz, write_json
 from experiments.jobs.app import fail, run_app
 from experiments.jobs.config import methods_named_on, register, variant_label
+from experiments.report import model_check
 from experiments.report.scoring import COLUMNS, replicate_rows
 from experiments.simulate.scenarios import AXES, result_columns
 from experiments.tracking.store import check_store
@@ -233,10 +234,12 @@ def report_measurement(name: str, prior, est, run_dir: Path) -> None:
         note = "" if per_mode[i] else " — not determined by the record"
         print(f"mode {i + 1}: {w:.6g} rad/s ± {s:.3g} (prior {prior[i]:g}){note}")
     print(f"converged: {est.converged} ({est.message})")
+    for line in model_check.check_lines(est.extra):       # does the model explain the record? (pem)
+        print(line)
     path = write_json(run_dir / "estimate.json", {
         "method": name, "frequencies_rad_s": est.frequencies, "std_rad_s": est.std,
         "converged": bool(est.converged), "converged_per_mode": [bool(c) for c in per_mode],
-        "message": est.message, "prior_rad_s": prior})
+        "message": est.message, "prior_rad_s": prior, **model_check.check_json(est.extra)})
     print(f"wrote {path}")
     return path
 

@@ -428,8 +428,8 @@ def _residual_hook(best, slot, free, dt, std, extra, message):
     extra["white_noise_std"] = std
     std = np.where(np.isfinite(robust) & np.isfinite(std), robust, std)
     return std, (f"{message}; residual not white (Ljung-Box p = {check['ljung_box_p']:.2g}, peak "
-                 f"{check['peak_over_floor']:.3g}x floor at {check['peak_rad_s']:.4g} rad/s): std is the "
-                 "Newey-West robust one")
+                 f"{check['peak_over_floor']:.3g}x floor at {check['peak_rad_s']:.4g} rad/s): std is the robust "
+                 "(sandwich) one")
 
 
 def _mode_table(fit: dict, free, m: int):
