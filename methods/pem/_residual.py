@@ -18,8 +18,9 @@ Two questions about a fit's residual ε (N samples, p free unknowns):
   bands (coloured noise, an unmodelled mode, a drifting frequency);
 - ``white``: both tests pass at level α each.
 
-Hand-written with ``scipy.stats.chi2`` rather than statsmodels' ``acorr_ljungbox``: the statistic is the
-one line above, and statsmodels (with patsy) would be a large dependency for it.
+Hand-written with ``scipy.special.chdtrc`` (the χ² survival function) rather than statsmodels'
+``acorr_ljungbox``: the statistic is the one line above, and statsmodels (with patsy) would be a large
+dependency for it.
 
 **A model-robust std** (:func:`sandwich_std`). The white-noise covariance σ̂²(JᵀJ)⁻¹ assumes ε white with
 constant variance. The sandwich with a Newey–West (Bartlett-kernel) estimate of the scores' long-run
@@ -42,7 +43,7 @@ import math
 
 import numpy as np
 import scipy.ndimage
-from scipy import stats
+import scipy.special
 
 from methods.pem.predictor import modal_basis
 
@@ -97,7 +98,7 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
     -----
     The peak threshold allows for the floor being estimated: Pⱼ/σ̂²_w is F(2, ν)-distributed with
     ν ≈ 0.96M (the median of M exponentials has relative variance 1/(M ln²2) ≈ 2/ν), and the largest of M
-    exceeds ``scipy.stats.f.isf(α/M, 2, ν)`` with probability ≈ α.
+    exceeds x = (ν/2)((M/α)^{2/ν} − 1) — where F(2, ν)'s survival (1 + 2x/ν)^{−ν/2} is α/M — with probability ≈ α.
     """
     e = np.asarray(e, float)
     n = e.size
@@ -109,7 +110,7 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
         rho = rho - fitted_autocorrelation(np.asarray(basis, float), h)
     k = np.arange(1, h + 1)
     q = float(n * (n + 2) * np.sum(rho ** 2 / (n - k)))
-    p_lb = float(stats.chi2.sf(q, h))
+    p_lb = float(scipy.special.chdtrc(h, q))          # χ²_h survival (scipy.stats.chi2.sf, without its overhead)
     x = e - e.mean()
     power = (np.abs(np.fft.rfft(x)) ** 2 / n)[1:(n - 1) // 2 + 1]       # no DC, no Nyquist bin
     floor = float(np.median(power) / math.log(2.0))
@@ -121,7 +122,8 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
     else:                                   # a residual at rounding level: nothing left to explain
         j, peak, var_ratio = 0, 0.0, 1.0
     bins = max(power.size, 1)
-    threshold = float(stats.f.isf(alpha / bins, 2, max(0.96 * bins, 2.0)))
+    nu = max(0.96 * bins, 2.0)
+    threshold = float(nu / 2 * ((bins / alpha) ** (2 / nu) - 1))     # F(2, ν) survival (1 + 2x/ν)^(−ν/2) = α/M
     return {"white": bool(p_lb >= alpha and peak <= threshold), "ljung_box_q": q, "ljung_box_lags": h,
             "ljung_box_p": p_lb, "noise_floor_m_s2": math.sqrt(max(floor, 0.0)), "variance_ratio": var_ratio,
             "peak_over_floor": peak, "peak_threshold": threshold,
@@ -168,12 +170,7 @@ def sandwich_std(J, e, n_params: int | None = None, bandwidth: int | None = None
     for lag in range(1, min(L, n - 1) + 1):
         gamma = g[lag:].T @ g[:-lag]
         S += (1.0 - lag / (L + 1.0)) * (gamma + gamma.T)
-    norms = np.linalg.norm(J, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
-    bread = np.linalg.pinv((J / norms).T @ (J / norms), rcond=1e-13, hermitian=True) / np.outer(norms, norms)
-    p = q if n_params is None else int(n_params)
-    var = np.diag(bread @ S @ bread) * n / max(n - p, 1)
-    return np.where(var > 0, np.sqrt(np.abs(var)), np.nan), L
+    return _sandwich(J, S, n_params), L
 
 
 def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: float = ALPHA) -> dict | None:
@@ -227,9 +224,20 @@ def spectral_sandwich_std(J, e, n_params: int | None = None, half_width: int | N
         c[-1] = 1.0
     F = np.fft.rfft(J, axis=0)
     M = ((F.conj().T * (c * density)) @ F).real / n
-    norms = np.linalg.norm(J, axis=0)
+    return _sandwich(J, M, n_params)
+
+
+def _sandwich(J: np.ndarray, meat: np.ndarray, n_params: int | None) -> np.ndarray:
+    """√diag(B·meat·B · N/(N − p)), B = (JᵀJ)⁻¹ through the column-scaled Gram matrix: ``inv`` when it is
+    well conditioned (the usual case, a q × q matrix), the pseudo-inverse (eigenvalues below 1e-13 of the
+    largest dropped) when not."""
+    n, q = J.shape
+    norms = np.sqrt(np.einsum("ij,ij->j", J, J))
     norms = np.where(norms > 0, norms, 1.0)
-    bread = np.linalg.pinv((J / norms).T @ (J / norms), rcond=1e-13, hermitian=True) / np.outer(norms, norms)
+    G = (J.T @ J) / np.outer(norms, norms)
+    lam, V = np.linalg.eigh(G)
+    keep = lam > 1e-13 * lam[-1] if lam.size and lam[-1] > 0 else np.zeros(lam.size, bool)
+    bread = (V * np.where(keep, 1.0 / np.where(keep, lam, 1.0), 0.0)) @ V.T / np.outer(norms, norms)
     p = q if n_params is None else int(n_params)
-    var = np.diag(bread @ M @ bread) * n / max(n - p, 1)
+    var = np.einsum("ij,jk,ki->i", bread, meat, bread) * n / max(n - p, 1)
     return np.where(var > 0, np.sqrt(np.abs(var)), np.nan)
