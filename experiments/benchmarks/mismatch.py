@@ -3,8 +3,9 @@
     python -m experiments.benchmarks.mismatch [--grid configs/grid/mismatch.yaml] [--replicates R]
                                               [--methods pem akf] [--out results/benchmarks/mismatch]
 
-For each cell of the grid (``experiments.simulate.mismatch``: coloured noise, an unmodelled mode, a Duffing
-frequency, saturation, quantisation, and the plain cell), every method of the grid identifies the R records
+For each cell of the grid (the mismatch axes of ``experiments.simulate.mismatch``: coloured noise, an
+unmodelled mode, a Duffing frequency, saturation, quantisation, and the plain cell; the records made by the
+workflow's ``experiments.simulate.datasets.make_cell``), every method of the grid identifies the R records
 with its own config's prior and options (``configs/method/<name>.yaml``), and the errors against the
 plant's eigenfrequencies are scored by ``experiments.report.coverage.coverage`` on the modes each
 replicate determined (``converged_per_mode``). For pem three stds are scored: ``reported`` (what it
@@ -28,9 +29,7 @@ import methods
 from experiments.io import markdown_table, write_table
 from experiments.jobs.app import CONFIG_DIR
 from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, coverage
-from experiments.simulate import mismatch
-from experiments.simulate.datasets import UG
-from experiments.simulate.plant import build_plant
+from experiments.simulate import mismatch, scenarios
 
 DEFAULT_GRID = f"{CONFIG_DIR}/grid/mismatch.yaml"
 
@@ -115,27 +114,35 @@ def score(estimates: list, truth: np.ndarray, claims=None) -> list[dict]:
     return rows
 
 
+def cell_records(grid: dict, cell: dict, replicates: int) -> dict:
+    """The cell's dataset as the workflow makes it (``experiments.simulate.datasets.make_cell``)."""
+    from experiments.simulate.datasets import DatasetConfig, ScenarioConfig, make_cell
+
+    axes = dict(cell["axes"])
+    cfg = DatasetConfig(noise_ug=float(cell["noise_ug"]), n_samples=int(cell["n_samples"]), replicates=replicates,
+                        dt_s=float(axes.pop("dt_s", grid.get("dt_s", 0.02))), seed=int(grid["seed"]),
+                        bias_m_s2=float(axes.pop("bias_m_s2", grid.get("bias_m_s2", 0.0))),
+                        scenario=ScenarioConfig(**axes))
+    return make_cell(cfg)
+
+
 def run(grid: dict, replicates: int | None = None, method_names: list[str] | None = None) -> pd.DataFrame:
-    plant = build_plant()
-    truth = plant.truth()
-    n, dt = int(grid["n_samples"]), float(grid["dt_s"])
-    clean = plant.tip_acceleration(n, dt)
-    sigma = float(grid["noise_ug"]) * UG
     reps = int(replicates or grid["replicates"])
     rows = []
-    for axes in grid["cells"]:
-        axes = dict(axes)
-        records = mismatch.make_records(truth, clean, dt, sigma, axes, reps, int(grid["seed"]))
+    for cell in scenarios.grid_cells(grid).values():
+        axes = {k: v for k, v in cell["axes"].items() if k in mismatch.AXES}
+        data = cell_records(grid, cell, reps)
+        truth, dt = data["truth_freq_rad_s"], float(data["dt_s"])
         axis, value = cell_label(axes)
+        claims = None
+        if axes.get("duffing"):
+            def claims(est, delta=float(axes["duffing"]), amp=data["truth_amplitude_m_s2"], truth=truth):
+                return drift_claims(est, truth, amp, delta)
         for name in method_names or grid["methods"]:
             t0 = time.perf_counter()
-            estimates = run_method(name, records, dt)
+            estimates = run_method(name, data["accel_m_s2"], dt)
             seconds = time.perf_counter() - t0
-            claims = None
-            if axes.get("duffing"):
-                def claims(est, delta=float(axes["duffing"])):
-                    return drift_claims(est, truth["freq_rad_s"], truth["amplitude_m_s2"], delta)
-            for row in score(estimates, truth["freq_rad_s"], claims):
+            for row in score(estimates, truth, claims):
                 rows.append({"axis": axis, "value": value, "method": name, **row, "seconds": seconds})
             print(f"{axis:>16} {value:>6} {name:>10}: {seconds:6.1f} s", flush=True)
     return pd.DataFrame(rows)
@@ -152,8 +159,8 @@ def main(argv=None) -> None:
         parser.exit(2, f"error: --replicates = {args.replicates} must be at least 1\n")
     try:
         grid = OmegaConf.to_container(OmegaConf.load(args.grid))
-        for axes in grid["cells"]:
-            mismatch.check_axes(dict(axes))
+        for cell in scenarios.grid_cells(grid).values():
+            mismatch.check_axes(mismatch.present(cell["axes"]))
         for name in args.methods or grid["methods"]:
             method_setup(name)
     except (ValueError, OSError, KeyError) as exc:

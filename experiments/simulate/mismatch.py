@@ -2,7 +2,9 @@
 
 Every method's model is "m damped sinusoids in white noise". A practitioner's record is never that; these
 axes put one departure at a time into the truth plant's record, so that a method's reported std can be
-scored where it can fail (``experiments.benchmarks.mismatch``, ``configs/grid/mismatch.yaml``).
+scored where it can fail. They are scenario axes (``experiments.simulate.scenarios``) applied by
+``experiments.simulate.datasets.make_cell``; ``configs/grid/mismatch.yaml`` sweeps them and
+``experiments.benchmarks.mismatch`` scores the stds on them.
 
 - ``ar1`` = φ in (−1, 1): the measurement noise is AR(1), nₖ = φnₖ₋₁ + √(1 − φ²)σwₖ (same variance σ²);
 - ``unmodelled_mode`` = r ≥ 0: a fifth mode at ``UNMODELLED_RAD_S`` (cantilever mode 4, above the prior's
@@ -68,26 +70,32 @@ def backbone_rad_s(freq_rad_s: float, amplitude, delta: float) -> np.ndarray:
     return freq_rad_s * np.sqrt(1.0 + 2.0 * delta * np.asarray(amplitude, float) ** 2)
 
 
+RANGES = {"ar1": (-1.0, 1.0, "inside (-1, 1)"), "unmodelled_mode": (0.0, math.inf, "at least 0"),
+          "duffing": (-0.25, 1.0, "inside (-0.25, 1)"), "saturation": (0.0, 1.0, "in (0, 1]"),
+          "quantisation": (0.0, math.inf, "positive")}
+
+
 def check_axes(axes: dict) -> None:
     """``ValueError`` naming the first unknown axis or impossible value."""
     for key, value in axes.items():
         if key not in AXES:
             raise ValueError(f"mismatch axis '{key}' is not one of {', '.join(AXES)}")
+        lo, hi, text = RANGES[key]
         v = float(value)
-        ok = {"ar1": -1 < v < 1, "unmodelled_mode": v >= 0, "duffing": -0.25 < v < 1,
-              "saturation": 0 < v <= 1, "quantisation": v > 0}[key]
+        ok = {"unmodelled_mode": lo <= v, "saturation": lo < v <= hi}.get(key, lo < v < hi)
         if not ok:
-            raise ValueError(f"mismatch axis {key} = {value} is out of range")
+            raise ValueError(f"mismatch axis {key} = {value} must be {text}")
 
 
-def make_records(truth: dict, clean: np.ndarray, dt: float, sigma: float, axes: dict, replicates: int,
-                 seed: int) -> np.ndarray:
-    """R records (R × N) of one mismatch cell from the plant's ``truth`` (freq_rad_s, damping,
-    amplitude_m_s2, phase_rad) and its exact ``clean`` record; replicate r draws its noise from
-    ``default_rng([seed, r])`` (the same draws in every cell: common random numbers across axes)."""
-    check_axes(axes)
-    n = clean.size
-    t = dt * np.arange(n)
+def present(axes: dict) -> dict:
+    """The mismatch axes of a cell's axes (those set and not None)."""
+    return {k: axes[k] for k in AXES if axes.get(k) is not None}
+
+
+def mismatched_signal(truth: dict, clean: np.ndarray, dt: float, axes: dict) -> np.ndarray:
+    """The noise-free record of a cell: the plant's ``clean`` record, or the Duffing modes in its place,
+    plus the unmodelled mode. ``truth``: the plant's freq_rad_s, damping, amplitude_m_s2, phase_rad."""
+    t = dt * np.arange(clean.size)
     signal = clean
     if axes.get("duffing"):
         signal = duffing_modes(t, truth["freq_rad_s"], truth["damping"], truth["amplitude_m_s2"],
@@ -96,17 +104,21 @@ def make_records(truth: dict, clean: np.ndarray, dt: float, sigma: float, axes: 
         a = float(axes["unmodelled_mode"]) * float(truth["amplitude_m_s2"][-1])
         wu, zu = UNMODELLED_RAD_S, UNMODELLED_DAMPING
         signal = signal + a * np.exp(-zu * wu * t) * np.cos(wu * math.sqrt(1 - zu * zu) * t)
-    out = np.empty((replicates, n))
-    for r in range(replicates):
-        rng = np.random.default_rng([int(seed), r])
-        phi = float(axes.get("ar1") or 0.0)
-        noise = ar1_noise(rng, n, sigma, phi) if phi else sigma * rng.standard_normal(n)
-        y = signal + noise
-        if axes.get("saturation"):
-            limit = float(axes["saturation"]) * float(np.max(np.abs(signal)))
-            y = np.clip(y, -limit, limit)
-        if axes.get("quantisation"):
-            step = float(axes["quantisation"]) * sigma
-            y = step * np.round(y / step)
-        out[r] = y
-    return out
+    return signal
+
+
+def noise(rng: np.random.Generator, n: int, sigma: float, axes: dict) -> np.ndarray:
+    """One replicate's measurement noise: white, or AR(1) (:func:`ar1_noise`) with the ``ar1`` axis."""
+    phi = float(axes.get("ar1") or 0.0)
+    return ar1_noise(rng, n, sigma, phi) if phi else sigma * rng.standard_normal(n)
+
+
+def sensor(y: np.ndarray, signal: np.ndarray, sigma: float, axes: dict) -> np.ndarray:
+    """What the sensor gives for y: clipped at ``saturation`` × max|signal|, rounded to ``quantisation`` × σ."""
+    if axes.get("saturation"):
+        limit = float(axes["saturation"]) * float(np.max(np.abs(signal)))
+        y = np.clip(y, -limit, limit)
+    if axes.get("quantisation"):
+        step = float(axes["quantisation"]) * sigma
+        y = step * np.round(y / step)
+    return y
