@@ -78,7 +78,7 @@ class Options:
 # "estimate the mean and then remove it"), one run from the Table 4 prior.
 PAPER_OPTIONS = {"predictor": "kalman", "estimate_damping": False, "bias": "subtract_mean",
                  "data_driven_start": False, "n_starts": 1, "search": "gauss_newton",
-                 "repair_rounds": 0}
+                 "repair_rounds": 0, "drift_segments": 0}
 
 
 
