@@ -11,7 +11,8 @@ plant's eigenfrequencies are scored by ``experiments.report.coverage.coverage`` 
 replicate determined (``converged_per_mode``). For pem three stds are scored: ``reported`` (what it
 answers: the white-noise std, or the Newey–West robust one when its residual check fails), ``white`` (the
 white-noise std σ̂√diag((JᵀJ)⁻¹) always: the "before") and ``robust`` (the sandwich always, without the
-drift term); ``flagged``, the share of records whose residual check failed; and on the Duffing cells the
+drift term); ``flagged``, the share of records whose (final) residual check failed; ``absorbed``, the share whose
+residual line outside every band was refitted as an extra mode (``methods.pem._lines``); and on the Duffing cells the
 drift test's claims (:func:`drift_claims`). Writes ``coverage.csv`` / ``coverage.md``.
 """
 
@@ -93,7 +94,7 @@ def score(estimates: list, truth: np.ndarray, claims=None) -> list[dict]:
     """Coverage rows (one per std kind) of a method's R estimates; ``claims(est)``: more (error, std)
     pairs by name (:func:`drift_claims`)."""
     pooled: dict[str, tuple[list, list]] = {}
-    flagged = []
+    flagged, absorbed = [], []
     for est in estimates:
         ok = est.converged_per_mode & np.isfinite(est.frequencies)
         err = np.where(ok, est.frequencies - truth, np.nan)
@@ -106,10 +107,12 @@ def score(estimates: list, truth: np.ndarray, claims=None) -> list[dict]:
         check = est.extra.get("residual_check") if isinstance(est.extra, dict) else None
         if check is not None:
             flagged.append(not check["white"])
+            absorbed.append("absorbed_line_rad_s" in est.extra)
     rows = []
     for kind, (e, s) in pooled.items():
         row = {"std": kind, **coverage(np.array(e), np.array(s))}
         row["flagged"] = float(np.mean(flagged)) if flagged else np.nan
+        row["absorbed"] = float(np.mean(absorbed)) if absorbed else np.nan
         rows.append(row)
     return rows
 

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from methods.estimate import Estimate, check_inputs, failed, make_options
-from methods.pem import _drift, _residual, search
+from methods.pem import _drift, _lines, _residual, search
 from methods.pem import _fast as fast
 from methods.pem._pencil import PENCIL_WINDOW, pencil_start
 from methods.pem.predictor import modal_basis
@@ -72,13 +72,14 @@ class Options:
     tol_loss: float = 1e-10              # stop when the relative loss improvement falls below this
     tol_step: float = 1e-4               # stop when every step is below this many standard deviations
     drift_segments: int = 3              # segments of the drift test when the residual is not white; 0: off
+    absorb_lines: bool = True            # refit with a residual line outside every band as an extra mode
 
 
 # The paper's setting (§4.3): Kalman predictor with its LQE tuning, damping fixed, mean removed (§4 —
 # "estimate the mean and then remove it"), one run from the Table 4 prior.
 PAPER_OPTIONS = {"predictor": "kalman", "estimate_damping": False, "bias": "subtract_mean",
                  "data_driven_start": False, "n_starts": 1, "search": "gauss_newton",
-                 "repair_rounds": 0, "drift_segments": 0}
+                 "repair_rounds": 0, "drift_segments": 0, "absorb_lines": False}
 
 
 
@@ -108,7 +109,9 @@ def identify(y, dt, prior, **options) -> Estimate:
     # One BLAS thread inside the fit: its matrices are small (p ≤ 4m + 1 columns), and OpenBLAS's own
     # threads made it 2.6–5× slower on 2 cores (measured: experiments.benchmarks.pem_speed --parts warm blas).
     with _blas().limit(limits=1, user_api="blas"):
-        return _drift.attach(_identify(y, dt, prior, opts), y, dt, prior, opts)
+        est = _lines.absorb(_identify(y, dt, prior, opts), y, dt, prior, opts,
+                            lambda wider: _identify(y, dt, wider, opts))
+        return _drift.attach(est, y, dt, prior, opts)
 
 
 @functools.cache

@@ -155,3 +155,24 @@ def test_segment_drift_refuses_too_many_segments():
         pem.segment_drift(np.zeros(100), DT, [18.0], n_segments=4)
     with pytest.raises(ValueError, match="drift_segments"):
         pem.identify(np.ones(100), DT, [18.0], drift_segments=1)
+
+
+def _with_line(seed=10, n=512, noise=1e-4):
+    rng = np.random.default_rng(seed)
+    t = DT * np.arange(n)
+    clean = np.exp(-0.05 * t) * np.cos(20.3 * t) + 0.5 * np.exp(-0.1 * t) * np.cos(56.7 * t + 1.0)
+    line = 1.0 * np.exp(-0.05 * t) * np.cos(90.0 * t)                   # above 56.7's band (52·1.5 = 78)
+    return clean + line + noise * rng.standard_normal(n)
+
+
+def test_an_unmodelled_line_above_the_band_is_fitted_and_set_aside():
+    truth = np.hypot([20.3, 56.7], [0.05, 0.1])        # natural frequency √(ω_d² + σ²) of e^{−σt}cos ω_d t
+    plain = pem.identify(_with_line(), DT, [18.0, 52.0], absorb_lines=False)
+    est = pem.identify(_with_line(), DT, [18.0, 52.0])
+    assert est.extra["absorbed_line_rad_s"] == pytest.approx(np.hypot(90.0, 0.05), abs=1e-3)
+    assert est.frequencies.size == 2 and est.extra["residual_check"]["white"]
+    # with the line fitted the errors are noise-sized; without, the line biases the two modes by many of
+    # those std, and the (robust) std of the two-mode fit has to swell to cover it
+    assert np.all(np.abs(est.frequencies - truth) <= 3 * est.std)
+    assert np.max(np.abs(plain.frequencies - truth) / est.std) > 5
+    assert np.all(plain.std > 5 * est.std)
