@@ -4,7 +4,8 @@ An unmodelled mode (the beam's next mode above the prior's band, a harmonic of a
 response) biases the modes the fit has: its projection on their Jacobian columns moves them. That bias is
 deterministic and invisible in the residual (the normal equations make Jᵀε = 0), so no std, robust or not,
 can cover it. The residual check sees the line itself (``extra["residual_check"]["peak_rad_s"]``): when it
-lies outside every prior frequency's search band, :func:`absorb` refits with one more mode started there and
+stands above both the floor and its neighbouring bins (a line, not a hump of coloured noise) and lies
+outside every prior frequency's search band, :func:`absorb` refits with one more mode started there and
 reports the prior's modes only. ``extra["absorbed_line_rad_s"]`` gives the line's fitted frequency.
 """
 
@@ -32,7 +33,8 @@ def absorb(est, y: np.ndarray, dt: float, prior: np.ndarray, opts, identify_prio
     ``est``. ``identify_prior(prior)`` runs the fit (the caller's, without this step) on another prior."""
     check = est.extra.get("residual_check")
     if (not opts.absorb_lines or check is None or check["white"]
-            or not check["peak_over_floor"] > check["peak_threshold"]):
+            or not check["peak_over_floor"] > check["peak_threshold"]
+            or not check["peak_over_neighbours"] > check["peak_threshold"]):     # a line, not coloured noise
         return est
     line = float(check["peak_rad_s"])
     if not outside_bands(line, prior, opts.frequency_band, np.pi / dt) or np.any(np.isclose(prior, line)):

@@ -92,7 +92,9 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
     -------
     dict
         ``white`` (bool), ``ljung_box_q``, ``ljung_box_lags``, ``ljung_box_p``, ``noise_floor_m_s2``
-        (σ̂_w), ``variance_ratio``, ``peak_over_floor``, ``peak_threshold``, ``peak_rad_s``.
+        (σ̂_w), ``variance_ratio``, ``peak_over_floor``, ``peak_over_neighbours`` (the peak against the
+        median of its ±max(8, N/64) neighbouring bins: large for a line, not for a broad hump),
+        ``peak_threshold``, ``peak_rad_s``.
 
     Notes
     -----
@@ -119,14 +121,20 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
         ratio = power / floor
         j = int(np.argmax(ratio))
         peak, var_ratio = float(ratio[j]), variance / floor
+        # the same peak against its neighbourhood (±K bins, the peak's ±1 left out): a line stands out of
+        # it, a broad hump of coloured noise does not
+        k = max(8, n // 64)
+        near = np.r_[power[max(j - k, 0):max(j - 1, 0)], power[j + 2:j + k + 1]]
+        local = float(np.median(near) / math.log(2.0)) if near.size else floor
+        peak_local = float(power[j] / local) if local > 0 else np.inf
     else:                                   # a residual at rounding level: nothing left to explain
-        j, peak, var_ratio = 0, 0.0, 1.0
+        j, peak, var_ratio, peak_local = 0, 0.0, 1.0, 0.0
     bins = max(power.size, 1)
     nu = max(0.96 * bins, 2.0)
     threshold = float(nu / 2 * ((bins / alpha) ** (2 / nu) - 1))     # F(2, ν) survival (1 + 2x/ν)^(−ν/2) = α/M
     return {"white": bool(p_lb >= alpha and peak <= threshold), "ljung_box_q": q, "ljung_box_lags": h,
             "ljung_box_p": p_lb, "noise_floor_m_s2": math.sqrt(max(floor, 0.0)), "variance_ratio": var_ratio,
-            "peak_over_floor": peak, "peak_threshold": threshold,
+            "peak_over_floor": peak, "peak_over_neighbours": peak_local, "peak_threshold": threshold,
             "peak_rad_s": float(2 * np.pi * (j + 1) / (n * dt))}
 
 
