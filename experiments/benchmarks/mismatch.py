@@ -8,17 +8,25 @@ unmodelled mode, a Duffing frequency, saturation, quantisation, and the plain ce
 workflow's ``experiments.simulate.datasets.make_cell``), every method of the grid identifies the R records
 with its own config's prior and options (``configs/method/<name>.yaml``), and the errors against the
 plant's eigenfrequencies are scored by ``experiments.report.coverage.coverage`` on the modes each
-replicate determined (``converged_per_mode``). For pem three stds are scored: ``reported`` (what it
-answers: the white-noise std, or the Newey–West robust one when its residual check fails), ``white`` (the
-white-noise std σ̂√diag((JᵀJ)⁻¹) always: the "before") and ``robust`` (the sandwich always, without the
-drift term); ``flagged``, the share of records whose (final) residual check failed; ``absorbed``, the share whose
-residual line outside every band was refitted as an extra mode (``methods.pem._lines``); and on the Duffing cells the
-drift test's claims (:func:`drift_claims`). Writes ``coverage.csv`` / ``coverage.md``.
+replicate determined (``converged_per_mode``). For pem these stds are scored:
+
+- ``reported``: what it answers (the white-noise std, or the robust one when its residual check fails,
+  with the drift term for a drifting mode);
+- ``white``: the white-noise std σ̂√diag((JᵀJ)⁻¹) of the same fit;
+- ``robust``: the sandwich std, without the drift term;
+- ``before``: pem as it was before the residual check (``absorb_lines`` and ``drift_segments`` off,
+  the white-noise std);
+- on the Duffing cells, the drift test's claims (:func:`drift_claims`).
+
+``flagged`` is the share of records whose final residual check failed; ``absorbed`` the share whose
+residual line outside every band was refitted as an extra mode (``methods.pem._lines``). Writes
+``coverage.csv`` / ``coverage.md``.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 from pathlib import Path
 
@@ -54,8 +62,13 @@ def cell_label(axes: dict) -> tuple[str, str]:
     return axis, f"{value:g}"
 
 
-def run_method(name: str, records: np.ndarray, dt: float) -> list:
+# pem as it was before the residual check: no line absorbed, no drift test, and its white-noise std
+BEFORE = {"absorb_lines": False, "drift_segments": 0}
+
+
+def run_method(name: str, records: np.ndarray, dt: float, extra_options: dict | None = None) -> list:
     base, prior, options = method_setup(name)
+    options = {**options, **(extra_options or {})}
     batch = methods.get_batch(base)
     if batch is not None:
         return batch(records, dt, prior, **options)
@@ -147,6 +160,12 @@ def run(grid: dict, replicates: int | None = None, method_names: list[str] | Non
             seconds = time.perf_counter() - t0
             for row in score(estimates, truth, claims):
                 rows.append({"axis": axis, "value": value, "method": name, **row, "seconds": seconds})
+            if name.partition(":")[0] == "pem":
+                before = [dataclasses.replace(e, std=e.extra.get("white_noise_std", e.std), extra={})
+                          for e in run_method(name, data["accel_m_s2"], dt, BEFORE)]
+                row = next(r for r in score(before, truth) if r["std"] == "reported")
+                rows.append({"axis": axis, "value": value, "method": name, **row, "std": "before",
+                             "seconds": np.nan})
             print(f"{axis:>16} {value:>6} {name:>10}: {seconds:6.1f} s", flush=True)
     return pd.DataFrame(rows)
 
