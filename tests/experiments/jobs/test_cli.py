@@ -107,27 +107,3 @@ def test_a_long_single_record_says_what_it_is_doing(workdir):
     info = [ln for ln in proc.stderr.splitlines() if ln.startswith("info: ")]
     assert len(info) == 2 and "100000 samples" in info[0] and "done in" in info[1], proc.stderr
     assert "mode 1: 3 rad/s" in proc.stdout
-
-
-def test_identify_on_a_coloured_noise_csv_says_the_model_does_not_explain_it(workdir):
-    """pem on a user's record in AR(1) noise: the residual check, the robust std and (for a drifting mode) the
-    drift test on the terminal and in estimate.json."""
-    import json
-
-    t = np.arange(1024) * 0.02
-    w = np.random.default_rng(9).standard_normal(t.size)
-    noise = np.zeros(t.size)
-    for k in range(1, t.size):
-        noise[k] = 0.9 * noise[k - 1] + 0.44 * 0.01 * w[k]
-    y = np.exp(-0.05 * t) * np.cos(20.3 * t) + noise
-    rows = "".join(f"{a:.2f},{b:.6f}\n" for a, b in zip(t, y, strict=True))
-    (workdir / "coloured.csv").write_text("t,accel\n" + rows)
-    proc = run("experiments.jobs.identify", "method=pem", "data.path=coloured.csv", "prior=[18]",
-               "hydra.run.dir=coloured", "tracking.enabled=false", cwd=workdir)
-    assert proc.returncode == 0, proc.stderr
-    assert "residual: NOT white" in proc.stdout and "robust std" in proc.stdout
-    est = json.loads((workdir / "coloured" / "estimate.json").read_text())
-    assert est["residual_check"]["white"] is False
-    assert est["std_rad_s"][0] == pytest.approx(max(est["residual_check"]["robust_std_rad_s"][0],
-                                                    est["std_rad_s"][0]))
-    assert est["white_noise_std"][0] < est["std_rad_s"][0]
