@@ -82,9 +82,8 @@ def std_kinds(est) -> dict[str, np.ndarray]:
     check = est.extra.get("residual_check") if isinstance(est.extra, dict) else None
     if check is not None:
         out["white"] = est.extra.get("white_noise_std", est.std)
-        out["robust"] = check["robust_std_rad_s"]
-        if "spectral_std_rad_s" in check:
-            out["spectral"] = check["spectral_std_rad_s"]
+        out["robust"] = check.get("robust_std_rad_s", est.std)       # a white residual: its own std
+        out["spectral"] = check.get("spectral_std_rad_s", est.std)
     return out
 
 

@@ -4,7 +4,8 @@ A structure whose stiffness depends on its amplitude (a clamp, a joint, a Duffin
 time has no single "frequency": a fit to the whole record averages it, and its white-noise std describes
 the noise only. :func:`segment_drift` fits K successive, disjoint segments with :func:`methods.pem.identify`
 (from the whole record's answer) and tests, per mode, whether their frequencies ω̂ₖ agree within their
-robust std sₖ (``extra["residual_check"]["robust_std_rad_s"]``):
+robust std sₖ (``extra["residual_check"]["robust_std_rad_s"]``, or the white-noise std of a segment whose
+residual is white):
 
     ω̄ = Σ ω̂ₖ/sₖ² / Σ 1/sₖ²,   χ² = Σₖ (ω̂ₖ − ω̄)²/sₖ²  ~  χ²_{K−1}  when the frequency is constant.
 
@@ -114,7 +115,7 @@ def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = DRIFT
         ok = est.converged_per_mode & np.isfinite(est.frequencies)
         if check is None or not ok.any():
             continue
-        s = np.asarray(check["robust_std_rad_s"], float)
+        s = np.asarray(check.get("robust_std_rad_s", est.std), float)     # a white segment: its std
         freq[k] = np.where(ok, est.frequencies, np.nan)
         std[k] = np.where(ok & (s > 0), s, np.nan)
         amp[k] = _envelope(part, dt, est.frequencies, est.extra["damping"])

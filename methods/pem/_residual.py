@@ -184,8 +184,10 @@ def sandwich_std(J, e, n_params: int | None = None, bandwidth: int | None = None
 def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: float = ALPHA) -> dict | None:
     """:func:`residual_check` of a pem fit's residual and the robust std of its frequencies in prior order
     (``slot`` as in ``methods.pem._fit._label_modes``); None when the fit kept no residual or Jacobian (a
-    failed start). ``robust_std_rad_s`` is the larger of :func:`sandwich_std` (``hac_std_rad_s``) and
-    :func:`spectral_sandwich_std` (``spectral_std_rad_s``). The Jacobian is the fast path's reduced one
+    failed start). When the residual is not white, ``robust_std_rad_s`` is the larger of
+    :func:`sandwich_std` (``hac_std_rad_s``) and :func:`spectral_sandwich_std` (``spectral_std_rad_s``);
+    a white residual's check carries no robust std (the white-noise one is honest there, and the two
+    sandwiches would double the estimate's cost). The Jacobian is the fast path's reduced one
     (``fit["Jr"]``) or the reference search's full one (``fit["J"]``); ω is its first m columns either way."""
     e = fit.get("e")
     J = fit.get("Jr") if fit.get("Jr") is not None else fit.get("J")
@@ -199,6 +201,8 @@ def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: flo
     else:
         basis = J
     check = residual_check(e, dt, alpha, basis)
+    if check["white"]:          # the white-noise std is the honest one: the sandwich is not needed (cost)
+        return check
     std, bandwidth = sandwich_std(J, e, n_params)
     spectral = spectral_sandwich_std(J, e, n_params)
     # the larger of two kernel estimates: the lag window copes with a residual whose size changes over the
