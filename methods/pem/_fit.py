@@ -36,8 +36,8 @@ import numpy as np
 
 from methods import labels
 from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
+from methods.pem import _drift, _lines, _map, _residual, search
 from methods.pem import _fast as fast
-from methods.pem import _map, search
 from methods.pem._pencil import PENCIL_WINDOW, pencil_start
 from methods.pem.predictor import modal_basis
 
@@ -77,13 +77,15 @@ class Options:
     # OmegaConf's structured configs take no union of a list and a number; _check_prior_std checks it.
     prior_std_rad_s: Any = None
     damping_prior_std: float | None = None   # with prior_std_rad_s: ζ ~ N(damping_ratio, this²); None: ζ free
+    drift_segments: int = 3              # segments of the drift test when the residual is not white; 0: off
+    absorb_lines: bool = True            # refit with a residual line outside every band as an extra mode
 
 
 # The paper's setting (§4.3): Kalman predictor with its LQE tuning, damping fixed, mean removed (§4 —
 # "estimate the mean and then remove it"), one run from the Table 4 prior.
 PAPER_OPTIONS = {"predictor": "kalman", "estimate_damping": False, "bias": "subtract_mean",
                  "data_driven_start": False, "n_starts": 1, "search": "gauss_newton",
-                 "repair_rounds": 0}
+                 "repair_rounds": 0, "drift_segments": 0, "absorb_lines": False}
 
 
 
@@ -115,7 +117,9 @@ def identify(y, dt, prior, **options) -> Estimate:
     with _blas().limit(limits=1, user_api="blas"):
         if opts.prior_std_rad_s is not None:
             return _identify_map(y, dt, prior, opts)
-        return _identify(y, dt, prior, opts)
+        est = _lines.absorb(_identify(y, dt, prior, opts), y, dt, prior, opts,
+                            lambda wider: _identify(y, dt, wider, opts))
+        return _drift.attach(est, y, dt, prior, opts)
 
 
 @functools.cache
@@ -351,6 +355,8 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError(f"max_iterations = {opts.max_iterations} must be between 1 and {MAX_ITERATIONS}")
     if not (opts.start_spread >= 0 and opts.tol_loss >= 0 and opts.tol_step >= 0):
         raise ValueError("start_spread, tol_loss and tol_step must be non-negative")
+    if opts.drift_segments != 0 and opts.drift_segments < 2:
+        raise ValueError(f"drift_segments = {opts.drift_segments} must be 0 (off) or at least 2")
     if opts.pencil_extra_order < 0:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
     if opts.prior_std_rad_s is not None:
@@ -487,8 +493,24 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
         "total_iterations": int(sum(f["iterations"] for f in fits)),
     }
     message = f"{best['message']} (start '{best['start']}', {agree}/{len(fits)} starts agree)"
+    std, message = _residual_hook(best, slot, free, dt, std, extra, message)
     return Estimate(freq, std, converged=converged, iterations=int(best["iterations"]),
                     message=message, extra=extra, converged_per_mode=per_mode)
+
+
+def _residual_hook(best, slot, free, dt, std, extra, message):
+    """extra["residual_check"] (:func:`methods.pem._residual.assess_fit`); when the residual is not white,
+    the reported std is the Newey–West robust one (the white-noise one kept in extra["white_noise_std"])."""
+    check = _residual.assess_fit(best, slot, int(sum(free)), dt)
+    extra["residual_check"] = check
+    if check is None or check["white"]:
+        return std, message
+    robust = check["robust_std_rad_s"]
+    extra["white_noise_std"] = std
+    std = np.where(np.isfinite(robust) & np.isfinite(std), robust, std)
+    return std, (f"{message}; residual not white (Ljung-Box p = {check['ljung_box_p']:.2g}, peak "
+                 f"{check['peak_over_floor']:.3g}x floor at {check['peak_rad_s']:.4g} rad/s): std is the robust "
+                 "(sandwich) one")
 
 
 def _mode_table(fit: dict, free, m: int):
