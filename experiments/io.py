@@ -161,7 +161,7 @@ def save_figure(fig, path) -> Path:
     Identical figures give identical bytes: no date or software version in the metadata, and SVG element
     ids from a fixed hash salt (matplotlib's ``svg.hashsalt``) instead of random ones.
     """
-    import matplotlib
+    import matplotlib  # ~0.5 s: not paid by the jobs that never draw
 
     path = Path(path)
     fmt = path.suffix.lstrip(".")

@@ -33,6 +33,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 import yaml  # noqa: E402
 
 import methods  # noqa: E402
@@ -123,8 +124,6 @@ def run(args) -> dict:
 
 
 def report(result: dict, args) -> str:
-    import pandas as pd
-
     df = pd.DataFrame(result["rows"])
     lines = [f"{result['config']}: {args.structures} random structures (seed {args.seed}), N = {args.n_samples}, "
              f"noise {args.noise:g} × largest amplitude, {result['seconds']:.0f} s", ""]

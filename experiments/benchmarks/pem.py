@@ -39,7 +39,10 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import scipy.optimize  # noqa: E402
+from omegaconf import OmegaConf  # noqa: E402
 
+from experiments import io  # noqa: E402
+from experiments.benchmarks import pem_speed  # noqa: E402
 from experiments.report.scoring import identifiable  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 from experiments.simulate.datasets import UG, replicate_rng  # noqa: E402
@@ -114,10 +117,6 @@ def grid(replicates: int, seed: int, jobs: int, out: str, compare: str | None, m
 
     This is how "accuracy unchanged" is checked when the implementation changes: run it with the old code
     (e.g. a checkout of main on ``PYTHONPATH``) and the new, same machine, same seed, then compare."""
-    from omegaconf import OmegaConf
-
-    from experiments import io
-
     full = OmegaConf.load(Path(__file__).resolve().parents[2] / "configs" / "grid" / "full.yaml")
     cells = [("default", float(noise), int(n), replicates, seed) for n in full.n_samples for noise in full.noise_ug
              if max_n is None or n <= max_n]
@@ -322,7 +321,6 @@ def main(argv=None) -> None:
     if args.seed == 20261121:
         raise SystemExit("seed 20261121 is the grid's scoring seed: benchmark and tune on other seeds")
     if args.part in ("all", "speed"):
-        from experiments.benchmarks import pem_speed  # the issue-12 targets, with comparison columns
         pem_speed.main(["--repeats", str(args.repeats)])
     if args.part == "speed-old":
         speed(args.repeats, args.seed)

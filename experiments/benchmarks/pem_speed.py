@@ -23,6 +23,7 @@ machine's default OpenBLAS threads (``OPENBLAS_NUM_THREADS`` unset, as a user ca
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import subprocess
 import sys
@@ -32,6 +33,7 @@ import tracemalloc
 import numpy as np
 import scipy.optimize
 
+from experiments import io
 from experiments.benchmarks import interleaved_medians
 from experiments.simulate.datasets import UG, replicate_rng
 from experiments.simulate.plant import build_plant
@@ -85,7 +87,7 @@ def _reference_fit(y, recursive: bool):
 
 
 def _era_fit(y):
-    import control
+    import control  # optional extra (.[peers])
     sysd, _ = control.era(y[None, None, :], 2 * PRIOR.size + 1, m=64, n=64, dt=DT_S)
     s = np.log(np.linalg.eigvals(sysd.A).astype(complex)) / DT_S
     return np.sort(np.abs(s[s.imag > 0]))[:PRIOR.size]
@@ -108,7 +110,6 @@ def warm(repeats: int) -> None:
             "pem through the reference search and the recursive CasADi predictor": lambda: _reference_fit(y, True),
             "pem paper setting (Kalman predictor, GN, 1 start)":
             lambda: pem.identify(y, DT_S, PRIOR, **pem.PAPER_OPTIONS).frequencies}
-    import importlib
     peers = []
     for peer in ("era", "hdmd", "n4sid"):                   # the project's peer methods (issue 10), defaults
         try:
@@ -120,7 +121,7 @@ def warm(repeats: int) -> None:
         except (ImportError, ValueError) as exc:
             print(f"(no {peer} row: {exc})")
     try:
-        import control  # noqa: F401
+        import control  # noqa: F401  # optional extra (.[peers]): the ERA row only when installed
         rows["ERA (control.era directly, order 9, 64 x 64 blocks) — peer library"] = lambda: _era_fit(y)
     except ImportError:
         print("(python-control not installed: no ERA row)")
@@ -181,11 +182,10 @@ def scaling(sizes: list[int], out: str) -> None:
         st = np.polyfit(np.log(np.asarray(sizes)[big]), np.log(np.asarray(times)[big]), 1)[0]
         sm = np.polyfit(np.log(np.asarray(sizes)[big]), np.log(np.asarray(mems)[big]), 1)[0]
         print(f"\nlog-log slope for N >= 4096: time {st:.2f}, memory {sm:.2f} (1 = linear)")
-    import matplotlib
+    import matplotlib  # ~0.5 s, only for the figure at the end; Agg before pyplot
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from experiments import io
     fig, ax = plt.subplots(figsize=(5.5, 4))
     ax.loglog(sizes, times, "-", color="C0", label="time per fit (s)")
     one = np.asarray(single)

@@ -19,7 +19,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from experiments.io import markdown_table  # noqa: E402
+from experiments.io import (
+    markdown_table,  # noqa: E402
+    write_table,  # noqa: E402
+)
+from experiments.report import htmltables  # noqa: E402
 from experiments.report.plots import MAX_FAILURE_RATE, _save  # noqa: E402
 from experiments.report.plots import _style as _base_style  # noqa: E402
 from experiments.report.success import success_rates  # noqa: E402
@@ -184,9 +188,6 @@ def basin_edges(rates: pd.DataFrame) -> pd.DataFrame:
 def figures(summary: pd.DataFrame, results: pd.DataFrame, out: Path) -> tuple[list[Path], str]:
     """Every axis figure, the basin figure and table (the grid's page lists the figures with their captions,
     experiments/report/captions/); returns the files and a Markdown section with the basin's edges."""
-    from experiments.io import write_table
-    from experiments.report import htmltables
-
     files = []
     for axis in swept_axes(summary):
         files += axis_figure(summary, axis, out / "figures" / f"axis_{axis}")

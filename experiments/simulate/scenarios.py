@@ -28,6 +28,7 @@ and R = 20 is a prefix of R = 100.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -95,8 +96,6 @@ def per_mode(value, m: int, axis: str) -> list[float]:
 
 def apply_to_plant(plant_cfg, axes: dict):
     """The plant config of a cell: damping, the moved mode 3, the scaled excitation (a new object)."""
-    import dataclasses
-
     m = len(plant_cfg.shape_modes)
     changes = {}
     if axes.get("damping") is not None:

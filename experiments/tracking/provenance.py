@@ -17,8 +17,13 @@ import sys
 from importlib.metadata import PackageNotFoundError, packages_distributions, version
 from pathlib import Path
 
+from hydra import compose, initialize_config_dir
+from hydra.core.config_store import ConfigStore
+from hydra.core.global_hydra import GlobalHydra
+from omegaconf import OmegaConf
+
 import methods
-from experiments.jobs.config import method_of_config
+from experiments.config_schema import IdentifyConfig, method_of_config
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -45,13 +50,6 @@ def resolved_method_config(config_name: str, overrides: tuple[str, ...] = (), ro
     nodes, so no method module is imported: the ``Options`` defaults live in the method's module, which the
     identify rule takes as an input (:func:`method_code_files`).
     """
-    from hydra import compose, initialize_config_dir
-    from hydra.core.config_store import ConfigStore
-    from hydra.core.global_hydra import GlobalHydra
-    from omegaconf import OmegaConf
-
-    from experiments.jobs.config import IdentifyConfig
-
     if not _HYDRA_ROOT or _HYDRA_ROOT[0] != root:
         cs = ConfigStore.instance()
         cs.store(name="identify_schema", node=IdentifyConfig)

@@ -21,6 +21,7 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+from omegaconf import OmegaConf
 
 from experiments.io import atomic_write_text, write_json
 from experiments.report.summary import job_metrics, summarize
@@ -55,8 +56,6 @@ def job_params(record: dict, table: pd.DataFrame | None = None) -> dict:
 
 
 def config_yaml(record: dict) -> str:
-    from omegaconf import OmegaConf
-
     return OmegaConf.to_yaml(OmegaConf.create(record["config"]))
 
 

@@ -50,7 +50,7 @@ def _fit(y, dt, prior, opts: Options):
     if order < 2 * prior.size:
         return too_short(prior, y.size, "BOPDMD")
     from pydmd import BOPDMD  # optional extra (.[peers])
-    from pydmd.preprocessing import hankel_preprocessing
+    from pydmd.preprocessing import hankel_preprocessing  # optional extra (.[peers])
 
     dmd = hankel_preprocessing(BOPDMD(svd_rank=order, eig_constraints={"stable", "conjugate_pairs"},
                                       num_trials=opts.num_trials, trial_size=opts.trial_size), d=d)

@@ -36,7 +36,7 @@ def check_options(prior, dt, **options) -> Options:
 
 
 def _fit(y, dt, prior, opts: Options):
-    import pandas as pd  # nfoursid takes a DataFrame
+    import pandas as pd  # nfoursid takes a DataFrame; 0.4 s no other method pays
     from nfoursid.nfoursid import NFourSID  # optional extra (.[peers])
 
     order = opts.model_order(prior.size)

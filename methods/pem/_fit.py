@@ -33,6 +33,7 @@ import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from methods.estimate import Estimate, check_inputs, failed, make_options
 from methods.pem import _fast as fast
@@ -112,8 +113,6 @@ def identify(y, dt, prior, **options) -> Estimate:
 
 @functools.cache
 def _blas():
-    from threadpoolctl import ThreadpoolController  # inspects the loaded libraries: once per process
-
     return ThreadpoolController()
 
 

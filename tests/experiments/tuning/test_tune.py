@@ -13,8 +13,8 @@ import pytest
 from hydra import compose, initialize_config_dir
 
 from experiments.jobs.config import register
+from experiments.report.objective import DEFAULT_PENALTY, FAILED_RATIO, objective
 from experiments.simulate.datasets import DatasetConfig, write_cell
-from experiments.tuning.objective import DEFAULT_PENALTY, FAILED_RATIO, objective
 from experiments.tuning.space import base_params, resolve
 
 ROOT = Path(__file__).resolve().parents[3]

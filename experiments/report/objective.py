@@ -1,4 +1,5 @@
-"""The tuning objective: how far a method is from the Cramér–Rao bound, with a price on failures.
+"""The tuning objective (shared by the tuning command and a sweep's identify jobs): how far a method is from
+the Cramér–Rao bound, with a price on failures.
 
 For one cell (noise level, record length) with summary rows per mode (``experiments.report.summary``):
 
