@@ -11,14 +11,19 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
+import yaml
 from omegaconf import MISSING
 
 import methods
 
 __all__ = ["DataConfig", "TrackingConfig", "IdentifyConfig", "ReproduceConfig", "method_schema",
-           "method_of_config", "variant_label"]
+           "method_of_config", "variant_label", "stated_options", "METHOD_CONFIG_DIR"]
+
+# configs/ travels with the code as experiments/configs (a link in the repository, package data when installed)
+METHOD_CONFIG_DIR = Path(__file__).resolve().parent / "configs" / "method"
 
 
 @dataclass
@@ -79,3 +84,19 @@ def method_of_config(config_name: str) -> str | None:
 def variant_label(method: str, variant: str) -> str:
     """How tables, figures and MLflow name a method variant: ``akf`` (default config) or ``akf:tuned``."""
     return method if variant in ("", "default") else f"{method}:{variant}"
+
+
+def stated_options(config_name: str) -> dict:
+    """The options a method config sets itself: the ``options:`` mapping of ``configs/method/<name>.yaml``,
+    in file order. For a variant (``pem_paper``) that is what it changes from its method's ``Options``
+    defaults; for a method's own config, what differs from them (the paper's per-mode tables).
+
+    Raises
+    ------
+    ValueError
+        When no such config file exists.
+    """
+    path = METHOD_CONFIG_DIR / f"{config_name}.yaml"
+    if not path.is_file():
+        raise ValueError(f"method config '{config_name}': no file configs/method/{config_name}.yaml")
+    return dict((yaml.safe_load(path.read_text()) or {}).get("options") or {})

@@ -43,6 +43,7 @@ from omegaconf import OmegaConf  # noqa: E402
 
 from experiments import io  # noqa: E402
 from experiments.benchmarks import pem_speed  # noqa: E402
+from experiments.config_schema import stated_options  # noqa: E402
 from experiments.report.scoring import identifiable  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 from experiments.simulate.datasets import UG, replicate_rng  # noqa: E402
@@ -245,7 +246,7 @@ def speed(repeats: int, seed: int) -> None:
         runs = {"one start (pencil)": {"n_starts": 1},
                 "one start (Table 4 prior) + its repair restarts": {"n_starts": 1, "data_driven_start": False},
                 "default multi-start": {},
-                "paper setting (Kalman, GN, 1 start)": pem.PAPER_OPTIONS}
+                "paper setting (Kalman, GN, 1 start)": stated_options("pem_paper")}
         for name, opts in runs.items():
             pem.identify(y, DT_S, PRIOR, **opts)
             ms, est = _median_ms(lambda o=opts, y=y: pem.identify(y, DT_S, PRIOR, **o), repeats)

@@ -35,6 +35,7 @@ import scipy.optimize
 
 from experiments import io
 from experiments.benchmarks import interleaved_medians
+from experiments.config_schema import stated_options
 from experiments.simulate.datasets import UG, replicate_rng
 from experiments.simulate.plant import build_plant
 from methods import pem
@@ -109,7 +110,7 @@ def warm(repeats: int) -> None:
             lambda: _reference_fit(y, recursive=False),
             "pem through the reference search and the recursive CasADi predictor": lambda: _reference_fit(y, True),
             "pem paper setting (Kalman predictor, GN, 1 start)":
-            lambda: pem.identify(y, DT_S, PRIOR, **pem.PAPER_OPTIONS).frequencies}
+            lambda: pem.identify(y, DT_S, PRIOR, **stated_options("pem_paper")).frequencies}
     peers = []
     for peer in ("era", "hdmd", "n4sid"):                   # the project's peer methods (issue 10), defaults
         try:
@@ -146,13 +147,14 @@ def warm(repeats: int) -> None:
 def cold() -> None:
     """First fit of a new record shape in a fresh interpreter (imports excluded)."""
     code = ("import time, numpy as np; from experiments.benchmarks.pem_speed import record, PRIOR, DT_S; "
-            "from methods import pem; y = record({n}); t0 = time.perf_counter(); "
+            "from experiments.config_schema import stated_options; from methods import pem; "
+            "y = record({n}); t0 = time.perf_counter(); "
             "pem.identify(y, DT_S, PRIOR{opts}); print(1e3 * (time.perf_counter() - t0))")
     print("\n## Cold first fit of a record shape (fresh interpreter, imports excluded)")
     print("| N | setting | first fit ms |")
     print("|---|---|---|")
     for n in (256, 1000, 2048):
-        for label, opts in (("default", ""), ("paper (Kalman)", ", **pem.PAPER_OPTIONS")):
+        for label, opts in (("default", ""), ("paper (Kalman)", ", **stated_options('pem_paper')")):
             out = subprocess.run([sys.executable, "-c", code.format(n=n, opts=opts)], capture_output=True,
                                  text=True, check=True).stdout
             print(f"| {n} | {label} | {float(out):.0f} |")
