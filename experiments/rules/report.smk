@@ -21,6 +21,8 @@ report: "../report/captions/workflow.rst"
 
 
 rule aggregate:
+    message:
+        "grid {wildcards.grid}: tables, figures and the summary page"
     input:
         results=lambda wc: identify_dirs(wc.grid),
         experiments=lambda wc: experiment_dirs(wc.grid),
@@ -52,6 +54,8 @@ rule aggregate:
 
 
 rule track:
+    message:
+        "grid {wildcards.grid}: logging the runs to MLflow and writing the README page"
     input:
         results=lambda wc: identify_dirs(wc.grid),
         summary="results/{grid}/summary.md",
@@ -73,6 +77,8 @@ rule track:
 
 
 rule reproduce:
+    message:
+        "grid {wildcards.grid}: paper reproduction {wildcards.experiment}"
     output:
         report(
             directory("results/{grid}/paper/{experiment}"),
