@@ -179,13 +179,13 @@ def test_an_edit_reruns_exactly_the_affected_jobs_and_what_follows(repo_copy):
     fft_jobs = ["results/tiny/identify/fft"]           # the fft batch: every cell of the grid
     # unrelated edits: a README, another method's code and config
     for path, old, new in [(repo_copy / "README.md", "# Identifying", "# Identifying (edited)"),
-                           (repo_copy / "methods" / "pll.py", '"""', '"""Edited. '),
+                           (repo_copy / "methods" / "pll" / "_loop.py", '"""', '"""Edited. '),
                            (repo_copy / "configs" / "method" / "pem.yaml", "name: pem", "name: pem  # edited")]:
         _edit(path, old, new)
         assert planned(repo_copy) == {}, path
     # the fft method's config, then its code: the fft job and everything downstream, nothing else
     cfg = repo_copy / "configs" / "method" / "fft.yaml"
-    original = _edit(cfg, "zero_pad_factor: 16", "zero_pad_factor: 8")
+    original = _edit(cfg, "name: fft\n", "name: fft\noptions:\n  zero_pad_factor: 8\n")
     jobs = planned(repo_copy)
     assert jobs.pop("identify") == fft_jobs and set(jobs) == downstream
     cfg.write_text(original)
