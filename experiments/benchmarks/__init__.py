@@ -5,6 +5,8 @@ from __future__ import annotations
 import statistics
 import time
 
+__all__ = ["interleaved_medians", "median_seconds"]
+
 
 def interleaved_medians(fns: dict, repeats: int) -> dict:
     """Median wall time of each ``fn()`` over ``repeats`` rounds, one call of every fn per round, so that

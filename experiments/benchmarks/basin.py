@@ -42,6 +42,9 @@ from experiments.report.scoring import identifiable  # noqa: E402
 from experiments.report.success import mode_success  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 
+__all__ = ["STREAM", "SCORING_SEED", "DT_S", "ZETA", "METHOD_DIR", "method_options", "draw_structure", "record",
+           "trials", "run", "report", "main"]
+
 STREAM = 0x4241
 SCORING_SEED = 20261121
 DT_S = 0.02

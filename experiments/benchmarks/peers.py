@@ -42,6 +42,8 @@ from experiments.report.scoring import (
 )
 from experiments.simulate.datasets import DatasetConfig, make_cell  # noqa: E402
 
+__all__ = ["PEERS", "PRIOR", "EXTRA", "FRACTION", "score", "run_grid", "main"]
+
 PEERS = ["era", "n4sid", "ssi_cov", "ssi_data", "lsce", "hdmd", "bopdmd"]
 PRIOR = [3.80, 16.00, 26.00, 46.00]      # Table 3 (configs/method/<peer>.yaml)
 EXTRA = [1, 3, 5, 7, 11, 15, 21]

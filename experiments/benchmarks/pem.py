@@ -52,6 +52,9 @@ from methods import pem  # noqa: E402
 from methods.pem import predictor as pp  # noqa: E402
 from methods.pem import search  # noqa: E402
 
+__all__ = ["PRIOR", "DT_S", "NOISE_UG", "N_SAMPLES", "FAIL_CRLB", "SETTINGS", "run_cell", "accuracy", "grid",
+           "starts", "speed", "main"]
+
 PRIOR = np.array([2.65, 16.73, 17.32, 52.91])        # Table 4
 DT_S = 0.02
 NOISE_UG = (0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0, 100000.0)

@@ -42,6 +42,8 @@ from methods import pem
 from methods.pem import predictor as pp
 from methods.pem import search
 
+__all__ = ["PRIOR", "DT_S", "record", "warm", "cold", "scaling", "main"]
+
 PRIOR = np.array([2.65, 16.73, 17.32, 52.91])        # Table 4
 DT_S = 0.02
 

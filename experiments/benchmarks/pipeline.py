@@ -28,6 +28,8 @@ from pathlib import Path
 
 import pandas as pd
 
+__all__ = ["measure", "batch_workers", "dataset_job_s", "import_cost_s", "main"]
+
 
 def _numeric_s(table: Path) -> float:
     res = pd.read_csv(table)

@@ -22,6 +22,8 @@ from omegaconf import DictConfig, OmegaConf
 
 from experiments.io import atomic_write_text
 
+__all__ = ["CONFIG_MODULE", "CONFIG_DIR", "EXIT_BAD_INPUT", "BAD_INPUT", "one_line", "fail", "run_app"]
+
 # configs/ travels with the code as the package data `experiments.configs` (experiments/configs links to it in
 # the repository; a wheel holds a copy), so Hydra finds it from any working directory, installed or not.
 CONFIG_MODULE = "experiments.configs"

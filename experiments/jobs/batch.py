@@ -32,6 +32,8 @@ from omegaconf import OmegaConf, open_dict
 from experiments.jobs.app import CONFIG_MODULE, fail, one_line
 from experiments.jobs.config import methods_named_on, register
 
+__all__ = ["APPS", "parse_jobs", "PER_JOB_KEYS", "Composer", "main"]
+
 APPS = ("dataset", "identify")
 
 

@@ -25,6 +25,9 @@ from experiments.config_schema import (
 from experiments.simulate.datasets import DatasetConfig
 from experiments.simulate.plant import PlantConfig
 
+__all__ = ["METHOD_CONFIGS", "PLUGIN_PRIOR_FROM", "plugin_prior", "experiment_schema", "methods_named_on",
+           "DEFAULT_METHOD", "register"]
+
 METHOD_CONFIGS = Path(__file__).resolve().parents[2] / "configs" / "method"
 PLUGIN_PRIOR_FROM = "akf"     # a plugin without its own prior gets Table 3's (configs/method/akf.yaml)
 

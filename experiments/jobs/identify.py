@@ -37,6 +37,10 @@ from experiments.simulate.scenarios import AXES, result_columns
 from experiments.tracking import provenance
 from experiments.tracking.store import dataset_entity, log_run, source_tags
 
+__all__ = ["load_data", "prior_of", "priors_of", "scenario_of", "check", "LONG_RECORD_SAMPLES", "run_records",
+           "task", "run_job", "rows_to_csv", "report_measurement", "job_record", "MEASUREMENTS_EXPERIMENT",
+           "log_measurement", "main"]
+
 
 def load_data(cfg) -> dict:
     """The records to identify: ``y`` (R × N), ``dt`` and, for a dataset cell, the truth."""

@@ -12,6 +12,8 @@ from experiments.jobs.app import run_app
 from experiments.jobs.config import register
 from experiments.simulate.datasets import DatasetConfig, check_dataset_config, write_cell
 
+__all__ = ["to_config", "MAX_CELL_BYTES", "cell_bytes", "check", "check_cell_memory", "task", "main"]
+
 
 def to_config(cfg) -> DatasetConfig:
     return OmegaConf.to_object(cfg)

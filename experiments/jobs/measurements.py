@@ -10,6 +10,8 @@ import pandas as pd
 from experiments.simulate.datasets import MIN_SAMPLES
 from methods.estimate import MAX_ABS_ACCEL_M_S2
 
+__all__ = ["REQUIRED", "load_csv"]
+
 REQUIRED = ("t", "accel")
 
 

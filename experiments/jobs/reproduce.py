@@ -20,6 +20,8 @@ from experiments.jobs.config import register
 from experiments.tracking.provenance import canonical_json, digest, git_state
 from experiments.tracking.store import log_run, source_tags
 
+__all__ = ["EXPERIMENTS", "task", "flatten", "main"]
+
 # experiment name -> module (configs/experiment/<name>.yaml names the same module)
 EXPERIMENTS = {
     "paper_fig3": "experiments.paper.fig3",

@@ -29,6 +29,8 @@ from experiments.simulate.datasets import UG, replicate_rng
 from experiments.simulate.plant import PlantConfig, build_plant
 from methods import pem
 
+__all__ = ["FAR_CRLB", "Params", "run"]
+
 FAR_CRLB = 5.0           # a replicate is "far" when a mode is more than this many CRLB std off
 
 

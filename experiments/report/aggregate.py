@@ -25,6 +25,9 @@ from experiments.report import axes, catalog, htmltables, pareto, plots, variant
 from experiments.report.coverage import coverage_table, honesty_lines
 from experiments.report.summary import cell_keys, summarize
 
+__all__ = ["PRINTED", "read_results", "paper_tables", "PAPER_TABLES_INTRO", "render_paper_tables", "headline",
+           "main", "experiment_tables", "html_twins", "write_captions", "page", "experiments_section"]
+
 # experiments/configs is configs/ (a link in the repository, package data in a wheel)
 PRINTED = Path(__file__).resolve().parents[1] / "configs" / "paper" / "printed.yaml"
 

@@ -30,6 +30,9 @@ from experiments.report.success import success_rates  # noqa: E402
 from experiments.report.summary import cell_keys  # noqa: E402
 from experiments.simulate.scenarios import AXES  # noqa: E402
 
+__all__ = ["REFERENCE", "LABEL", "BASIN_LEVEL", "VARIANT_MARKERS", "swept_axes", "slice_for", "axis_figure",
+           "basin_table", "basin_figure", "basin_edges", "figures"]
+
 REFERENCE = {"prior_scale": 1.0, "prior_spread": 0.0, "damping": 0.005, "gap_rad_s": 1.76, "excitation": 1.0,
              "dt_s": 0.02, "bias_m_s2": 0.0, "measurement": "position"}
 LABEL = {"prior_scale": "common prior factor c (prior = c · ω)",

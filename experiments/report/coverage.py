@@ -19,6 +19,9 @@ from scipy import stats
 
 from experiments.simulate.scenarios import AXES
 
+__all__ = ["IDEAL_1STD", "IDEAL_2STD", "IDEAL_MEDIAN_Z", "ALPHA", "MIN_GAP", "FEW", "COLUMNS", "coverage", "verdict",
+           "method_coverage", "coverage_table", "honesty_lines"]
+
 IDEAL_1STD = float(stats.norm.cdf(1) - stats.norm.cdf(-1))      # 0.6827
 IDEAL_2STD = float(stats.norm.cdf(2) - stats.norm.cdf(-2))      # 0.9545
 IDEAL_MEDIAN_Z = float(stats.norm.ppf(0.75))                    # 0.6745

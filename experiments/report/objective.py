@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+__all__ = ["FAILED_RATIO", "DEFAULT_PENALTY", "cell_objective", "objective"]
+
 FAILED_RATIO = 1e12         # RMSE/CRLB charged to a cell where no mode converged in any replicate
 DEFAULT_PENALTY = 4.0       # decades of RMSE/CRLB per unit failure rate
 

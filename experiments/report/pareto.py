@@ -22,6 +22,9 @@ import pandas as pd  # noqa: E402
 
 from experiments.report import plots  # noqa: E402
 
+__all__ = ["SHORT_BELOW_SAMPLES", "LOW_NOISE_UG", "MAX_MEAN_FAILURE", "CLASSES", "cell_class", "class_table",
+           "pareto_front", "figure", "winners_text"]
+
 # A record is "short" below 128 samples (2.56 s at Δt = 0.02 s: less than the 2π/1.76 rad/s = 3.6 s that
 # separates modes 2 and 3 by one Fourier bin); noise is "low" up to 100 µg (the paper's grid centre).
 SHORT_BELOW_SAMPLES = 128

@@ -16,6 +16,9 @@ from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 from experiments.io import save_figure  # noqa: E402
 from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, IDEAL_MEDIAN_Z  # noqa: E402
 
+__all__ = ["METHOD_STYLE", "EXTRA_COLOURS", "MAX_FAILURE_RATE", "VARIANT_SHADES", "rmse_against", "winner_map",
+           "failure_map", "coverage"]
+
 METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab:cyan", "D"),
                 "pem": ("tab:red", "^"), "pll": ("tab:green", "v"),
                 # the peers (methods/peers/README.md)

@@ -21,6 +21,8 @@ from experiments.report.coverage import COLUMNS as COVERAGE_COLUMNS
 from experiments.report.coverage import coverage
 from experiments.simulate.scenarios import AXES
 
+__all__ = ["KEYS", "cell_keys", "summarize", "job_metrics"]
+
 KEYS = ["method", "noise_ug", "n_samples", "mode"]
 
 

@@ -20,6 +20,8 @@ import pandas as pd  # noqa: E402
 
 from experiments.report import plots  # noqa: E402
 
+__all__ = ["ROOT", "METHOD_CONFIGS", "base_of", "table", "provenance", "figure"]
+
 ROOT = Path(__file__).resolve().parents[2]
 METHOD_CONFIGS = ROOT / "configs" / "method"
 

@@ -41,6 +41,9 @@ from experiments.simulate import scenarios
 from experiments.simulate.crlb import crlb_std
 from experiments.simulate.plant import PlantConfig, build_plant
 
+__all__ = ["G0", "UG", "MIN_SAMPLES", "CELL_KEYS", "ScenarioConfig", "DatasetConfig", "scenario_axes",
+           "check_dataset_config", "replicate_rng", "make_cell", "write_cell"]
+
 G0 = 9.80665                 # standard gravity, m/s²
 UG = G0 * 1e-6               # 1 µg in m/s²
 MIN_SAMPLES = 8

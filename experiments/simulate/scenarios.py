@@ -34,6 +34,10 @@ import math
 
 import numpy as np
 
+__all__ = ["AXES", "PER_MODE_AXES", "PRIOR_AXES", "MEASUREMENTS", "PRIOR_STREAM", "GAP_MODES", "cell_name",
+           "grid_cells", "per_mode", "apply_to_plant", "nominal_frequencies", "has_prior_axis", "prior_draws",
+           "harness_prior", "check_cell", "check_grid", "result_columns"]
+
 # axis -> the prefix of its part of a cell name; the order is the order of the parts in the name.
 AXES: dict[str, str] = {
     "prior_scale": "ps",

@@ -26,6 +26,9 @@ from omegaconf import OmegaConf
 import methods
 from experiments.config_schema import IdentifyConfig, method_of_config, method_schema
 
+__all__ = ["ROOT", "canonical_json", "digest", "resolved_method_config", "method_code_files", "package_versions",
+           "code_digest", "file_digest", "git_state"]
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

@@ -31,6 +31,9 @@ from filelock import FileLock
 
 from experiments.tracking.provenance import digest, git_state
 
+__all__ = ["DEFAULT_DB", "LOCK_TIMEOUT_S", "tracking_uri", "is_default_store", "lock_path", "store_lock", "client",
+           "experiment_id", "log_run", "dataset_entity", "source_tags", "git_commit"]
+
 DEFAULT_DB = Path("results") / "mlflow.db"   # relative to the working directory, like all outputs
 LOCK_TIMEOUT_S = 600
 

@@ -28,6 +28,8 @@ from experiments.report.summary import job_metrics, summarize
 from experiments.tracking.provenance import canonical_json, digest, git_state
 from experiments.tracking.store import dataset_entity, log_run, source_tags
 
+__all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job", "grid_run", "aggregate_files", "main"]
+
 IDENTIFY_SOURCE = "experiments/jobs/identify.py"
 
 

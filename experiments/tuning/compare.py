@@ -28,6 +28,8 @@ from experiments.report.objective import DEFAULT_PENALTY, cell_objective
 from experiments.simulate.datasets import DatasetConfig, make_cell
 from experiments.tuning.tune import base_method, evaluate
 
+__all__ = ["parse_cell", "compare", "main"]
+
 
 def parse_cell(text: str) -> tuple[float, int]:
     try:

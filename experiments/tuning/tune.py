@@ -43,6 +43,9 @@ from experiments.simulate.datasets import DatasetConfig, make_cell
 from experiments.tracking.store import DEFAULT_DB, git_commit, log_run
 from experiments.tuning.space import base_params, check_space, suggest_options
 
+__all__ = ["PROJECT", "CellConfig", "TuningConfig", "TuneApp", "scoring_seeds", "check", "base_method",
+           "simulate_cells", "evaluate", "study_name", "storage_url", "task", "config_text", "main"]
+
 PROJECT = Path(CONFIG_DIR).parent
 
 

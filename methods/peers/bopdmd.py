@@ -26,6 +26,8 @@ import numpy as np
 from methods.peers import hdmd
 from methods.peers._mode_picker import check_peer_options, identify_peer, too_short
 
+__all__ = ["Options", "check_options", "identify"]
+
 
 @dataclass
 class Options(hdmd.Options):

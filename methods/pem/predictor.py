@@ -40,6 +40,9 @@ import math
 import numpy as np
 import scipy.linalg
 
+__all__ = ["n_params", "split", "paper_state_space", "kalman_gain", "modal_basis", "symmetric_eigh", "scaled_lstsq",
+           "ClosedForm", "predictor", "Recursive", "make_evaluator"]
+
 try:                                       # numpy's LAPACK kernels (private module; numpy 2.4 is pinned)
     from numpy.linalg import _umath_linalg
 except ImportError:                        # pragma: no cover - a numpy without it: the public eigh
