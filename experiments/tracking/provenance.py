@@ -21,6 +21,7 @@ from pathlib import Path
 from hydra import compose, initialize_config_dir
 from hydra.core.config_store import ConfigStore
 from hydra.core.global_hydra import GlobalHydra
+from hydra.initialize import get_gh_backup, restore_gh_from_backup
 from omegaconf import OmegaConf
 
 import methods
@@ -42,8 +43,7 @@ def digest(text: str | bytes, length: int = 16) -> str:
     return hashlib.sha256(data).hexdigest()[:length]
 
 
-_HYDRA_ROOT: list[str] = []     # the config folder Hydra was initialised on in this process
-_SCHEMAS: set[str] = set()      # the methods whose real schema is in the ConfigStore
+_SCHEMAS: dict[str, bool] = {}  # method -> its real schema (True) or an empty stand-in (False) is stored
 
 
 @functools.cache
@@ -54,21 +54,25 @@ def resolved_method_config(config_name: str, overrides: tuple[str, ...] = (), ro
     The method's structured schema is generated from its ``Options`` (its module is imported, not run), so
     the node holds every option the job runs with, the dataclass defaults included, and an override of an
     unknown option fails here with its name; the other methods' schemas are stood in for by empty nodes.
+    Hydra's global state is left as it was found (a caller's own initialisation survives the call).
     """
-    if not _HYDRA_ROOT or _HYDRA_ROOT[0] != root:
-        cs = ConfigStore.instance()
-        cs.store(name="identify_schema", node=IdentifyConfig)
-        for name in methods.names():
-            if name not in _SCHEMAS:
-                cs.store(group="method", name=f"{name}_schema", node={})
-        GlobalHydra.instance().clear()
-        initialize_config_dir(config_dir=str(Path(root) / "configs"), version_base="1.3")
-        _HYDRA_ROOT[:] = [root]
+    cs = ConfigStore.instance()
+    cs.store(name="identify_schema", node=IdentifyConfig)
+    for name in methods.names():
+        if name not in _SCHEMAS:
+            cs.store(group="method", name=f"{name}_schema", node={})
+            _SCHEMAS[name] = False
     method = method_of_config(config_name)
-    if method is not None and method not in _SCHEMAS:
-        ConfigStore.instance().store(group="method", name=f"{method}_schema", node=method_schema(method))
-        _SCHEMAS.add(method)
-    cfg = compose(config_name="identify", overrides=[f"method={config_name}", *overrides])
+    if method is not None and not _SCHEMAS.get(method):
+        cs.store(group="method", name=f"{method}_schema", node=method_schema(method))
+        _SCHEMAS[method] = True
+    backup = get_gh_backup()
+    GlobalHydra.instance().clear()
+    try:
+        with initialize_config_dir(config_dir=str(Path(root) / "configs"), version_base="1.3"):
+            cfg = compose(config_name="identify", overrides=[f"method={config_name}", *overrides])
+    finally:
+        restore_gh_from_backup(backup)
     return canonical_json(OmegaConf.to_container(cfg.method, resolve=True))
 
 
