@@ -2,7 +2,7 @@
 # process). The folder is the output: a failed or interrupted job leaves nothing behind.
 rule datasets:
     message:
-        "grid {wildcards.grid}: simulating every dataset cell"
+        "datasets: every cell of grid {wildcards.grid} -> {output}"
     output:
         directory("results/{grid}/data"),
     params:

@@ -6,7 +6,7 @@
 # shared by IDENTIFY_THREADS worker processes (common.smk: 1; `--set-threads identify=N` changes it).
 rule identify:
     message:
-        "grid {wildcards.grid}: {wildcards.method} on every cell"
+        "identify: {wildcards.method} on every cell of grid {wildcards.grid} -> {output}"
     input:
         data="results/{grid}/data",
         code=method_code,

@@ -22,7 +22,7 @@ report: "../report/captions/workflow.rst"
 
 rule aggregate:
     message:
-        "grid {wildcards.grid}: tables, figures and the summary page"
+        "aggregate: tables, figures and summary of grid {wildcards.grid} -> {output.page}"
     input:
         results=lambda wc: identify_dirs(wc.grid),
         experiments=lambda wc: experiment_dirs(wc.grid),
@@ -55,7 +55,7 @@ rule aggregate:
 
 rule track:
     message:
-        "grid {wildcards.grid}: logging the runs to MLflow and writing the README page"
+        "track: MLflow runs and page of grid {wildcards.grid} -> {output.page}"
     input:
         results=lambda wc: identify_dirs(wc.grid),
         summary="results/{grid}/summary.md",
@@ -78,7 +78,7 @@ rule track:
 
 rule reproduce:
     message:
-        "grid {wildcards.grid}: paper reproduction {wildcards.experiment}"
+        "reproduce: paper experiment {wildcards.experiment} -> {output}"
     output:
         report(
             directory("results/{grid}/paper/{experiment}"),
