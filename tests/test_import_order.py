@@ -3,8 +3,9 @@
 In the spirit of scikit-learn's import-consistency checks: the walls of the house are tested, not hoped for.
 
 - ``experiments/`` stages import one way: io (and the other modules at the top of ``experiments/``) ->
-  simulate -> report -> tracking -> jobs -> tuning / benchmarks / paper. A stage imports only its own
-  modules and earlier stages'; the three last stages do not import each other.
+  recordings / simulate (data read, data made) -> report -> tracking (MLflow) -> jobs -> tuning /
+  benchmarks / paper. A stage imports only its own modules and earlier stages'; stages of one rank do not
+  import each other.
 - ``methods/`` imports nothing from ``experiments/`` and never Hydra, OmegaConf, MLflow or Snakemake.
 - Outside a method family package (``methods/<family>/``), nothing imports the family's private
   (underscore) modules: the family's ``__init__`` is its face. Tests are exempt: they test the insides.
@@ -20,7 +21,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 # rank of each stage; modules directly under experiments/ (io.py, config_schema.py) are the ground floor
-STAGE_RANK = {"": 0, "simulate": 1, "report": 2, "tracking": 3, "jobs": 4,
+STAGE_RANK = {"": 0, "recordings": 1, "simulate": 1, "report": 2, "tracking": 3, "jobs": 4,
               "tuning": 5, "benchmarks": 5, "paper": 5}
 FORBIDDEN_IN_METHODS = ("experiments", "hydra", "omegaconf", "mlflow", "snakemake")
 

@@ -1,4 +1,4 @@
-"""Basin of attraction of a method on random structures other than the paper's (issue 11's pem target).
+"""Basin of attraction of a method on random structures other than the paper's (pem's robustness target).
 
     python -m experiments.benchmarks.basin                         # pem, 100 structures (~15 min on a busy core)
     python -m experiments.benchmarks.basin --structures 20 --method pem --variant paper
@@ -180,4 +180,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "basin"))   # prints, and writes results/bench/basin.md

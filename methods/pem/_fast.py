@@ -102,7 +102,7 @@ def _reduced(Jr: np.ndarray, e: np.ndarray, n_unknowns: int, loss: float) -> sea
 
 
 def applies(opts) -> bool:
-    """Whether a fit with these options takes this path (else the reference, _pem_search.gauss_newton)."""
+    """Whether a fit with these options takes this path (else the reference, search.gauss_newton)."""
     return opts.predictor == "output_error" and opts.separable and opts.search == "levenberg_marquardt"
 
 

@@ -294,18 +294,25 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
     lo, hi = opts.damping_bounds if len(opts.damping_bounds) == 2 else (1.0, -1.0)
     if not -0.9 < lo < hi < 0.9:
         raise ValueError(f"damping_bounds = {opts.damping_bounds} must be [low, high] inside (−0.9, 0.9)")
-    if opts.n_starts < 1:
-        raise ValueError(f"n_starts = {opts.n_starts} must be at least 1")
-    if opts.max_iterations < 1:
-        raise ValueError(f"max_iterations = {opts.max_iterations} must be at least 1")
+    if not 1 <= opts.n_starts <= MAX_STARTS:
+        raise ValueError(f"n_starts = {opts.n_starts} must be between 1 and {MAX_STARTS} (each start is a "
+                         f"whole search)")
+    if not 1 <= opts.max_iterations <= MAX_ITERATIONS:
+        raise ValueError(f"max_iterations = {opts.max_iterations} must be between 1 and {MAX_ITERATIONS}")
     if not (opts.start_spread >= 0 and opts.tol_loss >= 0 and opts.tol_step >= 0):
         raise ValueError("start_spread, tol_loss and tol_step must be non-negative")
     if opts.pencil_extra_order < 0:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
 
 
+# Bounds on the work one fit may be asked for: beyond them an option is a typo, not a setting (a thousand
+# starts of a ~1 ms search is a second per record; the default is 3, and 3-30 iterations converge).
+MAX_STARTS = 1000
+MAX_ITERATIONS = 10_000
+
+
 def check_options(prior, dt, **options) -> Options:
-    """The options contract of :mod:`methods` (validated without a record, before any work). Issue 9:
+    """The options contract of :mod:`methods` (validated without a record, before any work):
     keep this function (or its equivalent) when rewriting the module; ``identify`` runs the same checks."""
     opts = make_options(Options, options, "pem")
     _check_options(opts, np.atleast_1d(np.asarray(prior, dtype=float)))

@@ -1,4 +1,4 @@
-"""The basin benchmark's random structures obey the issue's rules, and it refuses the scoring seed."""
+"""The basin benchmark's random structures obey the documented rules, and it refuses the scoring seed."""
 
 import numpy as np
 import pytest
