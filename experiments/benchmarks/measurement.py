@@ -31,6 +31,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from experiments.simulate.impact import G, simulate
 
@@ -54,8 +55,6 @@ PHASES = [
 
 
 def write_records(d: Path, n: int) -> dict[str, Path]:
-    import pandas as pd
-
     rec = simulate(1, n_samples=n)
     logger = d / "impact.csv"
     pd.DataFrame({"t": np.round(rec.t, 6), "tip [g]": rec.accel_g}).to_csv(logger, index=False)

@@ -23,6 +23,7 @@ import contextlib
 import json
 import os
 import socket
+import sqlite3
 import time
 from pathlib import Path
 from urllib.parse import unquote, urlparse
@@ -91,7 +92,6 @@ def _check_sqlite(path: Path) -> None:
     if pages and pages * page_size > size:
         raise ValueError(f"the MLflow store {path} is truncated ({size} bytes; its header records "
                          f"{pages * page_size}); {way_out}")
-    import sqlite3
 
     try:
         with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=30)) as db:
