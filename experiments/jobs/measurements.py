@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.io import write_json
+from experiments.report import model_check
 
 __all__ = ["G_M_S2", "MEASUREMENTS_EXPERIMENT", "INSTALL_HINT", "load", "load_csv", "find_modes", "print_notes",
            "report", "log"]
@@ -111,6 +112,8 @@ def report(name: str, prior, est, data: dict, run_dir: Path, diagram=None) -> li
               + ("" if ok else " — not determined by the record"))
     print(f"how: {how}")
     print(f"converged: {est.converged} ({est.message})")
+    for line in model_check.check_lines(est.extra):       # does the model explain the record? (pem)
+        print(line)
     stem = run_dir / "measurement"
     figures = measurement_figure(
         stem, y=seg.y, dt=seg.dt, t0=seg.t0, model=fit.model, residual=fit.residual, freq_rad_s=est.frequencies,
@@ -129,7 +132,7 @@ def report(name: str, prior, est, data: dict, run_dir: Path, diagram=None) -> li
         "segment": {"start_s": seg.t0, "stop_s": seg.stop_s, "n_samples": int(seg.y.size), "dt_s": seg.dt,
                     "decimation": seg.decimation, "band_hz": list(seg.band_hz), "impulse_s": seg.impulse_s,
                     "notes": seg.notes},
-        "figure": [p.name for p in figures]})
+        "figure": [p.name for p in figures], **model_check.check_json(est.extra)})
     print(f"wrote {path}, {', '.join(str(p) for p in figures)}")
     return [path, *figures]
 

@@ -141,7 +141,16 @@ def settings_from(opts, prior: np.ndarray, method: str, **more) -> FilterSetting
             raise ValueError(f"{method}: {name} = {val} must be a non-negative number")
     if not opts.max_variance_growth > 1:
         raise ValueError(f"{method}: max_variance_growth = {opts.max_variance_growth} must exceed 1")
-    if opts.p0_frequency_var is None:       # derived from the prior: σ = P0_FREQUENCY_REL_STD × prior
+    prior_std = getattr(opts, "prior_std_rad_s", None)
+    if prior_std is not None:               # the prior as a distribution: P0 of the frequencies is its spread²
+        if opts.p0_frequency_var is not None:
+            raise ValueError(f"{method}: give prior_std_rad_s or p0_frequency_var, not both (P0 = std²)")
+        std = np.asarray(list(prior_std) if hasattr(prior_std, "__len__") else prior_std, dtype=float)
+        if std.ndim > 1 or std.size not in (1, prior.size) or not np.all(np.isfinite(std) & (std > 0)):
+            raise ValueError(f"{method}: prior_std_rad_s = {prior_std!r} must be one positive std in rad/s "
+                             f"or one per prior frequency ({prior.size})")
+        p0 = np.square(std).reshape(-1)
+    elif opts.p0_frequency_var is None:     # derived from the prior: σ = P0_FREQUENCY_REL_STD × prior
         p0 = np.square(P0_FREQUENCY_REL_STD * prior)
     else:
         p0 = np.asarray(opts.p0_frequency_var, dtype=float).reshape(-1)

@@ -203,7 +203,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     if std_free is None:                     # the std at the final point (a stop other than the step rule)
         std_free = _reduced(Jr, e, n_unknowns, loss).std
     fit = _result(model, x, c, loss, iterations, message, converged, step_lengths, free, std_free)
-    fit.update(e=e, joined=joined, floor=floor)
+    fit.update(e=e, joined=joined, floor=floor, Jr=Jr)    # Jr: the robust std (methods.pem._residual)
     return fit
 
 
