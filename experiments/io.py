@@ -20,6 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+__all__ = ["CHECKSUM_KEY", "atomic_path", "atomic_write_bytes", "atomic_write_text", "write_json", "array_checksum",
+           "write_npz", "read_npz", "write_table", "markdown_table", "save_figure"]
+
 # A fixed timestamp inside the .npz zip, so that the same arrays give the same bytes.
 _ZIP_EPOCH = (1980, 1, 1, 0, 0, 0)
 # The .npz entry holding the SHA-256 of the other arrays (see array_checksum).
@@ -161,7 +164,7 @@ def save_figure(fig, path) -> Path:
     Identical figures give identical bytes: no date or software version in the metadata, and SVG element
     ids from a fixed hash salt (matplotlib's ``svg.hashsalt``) instead of random ones.
     """
-    import matplotlib
+    import matplotlib  # ~0.5 s: not paid by the jobs that never draw
 
     path = Path(path)
     fmt = path.suffix.lstrip(".")

@@ -13,6 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+__all__ = ["Estimate", "failed", "MAX_ABS_ACCEL_M_S2", "check_inputs", "check_prior", "FLAT_RELATIVE_SPREAD",
+           "flat_record", "make_options"]
+
 
 @dataclass(frozen=True)
 class Estimate:

@@ -39,6 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.special
 
+__all__ = ["COMMON_LOG_STD", "INDEPENDENT_LOG_STD", "ALPHA", "MAX_MODES", "Labels", "assign"]
+
 COMMON_LOG_STD = 0.2          # s_c: a common error of ±20 % at 1σ (the paper's ~30 % a-priori uncertainty)
 # τ: the prior's ratios are better known than its scale. The paper's own prior (Table 4 against Table 3) is
 # off by log-factors −0.20, −0.19, −0.24, −0.07: a common −0.17 and independent +0.02, +0.03, −0.02, +0.10

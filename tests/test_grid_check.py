@@ -1,7 +1,7 @@
 """The workflow checks every method a grid names when it loads the grid: an unknown name stops it with one
 line naming the grid file and the name; a variant ``name:variant`` whose config exists is accepted.
 
-Runs ``snakemake --dry-run`` on a copy of the workflow (Snakefile, rules, configs) in tmp_path, so that a
+Runs ``snakemake --dry-run`` on a copy of the workflow (Snakefile, code, configs) in tmp_path, so that a
 test grid never enters the repository's configs/grid/.
 """
 
@@ -17,7 +17,8 @@ GRID = "name: {name}\nnoise_ug: [10]\nn_samples: [64]\nreplicates: 1\nseed: 5\nm
 
 def dry_run(tmp_path, methods):
     shutil.copy(ROOT / "Snakefile", tmp_path / "Snakefile")
-    shutil.copytree(ROOT / "experiments" / "rules", tmp_path / "experiments" / "rules")
+    for code in ("experiments", "methods"):            # the rules call the workflow module of this checkout
+        shutil.copytree(ROOT / code, tmp_path / code, symlinks=True, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copytree(ROOT / "configs", tmp_path / "configs", ignore=shutil.ignore_patterns("grid"))
     (tmp_path / "configs" / "grid").mkdir()
     shutil.copy(ROOT / "configs" / "grid" / "schema.yaml", tmp_path / "configs" / "grid" / "schema.yaml")

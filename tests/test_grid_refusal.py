@@ -33,3 +33,24 @@ def test_bad_axis_value_is_one_line_and_exit_2(tmp_path, axes, message):
     assert len(errors) == 1 and message in errors[0], proc.stderr
     assert "Traceback" not in proc.stderr
     assert not (tmp_path / "results").exists()
+
+
+@pytest.mark.parametrize(("grid", "target", "message"), [
+    ("method_overrides: {fft: [method.options.zero_pad_factor=0]}\n", "results/bad/README.md",
+     "configs/grid/bad.yaml: method_overrides of fft: fft: zero_pad_factor = 0 must be an integer of at least 1"),
+    ("", "results/nosuch/README.md", "error: results/nosuch/README.md: no grid 'nosuch'"),
+])
+def test_a_bad_override_or_target_is_one_line_before_any_job(tmp_path, grid, target, message):
+    for part in ("Snakefile", "experiments", "configs", "methods"):
+        src = ROOT / part
+        (shutil.copytree(src, tmp_path / part, symlinks=True) if src.is_dir() else shutil.copy(src, tmp_path / part))
+    (tmp_path / "configs" / "grid" / "bad.yaml").write_text(
+        "name: bad\nnoise_ug: [1000]\nn_samples: [256]\nreplicates: 2\nseed: 1\nmethods: [fft]\n" + grid)
+    bindir = Path(sys.executable).parent
+    proc = subprocess.run([str(bindir / "snakemake"), "-n", "--cores", "1", target],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                          env=os.environ | {"PATH": f"{bindir}{os.pathsep}{os.environ['PATH']}"})
+    assert proc.returncode == 2
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and message in errors[0], proc.stderr
+    assert "Traceback" not in proc.stderr and not (tmp_path / "results").exists()

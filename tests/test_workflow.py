@@ -5,6 +5,7 @@ Runs in a scratch working directory with its own MLflow store, so it neither nee
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -117,13 +118,12 @@ def planned(workdir, target="results/tiny/README.md"):
     """The jobs ``snakemake -n`` would run: {rule: [outputs]}."""
     proc = snakemake_in(workdir, "-n", target, snakefile=workdir / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
-    jobs, rule = {}, None
+    jobs = {}
     for line in (proc.stdout + proc.stderr).splitlines():
-        if line.lstrip().startswith(("rule ", "localrule ")):          # indented inside a job group
-            rule = line.split()[1].rstrip(":")
-            jobs.setdefault(rule, [])
-        elif rule and line.strip().startswith("output:"):
-            jobs[rule].append(line.split(":", 1)[1].split(",")[0].strip())
+        # each rule's message (experiments/rules/*.smk): "Job <i>: <rule>: <what> -> <first output>"
+        match = re.match(r"\s*Job \d+: (\w+): .* -> (\S+)$", line)
+        if match:
+            jobs.setdefault(match[1], []).append(match[2])
     return jobs
 
 
@@ -163,7 +163,7 @@ def test_tracking_reads_only_what_the_workflow_declares(repo_copy):
     (repo_copy / "results" / "tiny" / "README.md").unlink()
     proc = snakemake_in(repo_copy, "results/tiny/README.md", snakefile=repo_copy / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
-    assert "rule track" in proc.stdout + proc.stderr
+    assert "track: MLflow runs and page of grid tiny" in proc.stdout + proc.stderr
     assert "0 newly logged" in (repo_copy / "results" / "tiny" / "logs" / "track.log").read_text()
 
 
@@ -179,13 +179,13 @@ def test_an_edit_reruns_exactly_the_affected_jobs_and_what_follows(repo_copy):
     fft_jobs = ["results/tiny/identify/fft"]           # the fft batch: every cell of the grid
     # unrelated edits: a README, another method's code and config
     for path, old, new in [(repo_copy / "README.md", "# Identifying", "# Identifying (edited)"),
-                           (repo_copy / "methods" / "pll.py", '"""', '"""Edited. '),
+                           (repo_copy / "methods" / "pll" / "_loop.py", '"""', '"""Edited. '),
                            (repo_copy / "configs" / "method" / "pem.yaml", "name: pem", "name: pem  # edited")]:
         _edit(path, old, new)
         assert planned(repo_copy) == {}, path
     # the fft method's config, then its code: the fft job and everything downstream, nothing else
     cfg = repo_copy / "configs" / "method" / "fft.yaml"
-    original = _edit(cfg, "zero_pad_factor: 16", "zero_pad_factor: 8")
+    original = _edit(cfg, "name: fft\n", "name: fft\noptions:\n  zero_pad_factor: 8\n")
     jobs = planned(repo_copy)
     assert jobs.pop("identify") == fft_jobs and set(jobs) == downstream
     cfg.write_text(original)

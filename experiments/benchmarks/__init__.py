@@ -23,6 +23,8 @@ from experiments.tracking.provenance import git_state
 PAGE_DIR = Path("results") / "bench"
 _PAGE_ENV = "EXPERIMENTS_BENCH_PAGE"     # set while a page is being recorded: a child benchmark writes none
 
+__all__ = ["interleaved_medians", "median_seconds"]
+
 
 def interleaved_medians(fns: dict, repeats: int) -> dict:
     """Median wall time of each ``fn()`` over ``repeats`` rounds, one call of every fn per round, so that

@@ -40,6 +40,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 import yaml  # noqa: E402
 
 import methods  # noqa: E402
@@ -47,6 +48,9 @@ from experiments.io import write_json  # noqa: E402
 from experiments.report.scoring import identifiable  # noqa: E402
 from experiments.report.success import mode_success, tolerance  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
+
+__all__ = ["STREAM", "SCORING_SEED", "DT_S", "ZETA", "METHOD_DIR", "method_options", "draw_structure", "record",
+           "trials", "run", "report", "main"]
 
 STREAM = 0x4241
 SCORING_SEED = 20261121
@@ -156,8 +160,6 @@ def run(args) -> dict:
 
 
 def report(result: dict, args) -> str:
-    import pandas as pd
-
     df = pd.DataFrame(result["rows"])
     lines = [f"{result['config']}: {args.structures} random structures (seed {args.seed}), N = {args.n_samples}, "
              f"noise {args.noise:g} × largest amplitude, {result['seconds']:.0f} s", ""]

@@ -29,6 +29,8 @@ from experiments.simulate.datasets import UG  # noqa: E402
 from experiments.simulate.plant import build_plant  # noqa: E402
 from methods.kalman import akf, wkf  # noqa: E402
 
+__all__ = ["PRIOR", "DT_S", "TARGET_S", "REPLICATES", "main"]
+
 PRIOR = [3.80, 16.00, 26.00, 46.00]     # Table 3
 DT_S = 0.02
 TARGET_S = 0.020                         # per 256-sample record and filter

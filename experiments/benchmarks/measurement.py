@@ -31,8 +31,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from experiments.simulate.impact import G, simulate
+
+__all__ = ["ROOT", "JOB", "PHASES", "write_records", "run_job", "timed", "profile_phases", "import_times", "main",
+           "report"]
 
 ROOT = Path(__file__).resolve().parents[2]
 JOB = ["-m", "experiments.jobs.identify", "method=pem"]
@@ -51,8 +55,6 @@ PHASES = [
 
 
 def write_records(d: Path, n: int) -> dict[str, Path]:
-    import pandas as pd
-
     rec = simulate(1, n_samples=n)
     logger = d / "impact.csv"
     pd.DataFrame({"t": np.round(rec.t, 6), "tip [g]": rec.accel_g}).to_csv(logger, index=False)

@@ -40,6 +40,9 @@ from experiments.jobs.app import CONFIG_DIR
 from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, coverage
 from experiments.simulate import mismatch, scenarios
 
+__all__ = ["DEFAULT_GRID", "method_setup", "cell_label", "BEFORE", "run_method", "std_kinds", "drift_claims",
+           "score", "cell_records", "run", "main"]
+
 DEFAULT_GRID = f"{CONFIG_DIR}/grid/mismatch.yaml"
 
 

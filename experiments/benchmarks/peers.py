@@ -28,12 +28,21 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # small SVDs on a busy 2-co
 import argparse  # noqa: E402
 import itertools  # noqa: E402
 import time  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+import yaml  # noqa: E402
 
 import methods  # noqa: E402
-from experiments.report.scoring import identifiable  # noqa: E402
+from experiments.io import atomic_write_text  # noqa: E402
+from experiments.jobs.identify import rows_to_csv  # noqa: E402
+from experiments.report.scoring import (
+    identifiable,  # noqa: E402
+    replicate_rows,  # noqa: E402
+)
 from experiments.simulate.datasets import DatasetConfig, make_cell  # noqa: E402
+
+__all__ = ["PEERS", "PRIOR", "EXTRA", "FRACTION", "score", "run_grid", "main"]
 
 PEERS = ["era", "n4sid", "ssi_cov", "ssi_data", "lsce", "hdmd", "bopdmd"]
 PRIOR = [3.80, 16.00, 26.00, 46.00]      # Table 3 (configs/method/<peer>.yaml)
@@ -72,14 +81,6 @@ def score(name: str, options: dict, cells: list[dict]) -> tuple[float, float, fl
 
 def run_grid(grid_path: str, names: list[str], out: str) -> None:
     """Every cell of a grid for ``names``, in this process; per-replicate CSVs as the identify jobs write."""
-    from pathlib import Path
-
-    import yaml
-
-    from experiments.io import atomic_write_text
-    from experiments.jobs.identify import rows_to_csv
-    from experiments.report.scoring import replicate_rows
-
     grid = yaml.safe_load(Path(grid_path).read_text())
     root = Path(__file__).resolve().parents[2] / "configs" / "method"
     for noise in grid["noise_ug"]:

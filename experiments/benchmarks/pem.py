@@ -39,7 +39,11 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import scipy.optimize  # noqa: E402
+from omegaconf import OmegaConf  # noqa: E402
 
+from experiments import io  # noqa: E402
+from experiments.benchmarks import pem_speed  # noqa: E402
+from experiments.config_schema import stated_options  # noqa: E402
 from experiments.report.scoring import identifiable  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 from experiments.simulate.datasets import UG, replicate_rng  # noqa: E402
@@ -47,6 +51,9 @@ from experiments.simulate.plant import build_plant  # noqa: E402
 from methods import pem  # noqa: E402
 from methods.pem import predictor as pp  # noqa: E402
 from methods.pem import search  # noqa: E402
+
+__all__ = ["PRIOR", "DT_S", "NOISE_UG", "N_SAMPLES", "FAIL_CRLB", "SETTINGS", "run_cell", "accuracy", "grid",
+           "starts", "speed", "main"]
 
 PRIOR = np.array([2.65, 16.73, 17.32, 52.91])        # Table 4
 DT_S = 0.02
@@ -114,10 +121,6 @@ def grid(replicates: int, seed: int, jobs: int, out: str, compare: str | None, m
 
     This is how "accuracy unchanged" is checked when the implementation changes: run it with the old code
     (e.g. a checkout of main on ``PYTHONPATH``) and the new, same machine, same seed, then compare."""
-    from omegaconf import OmegaConf
-
-    from experiments import io
-
     full = OmegaConf.load(Path(__file__).resolve().parents[2] / "configs" / "grid" / "full.yaml")
     cells = [("default", float(noise), int(n), replicates, seed) for n in full.n_samples for noise in full.noise_ug
              if max_n is None or n <= max_n]
@@ -246,7 +249,7 @@ def speed(repeats: int, seed: int) -> None:
         runs = {"one start (pencil)": {"n_starts": 1},
                 "one start (Table 4 prior) + its repair restarts": {"n_starts": 1, "data_driven_start": False},
                 "default multi-start": {},
-                "paper setting (Kalman, GN, 1 start)": pem.PAPER_OPTIONS}
+                "paper setting (Kalman, GN, 1 start)": stated_options("pem_paper")}
         for name, opts in runs.items():
             pem.identify(y, DT_S, PRIOR, **opts)
             ms, est = _median_ms(lambda o=opts, y=y: pem.identify(y, DT_S, PRIOR, **o), repeats)
@@ -322,7 +325,6 @@ def main(argv=None) -> None:
     if args.seed == 20261121:
         raise SystemExit("seed 20261121 is the grid's scoring seed: benchmark and tune on other seeds")
     if args.part in ("all", "speed"):
-        from experiments.benchmarks import pem_speed  # the speed targets, with comparison columns
         pem_speed.main(["--repeats", str(args.repeats)])
     if args.part == "speed-old":
         speed(args.repeats, args.seed)

@@ -33,12 +33,16 @@ import numpy as np
 import scipy.optimize
 
 import methods
+from experiments import io
 from experiments.benchmarks import interleaved_medians
+from experiments.config_schema import stated_options
 from experiments.simulate.datasets import UG, replicate_rng
 from experiments.simulate.plant import build_plant
 from methods import pem
 from methods.pem import predictor as pp
 from methods.pem import search
+
+__all__ = ["PRIOR", "DT_S", "record", "warm", "cold", "scaling", "main"]
 
 PRIOR = np.array([2.65, 16.73, 17.32, 52.91])        # Table 4
 DT_S = 0.02
@@ -86,7 +90,7 @@ def _reference_fit(y, recursive: bool):
 
 
 def _era_fit(y):
-    import control
+    import control  # optional extra (.[peers])
     sysd, _ = control.era(y[None, None, :], 2 * PRIOR.size + 1, m=64, n=64, dt=DT_S)
     s = np.log(np.linalg.eigvals(sysd.A).astype(complex)) / DT_S
     return np.sort(np.abs(s[s.imag > 0]))[:PRIOR.size]
@@ -108,7 +112,7 @@ def warm(repeats: int) -> None:
             lambda: _reference_fit(y, recursive=False),
             "pem through the reference search and the recursive CasADi predictor": lambda: _reference_fit(y, True),
             "pem paper setting (Kalman predictor, GN, 1 start)":
-            lambda: pem.identify(y, DT_S, PRIOR, **pem.PAPER_OPTIONS).frequencies}
+            lambda: pem.identify(y, DT_S, PRIOR, **stated_options("pem_paper")).frequencies}
     peers = []
     for peer in ("era", "hdmd", "n4sid"):                   # the project's peer methods, defaults
         try:
@@ -120,7 +124,7 @@ def warm(repeats: int) -> None:
         except (ImportError, ValueError) as exc:
             print(f"(no {peer} row: {exc})")
     try:
-        import control  # noqa: F401
+        import control  # noqa: F401  # optional extra (.[peers]): the ERA row only when installed
         rows["ERA (control.era directly, order 9, 64 x 64 blocks) — peer library"] = lambda: _era_fit(y)
     except ImportError:
         print("(python-control not installed: no ERA row)")
@@ -145,13 +149,14 @@ def warm(repeats: int) -> None:
 def cold() -> None:
     """First fit of a new record shape in a fresh interpreter (imports excluded)."""
     code = ("import time, numpy as np; from experiments.benchmarks.pem_speed import record, PRIOR, DT_S; "
-            "from methods import pem; y = record({n}); t0 = time.perf_counter(); "
+            "from experiments.config_schema import stated_options; from methods import pem; "
+            "y = record({n}); t0 = time.perf_counter(); "
             "pem.identify(y, DT_S, PRIOR{opts}); print(1e3 * (time.perf_counter() - t0))")
     print("\n## Cold first fit of a record shape (fresh interpreter, imports excluded)")
     print("| N | setting | first fit ms |")
     print("|---|---|---|")
     for n in (256, 1000, 2048):
-        for label, opts in (("default", ""), ("paper (Kalman)", ", **pem.PAPER_OPTIONS")):
+        for label, opts in (("default", ""), ("paper (Kalman)", ", **stated_options('pem_paper')")):
             out = subprocess.run([sys.executable, "-c", code.format(n=n, opts=opts)], capture_output=True,
                                  text=True, check=True).stdout
             print(f"| {n} | {label} | {float(out):.0f} |")
@@ -181,11 +186,10 @@ def scaling(sizes: list[int], out: str) -> None:
         st = np.polyfit(np.log(np.asarray(sizes)[big]), np.log(np.asarray(times)[big]), 1)[0]
         sm = np.polyfit(np.log(np.asarray(sizes)[big]), np.log(np.asarray(mems)[big]), 1)[0]
         print(f"\nlog-log slope for N >= 4096: time {st:.2f}, memory {sm:.2f} (1 = linear)")
-    import matplotlib
+    import matplotlib  # ~0.5 s, only for the figure at the end; Agg before pyplot
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from experiments import io
     fig, ax = plt.subplots(figsize=(5.5, 4))
     ax.loglog(sizes, times, "-", color="C0", label="time per fit (s)")
     one = np.asarray(single)

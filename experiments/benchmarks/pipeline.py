@@ -30,6 +30,8 @@ import pandas as pd
 
 import methods
 
+__all__ = ["measure", "batch_workers", "dataset_job_s", "import_cost_s", "main"]
+
 
 def _numeric_s(table: Path) -> float:
     res = pd.read_csv(table)

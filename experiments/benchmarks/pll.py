@@ -21,6 +21,8 @@ from experiments.simulate.datasets import UG
 from experiments.simulate.plant import build_plant
 from methods import pll
 
+__all__ = ["PRIOR", "PAPER_OPTIONS", "DT_S", "TARGET_S", "main"]
+
 _CONFIG = OmegaConf.load(f"{CONFIG_DIR}/method/pll.yaml")
 PRIOR = list(_CONFIG.prior_rad_s)                     # Table 6
 PAPER_OPTIONS = OmegaConf.to_container(_CONFIG.options)

@@ -42,6 +42,9 @@ from experiments.io import atomic_write_text  # noqa: E402
 from experiments.simulate import bayes  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 
+__all__ = ["TRUE_RAD_S", "AMPLITUDE_M_S2", "PHASE_RAD", "ZETA", "DT_S", "UG", "SCORING_SEED", "STREAM", "cell",
+           "report", "filters", "main"]
+
 TRUE_RAD_S = np.array([3.23, 20.24, 22.00, 56.67])        # Table 3
 AMPLITUDE_M_S2 = np.array([1.04, 4.10, 4.84, 6.42])       # PHYSICS.md §3
 PHASE_RAD = np.array([0.0, np.pi, np.pi, 0.0])            # tip signs +, −, −, +

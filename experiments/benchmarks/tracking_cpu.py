@@ -35,6 +35,9 @@ from experiments.io import atomic_write_text  # noqa: E402
 from experiments.simulate.datasets import UG  # noqa: E402
 from experiments.simulate.plant import build_plant  # noqa: E402
 
+__all__ = ["PRIOR", "DT_S", "PULSE_EVERY_S", "NOISE_UG", "ON_BOARD_BUDGET_S", "SLOWDOWN", "OUT", "pulsed_record",
+           "parse_row", "default_rows", "measure", "markdown", "main"]
+
 PRIOR = [3.80, 16.00, 26.00, 46.00]      # Table 3
 DT_S = 0.02
 PULSE_EVERY_S = 10.0

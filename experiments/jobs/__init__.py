@@ -1,1 +1,3 @@
 """jobs stage of the pipeline."""
+
+__all__ = []

@@ -9,16 +9,21 @@ nothing is written. Sweeps (``-m``) skip the pre-check and are checked per job.
 from __future__ import annotations
 
 import re
+import shutil
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
 import hydra
 from hydra import compose, initialize_config_module
+from hydra.core.hydra_config import HydraConfig
 from hydra.errors import OverrideParseException
+from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, open_dict
 
-from experiments.io import check_writable
+from experiments.io import atomic_write_text, check_writable
+
+__all__ = ["CONFIG_MODULE", "CONFIG_DIR", "EXIT_BAD_INPUT", "BAD_INPUT", "one_line", "fail", "run_app"]
 
 # configs/ travels with the code as the package data `experiments.configs` (experiments/configs links to it in
 # the repository; a wheel holds a copy), so Hydra finds it from any working directory, installed or not.
@@ -126,10 +131,6 @@ def _check_outputs_writable(cfg: DictConfig) -> None:
 
 def _remove_empty_run_dir() -> None:
     """Take away the run directory Hydra made for a job that failed on bad input before writing anything."""
-    import shutil
-
-    from hydra.core.hydra_config import HydraConfig
-
     try:
         run_dir = Path(HydraConfig.get().runtime.output_dir)
     except ValueError:
@@ -142,18 +143,11 @@ def _remove_empty_run_dir() -> None:
 
 
 def _in_sweep() -> bool:
-    from hydra.core.hydra_config import HydraConfig
-    from hydra.types import RunMode
-
     return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN
 
 
 def _record_failure(message: str) -> float:
     """A failed sweep job: the line on stderr and in ``error.txt`` of its run directory; the worst objective."""
-    from hydra.core.hydra_config import HydraConfig
-
-    from experiments.io import atomic_write_text
-
     print(f"error: {message}", file=sys.stderr)
     atomic_write_text(Path(HydraConfig.get().runtime.output_dir) / "error.txt", f"error: {message}\n")
     return float("inf")

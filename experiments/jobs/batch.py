@@ -30,6 +30,9 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import OmegaConf, open_dict
 
 from experiments.jobs.app import CONFIG_MODULE, fail, one_line
+from experiments.jobs.config import methods_named_on, register
+
+__all__ = ["APPS", "parse_jobs", "PER_JOB_KEYS", "Composer", "main"]
 
 APPS = ("dataset", "identify")
 
@@ -112,14 +115,13 @@ def main(argv: list[str] | None = None) -> None:
         jobs = parse_jobs(args[1])
     except ValueError as exc:
         fail(str(exc))
-    from experiments.jobs.config import methods_named_on, register
 
     if app == "dataset":
-        from experiments.jobs import make_dataset as module
+        from experiments.jobs import make_dataset as module  # only the app asked for: its imports are start-up time
 
         register(dataset=True)
     else:
-        from experiments.jobs import identify as module
+        from experiments.jobs import identify as module  # only the app asked for: its imports are start-up time
 
         try:
             register(with_methods=sorted({m for j in jobs for m in methods_named_on(j)}))

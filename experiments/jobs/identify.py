@@ -13,6 +13,8 @@ estimates and writes ``estimate.json`` in the run directory. Either way the job 
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 import sys
 import time
@@ -22,14 +24,21 @@ import numpy as np
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import OmegaConf
+from tqdm import tqdm
 
 import methods
+from experiments.config_schema import variant_label
 from experiments.io import CHECKSUM_KEY, atomic_write_text, read_npz, write_json
 from experiments.jobs.app import fail, run_app
-from experiments.jobs.config import methods_named_on, register, variant_label
+from experiments.jobs.config import methods_named_on, register
 from experiments.report.scoring import COLUMNS, replicate_rows
+from experiments.simulate.datasets import CELL_KEYS
 from experiments.simulate.scenarios import AXES, result_columns
+from experiments.tracking import provenance
 from experiments.tracking.store import check_store
+
+__all__ = ["load_data", "prior_of", "priors_of", "scenario_of", "check", "LONG_RECORD_SAMPLES", "run_records",
+           "task", "run_job", "rows_to_csv", "job_record", "main"]
 
 
 def load_data(cfg) -> dict:
@@ -42,7 +51,6 @@ def load_data(cfg) -> dict:
         from experiments.jobs import measurements  # pandas and the readers: only for a user's file
 
         return measurements.load(d, None if cfg.prior is None else list(cfg.prior))
-    from experiments.simulate.datasets import CELL_KEYS
 
     cell = read_npz(d.dataset, required=CELL_KEYS)
     y = cell["accel_m_s2"]
@@ -161,8 +169,6 @@ def run_records(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options:
 
 
 def _progress(total: int, name: str, enabled: bool):
-    from tqdm import tqdm
-
     return tqdm(total=total, desc=name, unit="rep", disable=not enabled or total < 2, file=sys.stderr,
                 mininterval=2.0)
 
@@ -201,18 +207,18 @@ def run_job(cfg, run_dir: Path, config_name: str | None, sweep: bool = False) ->
     record_path = write_json(out.with_suffix(".json"), record)
     print(f"wrote {out} and {record_path}")
     if cfg.tracking.enabled:
-        from experiments.tracking.track import log_job
+        from experiments.tracking.track import log_job  # pandas (0.4 s): tracked jobs only
 
         key, _, created = log_job(cfg.tracking.experiment, record, out, record_path)
         print(f"MLflow experiment {cfg.tracking.experiment}: run {key} ({'logged' if created else 'already there'})")
     if cfg.tracking.enabled or sweep:
-        import pandas as pd
+        import pandas as pd  # 0.4 s of start-up: only a tracked or swept job scores its cell here
 
+        from experiments.report.objective import cell_objective
         from experiments.report.summary import summarize
-        from experiments.tuning.objective import cell_objective
 
         # A sweeper's objective (any Hydra sweeper minimises what the job returns): log10 of the median
-        # RMSE/CRLB over modes + a failure penalty, as the tuning command (experiments/tuning/objective.py)
+        # RMSE/CRLB over modes + a failure penalty, as the tuning command (experiments/report/objective.py)
         objective = cell_objective(summarize(pd.DataFrame(rows, columns=COLUMNS)))
         print(f"objective {objective['value']:.4g} (median RMSE/CRLB {objective['median_rmse_over_crlb']:.3g}, "
               f"failure rate {objective['failure_rate']:.2f})")
@@ -222,9 +228,6 @@ def run_job(cfg, run_dir: Path, config_name: str | None, sweep: bool = False) ->
 
 def rows_to_csv(rows: list[dict]) -> str:
     """The results table as CSV text (the csv module: pandas costs a third of a second per job to import)."""
-    import csv
-    import io
-
     buf = io.StringIO()
     extra = [a for a in AXES if rows and a in rows[0]]
     writer = csv.DictWriter(buf, fieldnames=COLUMNS + extra, lineterminator="\n")
@@ -255,8 +258,6 @@ def _run_measurement(cfg, data: dict, run_dir: Path, config_name: str | None, op
 def job_record(cfg, data, config_name: str | None) -> dict:
     """What determines this job's result, written beside its table and keyed in MLflow: the resolved
     config, the dataset (name, content digest, settings), the code version and the package versions."""
-    from experiments.tracking import provenance
-
     config_name = config_name or cfg.method.name
     if data["truth"] is None:
         dataset = {"name": Path(data["source"]).name, "path": data["source"], "kind": "measurement",

@@ -12,6 +12,8 @@ from experiments.jobs.app import run_app
 from experiments.jobs.config import register
 from experiments.simulate.datasets import DatasetConfig, check_dataset_config, write_cell
 
+__all__ = ["to_config", "MAX_CELL_BYTES", "cell_bytes", "check", "check_cell_memory", "task", "main"]
+
 
 def to_config(cfg) -> DatasetConfig:
     return OmegaConf.to_object(cfg)
@@ -36,9 +38,14 @@ def check(cfg) -> None:
         if not np.isfinite(value):
             raise ValueError(f"{name} = {value} must be a finite number")
     check_dataset_config(c)
-    need = cell_bytes(c.replicates, c.n_samples)
+    check_cell_memory(c.replicates, c.n_samples)
+
+
+def check_cell_memory(replicates: int, n_samples: int) -> None:
+    """Refuse a cell above :data:`MAX_CELL_BYTES` (also checked by the workflow on a grid's cells)."""
+    need = cell_bytes(replicates, n_samples)
     if need > MAX_CELL_BYTES:
-        raise ValueError(f"replicates × n_samples = {c.replicates} × {c.n_samples} needs {need / 2**30:.3g} GiB "
+        raise ValueError(f"replicates × n_samples = {replicates} × {n_samples} needs {need / 2**30:.3g} GiB "
                          f"of memory, above the limit of {MAX_CELL_BYTES / 2**30:g} GiB per cell "
                          f"(experiments/jobs/make_dataset.py): ask for fewer replicates or shorter records")
 

@@ -21,6 +21,9 @@ import numpy as np
 from experiments.io import write_json
 from experiments.report import model_check
 
+__all__ = ["G_M_S2", "MEASUREMENTS_EXPERIMENT", "INSTALL_HINT", "load", "load_csv", "find_modes", "print_notes",
+           "report", "log"]
+
 G_M_S2 = 9.80665
 MEASUREMENTS_EXPERIMENT = "measurements"
 INSTALL_HINT = "pip install -e '.[measurements]'"

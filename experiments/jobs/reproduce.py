@@ -17,6 +17,10 @@ from omegaconf import OmegaConf
 
 from experiments.jobs.app import run_app
 from experiments.jobs.config import register
+from experiments.tracking.provenance import canonical_json, digest, git_state
+from experiments.tracking.store import log_run, source_tags
+
+__all__ = ["EXPERIMENTS", "task", "flatten", "main"]
 
 # experiment name -> module (configs/experiment/<name>.yaml names the same module)
 EXPERIMENTS = {
@@ -36,9 +40,6 @@ def task(cfg) -> None:
     for f in files:
         print(f"wrote {f}")
     if cfg.tracking.enabled:
-        from experiments.tracking.provenance import canonical_json, digest, git_state
-        from experiments.tracking.store import log_run, source_tags
-
         params = flatten(OmegaConf.to_container(cfg.experiment.params, resolve=True), "param")
         code = git_state()
         key = f"{cfg.experiment.name}/{digest(canonical_json({'params': params, 'code': code}))}"

@@ -40,6 +40,8 @@ from experiments.simulate.datasets import UG, replicate_rng  # noqa: E402
 from experiments.simulate.plant import PlantConfig, build_plant  # noqa: E402
 from methods.kalman import akf, wkf  # noqa: E402
 
+__all__ = ["FILTERS", "UNIT_PER_METRE", "DEGRADE_FACTOR", "Params", "run"]
+
 FILTERS = {"akf": akf, "wkf": wkf}
 UNIT_PER_METRE = {"m": 1.0, "cm": 100.0, "mm": 1000.0}    # the record in this unit = metres × factor
 DEGRADE_FACTOR = 3.0          # claim (c): "badly" = RMSE at least this many times larger

@@ -38,6 +38,8 @@ from methods.pll.design import (  # noqa: E402
     stability_margins,
 )
 
+__all__ = ["SETTLE_TOLERANCE", "NOISE_COLOURS", "Params", "run"]
+
 SETTLE_TOLERANCE = 0.02     # "acquired": the instantaneous estimate stays within 2 % of the truth
 NOISE_COLOURS = ("tab:green", "tab:blue", "tab:orange", "tab:red")
 

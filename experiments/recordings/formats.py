@@ -5,11 +5,15 @@ a maintained library: what a file holds, as channels (name -> samples), their un
 
 from __future__ import annotations
 
+import csv
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import scipy.io
+
+__all__ = ["TIME_NAMES", "RawFile", "UFF_ACCELERATION", "UFF_TIME_RESPONSE", "FORMATS"]
 
 TIME_NAMES = ("t", "time", "x_value")
 
@@ -42,8 +46,6 @@ def _read_csv(path: Path) -> RawFile:
     otherwise never needs, costs 0.8 s to import). When a field is not a finite number the file is read
     again as text by pandas to name the first such row. The stamps' printed precision is read back from the
     floats (:func:`_decimal_quantum`)."""
-    import csv
-
     try:
         with open(path, newline="", encoding="utf-8") as f:
             header = next(csv.reader(f, skipinitialspace=True), None)
@@ -72,7 +74,7 @@ def _read_csv(path: Path) -> RawFile:
 
 def _read_csv_text(path: Path) -> dict[str, np.ndarray]:
     """The CSV as text, each field checked: ``ValueError`` naming the first field that is not a number."""
-    import pandas as pd
+    import pandas as pd  # 0.8 s, only to name a bad row (see _read_csv)
 
     try:
         df = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
@@ -97,7 +99,7 @@ UFF_TIME_RESPONSE = 1                 # func_type of a time response (UFF 58, re
 
 
 def _read_uff(path: Path) -> RawFile:
-    import pyuff
+    import pyuff  # optional extra (.[measurements])
 
     try:
         uff = pyuff.UFF(str(path))
@@ -140,7 +142,7 @@ def _as_list(sets):
 def _read_lvm(path: Path) -> RawFile:
     """lvm-read, told neither to read nor to write its pickle cache beside the file (a job writes nothing
     but its run folder, and loads no pickle)."""
-    import lvm_read
+    import lvm_read  # optional extra (.[measurements])
 
     try:
         lvm = lvm_read.read(str(path), read_from_pickle=False, dump_file=False)
@@ -176,7 +178,7 @@ def _read_lvm(path: Path) -> RawFile:
 
 
 def _read_tdms(path: Path) -> RawFile:
-    from nptdms import TdmsFile
+    from nptdms import TdmsFile  # optional extra (.[measurements])
 
     try:
         tdms = TdmsFile.read(str(path))
@@ -211,8 +213,6 @@ def _read_mat(path: Path) -> RawFile:
     """``scipy.io.loadmat`` (v4–v7.2 files). Numeric vectors are channels (a matrix N × C gives channels
     ``name[j]``); ``t``/``time`` the stamps, ``dt`` or ``fs`` the step, ``units`` (or ``<name>_units``)
     the unit."""
-    import scipy.io
-
     try:
         mat = scipy.io.loadmat(str(path), squeeze_me=True)
     except Exception as exc:  # noqa: BLE001 - scipy.io raises anything on a malformed file

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+__all__ = ["ModalFit", "fit_modes"]
+
 
 @dataclass(frozen=True)
 class ModalFit:

@@ -26,6 +26,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from experiments.recordings.spectral import decimate, welch
+
+__all__ = ["MIN_SEGMENT_SAMPLES", "AUTO_BAND_DB", "AUTO_BAND_MARGIN", "OVERSAMPLING", "NOISE_MARGIN", "KEEP_SAMPLES",
+           "FILTER_HALF_LENGTH", "Segment", "parse_band", "choose_segment"]
+
 MIN_SEGMENT_SAMPLES = 64          # fewer leave the stabilisation diagram and the fit nothing to work with
 AUTO_BAND_DB = 30.0               # a spectral line this far above the median level is signal
 AUTO_BAND_MARGIN = 1.25           # the band's top: this × the highest such line
@@ -212,8 +217,6 @@ def _moving_mean(x: np.ndarray, w: int) -> np.ndarray:
 
 
 def _auto_band(y: np.ndarray, dt: float) -> tuple[tuple[float, float], str]:
-    from experiments.recordings.spectral import welch
-
     nyquist = 0.5 / dt
     if y.size < 16:
         return (0.0, nyquist), "record too short for a spectrum: the whole band"
@@ -233,7 +236,6 @@ def _decimate(y: np.ndarray, q: int) -> np.ndarray:
     for the filter and put back, so its zero padding at the ends meets a record near zero."""
     if q == 1:
         return np.asarray(y, float)
-    from experiments.recordings.spectral import decimate
 
     c = float(np.mean(y))
     return decimate(y - c, q) + c

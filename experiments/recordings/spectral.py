@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["KAISER_BETA", "HALF_LENGTH", "antialias_taps", "decimate", "welch"]
+
 KAISER_BETA = 5.0          # resample_poly's default window ('kaiser', 5.0)
 HALF_LENGTH = 10           # resample_poly's half-length of the filter, in output samples (10 × q input)
 

@@ -1,1 +1,3 @@
 """report stage of the pipeline."""
+
+__all__ = []

@@ -21,9 +21,12 @@ import pandas as pd
 import yaml
 
 from experiments.io import atomic_write_text, markdown_table, write_table
-from experiments.report import catalog, htmltables, pareto, plots, variants
+from experiments.report import axes, catalog, htmltables, pareto, plots, variants
 from experiments.report.coverage import coverage_table, honesty_lines
 from experiments.report.summary import cell_keys, summarize
+
+__all__ = ["PRINTED", "read_results", "paper_tables", "PAPER_TABLES_INTRO", "render_paper_tables", "headline",
+           "main", "experiment_tables", "html_twins", "write_captions", "page", "experiments_section"]
 
 # experiments/configs is configs/ (a link in the repository, package data in a wheel)
 PRINTED = Path(__file__).resolve().parents[1] / "configs" / "paper" / "printed.yaml"
@@ -177,8 +180,6 @@ def main(argv=None) -> int:
     files += plots.coverage(summary, cov, figs / "coverage")
     scenario_text = ""
     if scenario_cols:                      # per-axis figures and the basin of attraction
-        from experiments.report import axes
-
         axis_files, scenario_text = axes.figures(summary, results, out)
         files += axis_files
     classes = pareto.class_table(summary)

@@ -19,12 +19,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from experiments.io import markdown_table  # noqa: E402
+from experiments.io import (
+    markdown_table,  # noqa: E402
+    write_table,  # noqa: E402
+)
+from experiments.report import htmltables  # noqa: E402
 from experiments.report.plots import MAX_FAILURE_RATE, _save  # noqa: E402
 from experiments.report.plots import _style as _base_style  # noqa: E402
 from experiments.report.success import success_rates  # noqa: E402
 from experiments.report.summary import cell_keys  # noqa: E402
 from experiments.simulate.scenarios import AXES  # noqa: E402
+
+__all__ = ["REFERENCE", "LABEL", "BASIN_LEVEL", "VARIANT_MARKERS", "swept_axes", "slice_for", "axis_figure",
+           "basin_table", "basin_figure", "basin_edges", "figures"]
 
 REFERENCE = {"prior_scale": 1.0, "prior_spread": 0.0, "damping": 0.005, "gap_rad_s": 1.76, "excitation": 1.0,
              "dt_s": 0.02, "bias_m_s2": 0.0, "measurement": "position"}
@@ -188,9 +195,6 @@ def basin_edges(rates: pd.DataFrame) -> pd.DataFrame:
 def figures(summary: pd.DataFrame, results: pd.DataFrame, out: Path) -> tuple[list[Path], str]:
     """Every axis figure, the basin figure and table (the grid's page lists the figures with their captions,
     experiments/report/captions/); returns the files and a Markdown section with the basin's edges."""
-    from experiments.io import write_table
-    from experiments.report import htmltables
-
     files = []
     for axis in swept_axes(summary):
         files += axis_figure(summary, axis, out / "figures" / f"axis_{axis}")

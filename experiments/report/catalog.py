@@ -21,6 +21,8 @@ import re
 from pathlib import Path
 from string import Template
 
+__all__ = ["CAPTIONS", "ORDER", "category_of", "title_of", "caption_of", "sort_key"]
+
 CAPTIONS = Path(__file__).resolve().parent / "captions"
 # The order of categories on the grid's page; categories not listed here come after, alphabetically.
 ORDER = ("accuracy", "failures", "uncertainty", "scenarios", "tuning", "peers", "paper reproductions", "other")

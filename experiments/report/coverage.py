@@ -17,6 +17,11 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from experiments.simulate.scenarios import AXES
+
+__all__ = ["IDEAL_1STD", "IDEAL_2STD", "IDEAL_MEDIAN_Z", "ALPHA", "MIN_GAP", "FEW", "COLUMNS", "coverage", "verdict",
+           "method_coverage", "coverage_table", "honesty_lines"]
+
 IDEAL_1STD = float(stats.norm.cdf(1) - stats.norm.cdf(-1))      # 0.6827
 IDEAL_2STD = float(stats.norm.cdf(2) - stats.norm.cdf(-2))      # 0.9545
 IDEAL_MEDIAN_Z = float(stats.norm.ppf(0.75))                    # 0.6745
@@ -74,8 +79,6 @@ def method_coverage(results: pd.DataFrame, cells: pd.DataFrame | None = None) ->
     """
     res = results
     if cells is not None:
-        from experiments.simulate.scenarios import AXES  # scenario cells are told apart by their axes
-
         keys = ["method", "noise_ug", "n_samples", *[a for a in AXES if a in cells and a in res], "mode"]
         res = res.merge(cells[keys].drop_duplicates(), how="inner")
     ok = res[res["converged"].astype(bool)]

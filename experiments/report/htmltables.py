@@ -14,6 +14,8 @@ import pandas as pd
 
 from experiments.io import atomic_write_text
 
+__all__ = ["render", "write"]
+
 _CSS = ("body{font-family:sans-serif;font-size:13px;margin:1em}"
         "table{border-collapse:collapse;margin:0.5em 0 1.5em}"
         "th,td{border:1px solid #ccc;padding:2px 6px;text-align:right}"

@@ -15,6 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from experiments.io import save_figure
+from experiments.recordings.spectral import welch
+
+__all__ = ["G_M_S2", "measurement_figure"]
 
 G_M_S2 = 9.80665
 
@@ -23,10 +26,8 @@ def measurement_figure(stem, *, y, dt: float, t0: float, model, residual, freq_r
                        determined, diagram=None, title: str = "") -> list[Path]:
     """Draw the figure (module docstring) to ``<stem>.png`` and ``<stem>.svg``; the record in m/s²,
     drawn in g. ``diagram``: a :class:`methods.peers.stabilisation.Diagram`, or None."""
-    import matplotlib.ticker
+    import matplotlib.ticker  # matplotlib: only a job that draws pays its import
     from matplotlib.figure import Figure  # not pyplot: no backend machinery, 0.3 s less import
-
-    from experiments.recordings.spectral import welch
 
     t = t0 + np.arange(y.size) * dt
     # fixed margins: constrained layout cost 0.6 s of the job's 3 s (measured, experiments.benchmarks.measurement)

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["check_lines", "check_json"]
+
 
 def check_lines(extra: dict) -> list[str]:
     """Terminal lines: the residual's verdict with its numbers, then one line per drifting mode."""

@@ -14,6 +14,10 @@ import pandas as pd  # noqa: E402
 from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 
 from experiments.io import save_figure  # noqa: E402
+from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, IDEAL_MEDIAN_Z  # noqa: E402
+
+__all__ = ["METHOD_STYLE", "EXTRA_COLOURS", "MAX_FAILURE_RATE", "VARIANT_SHADES", "rmse_against", "winner_map",
+           "failure_map", "coverage"]
 
 METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab:cyan", "D"),
                 "pem": ("tab:red", "^"), "pll": ("tab:green", "v"),
@@ -171,8 +175,6 @@ def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
 
 def coverage(summary: pd.DataFrame, table: pd.DataFrame, stem: Path) -> list[Path]:
     """How honest each method's std is: pooled ±1σ/±2σ coverage and median |error|/σ per identifiable cell."""
-    from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, IDEAL_MEDIAN_Z
-
     pooled = table[(table["cells"] == "identifiable")].set_index("method")
     with_std = [m for m in pooled.index if table[(table["method"] == m)]["n_with_std"].max() > 0]
     without = [m for m in pooled.index if m not in with_std]

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["COLUMNS", "identifiable", "replicate_rows"]
+
 COLUMNS = ["method", "noise_ug", "n_samples", "replicate", "mode", "prior_rad_s", "true_rad_s",
            "estimate_rad_s", "std_rad_s", "error_rad_s", "crlb_std_rad_s", "crlb_offset_std_rad_s", "identifiable",
            "converged", "iterations", "runtime_s", "message"]

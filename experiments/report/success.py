@@ -16,6 +16,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+__all__ = ["SIGMAS", "REL_FLOOR", "tolerance", "mode_success", "replicate_success", "success_rates"]
+
 SIGMAS = 5.0
 REL_FLOOR = 0.005
 

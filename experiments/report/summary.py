@@ -19,14 +19,15 @@ import pandas as pd
 
 from experiments.report.coverage import COLUMNS as COVERAGE_COLUMNS
 from experiments.report.coverage import coverage
+from experiments.simulate.scenarios import AXES
+
+__all__ = ["KEYS", "cell_keys", "summarize", "job_metrics"]
 
 KEYS = ["method", "noise_ug", "n_samples", "mode"]
 
 
 def cell_keys(table: pd.DataFrame) -> list[str]:
     """The columns that name a cell: noise, length and the scenario axes present in the table."""
-    from experiments.simulate.scenarios import AXES
-
     return ["noise_ug", "n_samples", *[a for a in AXES if a in table.columns]]
 
 

@@ -11,10 +11,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
+import matplotlib
 
-from experiments.report import plots
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from experiments.report import plots  # noqa: E402
+
+__all__ = ["ROOT", "METHOD_CONFIGS", "base_of", "table", "provenance", "figure"]
 
 ROOT = Path(__file__).resolve().parents[2]
 METHOD_CONFIGS = ROOT / "configs" / "method"
@@ -56,8 +62,6 @@ def provenance(labels) -> list[tuple[str, str]]:
 
 def figure(tab: pd.DataFrame, stem: Path) -> list[Path]:
     """Per method (panel): each variant's median RMSE/CRLB per cell; open markers where it fails > 10 %."""
-    import matplotlib.pyplot as plt
-
     bases = sorted(tab["method"].unique())
     cells = tab[["noise_ug", "n_samples"]].drop_duplicates().sort_values(["n_samples", "noise_ug"])
     names = [f"{v:g} µg\n{n}" for v, n in zip(cells["noise_ug"], cells["n_samples"], strict=True)]

@@ -1,6 +1,8 @@
 # One job per grid simulates every cell (experiments.jobs.batch: make_dataset's job for each cell, in one
 # process). The folder is the output: a failed or interrupted job leaves nothing behind.
 rule datasets:
+    message:
+        "datasets: every cell of grid {wildcards.grid} -> {output}"
     output:
         directory("results/{grid}/data"),
     params:

@@ -5,6 +5,8 @@
 # step reads besides the table. MLflow logging is left to the serial `track` step. The batch's cells are
 # shared by IDENTIFY_THREADS worker processes (common.smk: 1; `--set-threads identify=N` changes it).
 rule identify:
+    message:
+        "identify: {wildcards.method} on every cell of grid {wildcards.grid} -> {output}"
     input:
         data="results/{grid}/data",
         code=method_code,

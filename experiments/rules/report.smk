@@ -21,6 +21,8 @@ report: "../report/captions/workflow.rst"
 
 
 rule aggregate:
+    message:
+        "aggregate: tables, figures and summary of grid {wildcards.grid} -> {output.page}"
     input:
         results=lambda wc: identify_dirs(wc.grid),
         experiments=lambda wc: experiment_dirs(wc.grid),
@@ -52,6 +54,8 @@ rule aggregate:
 
 
 rule track:
+    message:
+        "track: MLflow runs and page of grid {wildcards.grid} -> {output.page}"
     input:
         results=lambda wc: identify_dirs(wc.grid),
         summary="results/{grid}/summary.md",
@@ -73,6 +77,8 @@ rule track:
 
 
 rule reproduce:
+    message:
+        "reproduce: paper experiment {wildcards.experiment} -> {output}"
     output:
         report(
             directory("results/{grid}/paper/{experiment}"),

@@ -1,1 +1,3 @@
 """simulate stage of the pipeline."""
+
+__all__ = []

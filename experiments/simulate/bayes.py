@@ -38,6 +38,9 @@ import scipy.special
 
 from experiments.simulate.crlb import signal_jacobian
 
+__all__ = ["fisher_information", "van_trees_std", "basis", "posterior_mean", "projected_log_likelihood",
+           "orthonormal_bases", "MOVES", "ESS_TARGET", "smc_posterior_mean", "mmse_rmse", "draw_prior", "signal"]
+
 
 def fisher_information(freq_rad_s, damping, amplitude, phase, n_samples: int, dt_s: float, noise_std: float,
                        *, offset: bool = False) -> np.ndarray:

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
+__all__ = ["BeamGeometry", "cantilever_beta_l", "sigma", "mode_shape", "ModalCoefficients", "modal_coefficients"]
+
 
 @dataclass
 class BeamGeometry:

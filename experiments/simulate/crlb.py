@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["signal_jacobian", "crlb_std"]
+
 
 def signal_jacobian(freq_rad_s, damping, amplitude, phase, t, *, offset: bool = False) -> np.ndarray:
     """∂μ/∂(a, φ, ω, ζ) for each mode (columns grouped per mode, in that order), plus ∂μ/∂offset if asked."""

@@ -39,7 +39,11 @@ import numpy as np
 
 from experiments.io import write_npz
 from experiments.simulate import mismatch, scenarios
-from experiments.simulate.plant import PlantConfig
+from experiments.simulate.crlb import crlb_std
+from experiments.simulate.plant import PlantConfig, build_plant
+
+__all__ = ["G0", "UG", "MIN_SAMPLES", "CELL_KEYS", "ScenarioConfig", "DatasetConfig", "scenario_axes",
+           "check_dataset_config", "replicate_rng", "make_cell", "write_cell"]
 
 G0 = 9.80665                 # standard gravity, m/s²
 UG = G0 * 1e-6               # 1 µg in m/s²
@@ -124,9 +128,6 @@ def replicate_rng(seed: int, noise_ug: float, n_samples: int, replicate: int) ->
 
 def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
     """Simulate one cell: the exact noise-free response plus seeded white noise and bias."""
-    from experiments.simulate.crlb import crlb_std
-    from experiments.simulate.plant import build_plant
-
     check_dataset_config(cfg)
     axes = scenario_axes(cfg)
     plant = build_plant(scenarios.apply_to_plant(cfg.plant, axes))

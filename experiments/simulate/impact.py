@@ -9,12 +9,17 @@ impulse response Σᵢ aᵢ e^(−ζᵢωᵢτ) sin(ω_dᵢτ), τ = t − t_hit
 
 from __future__ import annotations
 
+import argparse
 from dataclasses import dataclass
 
 import numpy as np
 
+from experiments.io import atomic_path
 from experiments.simulate.beam import BeamGeometry, cantilever_beta_l
 from experiments.simulate.crlb import crlb_std
+
+__all__ = ["G", "STEEL_STRIP", "FS_HZ", "DURATION_S", "DAMPING", "AMPLITUDE_G", "NOISE_G", "Impact",
+           "cantilever_frequencies_rad_s", "simulate", "main"]
 
 G = 9.80665
 STEEL_STRIP = BeamGeometry(length_m=0.5, width_m=0.03, height_m=0.005, density_kg_m3=7850.0,
@@ -70,10 +75,6 @@ def simulate(seed: int, n_samples: int | None = None) -> Impact:
 def main(argv=None) -> None:
     """``python -m experiments.simulate.impact beam.csv [--seed 1]``: the record as a logger's CSV (time
     stamps printed to 1 µs, the tip acceleration in g), the example of docs/measurements.md."""
-    import argparse
-
-    from experiments.io import atomic_path
-
     parser = argparse.ArgumentParser(description=main.__doc__.splitlines()[0])
     parser.add_argument("out")
     parser.add_argument("--seed", type=int, default=1)

@@ -28,6 +28,9 @@ import numpy as np
 import scipy.integrate
 import scipy.signal
 
+__all__ = ["UNMODELLED_RAD_S", "UNMODELLED_DAMPING", "AXES", "ar1_noise", "duffing_modes", "backbone_rad_s",
+           "RANGES", "check_axes", "present", "mismatched_signal", "noise", "sensor"]
+
 UNMODELLED_RAD_S = 111.068       # cantilever mode 4 (docs: PHYSICS.md §1): the beam's next mode
 UNMODELLED_DAMPING = 0.005
 AXES = ("ar1", "unmodelled_mode", "duffing", "saturation", "quantisation")

@@ -18,6 +18,8 @@ import scipy.linalg
 
 from experiments.simulate.beam import BeamGeometry, cantilever_beta_l, modal_coefficients
 
+__all__ = ["N_RIGID", "COORDS", "PlantConfig", "Plant", "beam_cantilever_freq_rad_s", "build_plant"]
+
 N_RIGID = 6
 COORDS = ("theta_x", "theta_y", "theta_z", "X", "Y", "Z", "q1", "q2", "q3", "q4")
 

@@ -33,10 +33,15 @@ and R = 20 is a prefix of R = 100.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
 import numpy as np
+
+__all__ = ["AXES", "PER_MODE_AXES", "PRIOR_AXES", "MEASUREMENTS", "PRIOR_STREAM", "GAP_MODES", "cell_name",
+           "grid_cells", "per_mode", "apply_to_plant", "nominal_frequencies", "has_prior_axis", "prior_draws",
+           "harness_prior", "check_cell", "check_grid", "result_columns"]
 
 # axis -> the prefix of its part of a cell name; the order is the order of the parts in the name.
 AXES: dict[str, str] = {
@@ -106,8 +111,6 @@ def per_mode(value, m: int, axis: str) -> list[float]:
 
 def apply_to_plant(plant_cfg, axes: dict):
     """The plant config of a cell: damping, the moved mode 3, the scaled excitation (a new object)."""
-    import dataclasses
-
     m = len(plant_cfg.shape_modes)
     changes = {}
     if axes.get("damping") is not None:

@@ -1,1 +1,3 @@
 """tracking stage of the pipeline."""
+
+__all__ = []

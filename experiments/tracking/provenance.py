@@ -2,8 +2,9 @@
 the versions of the packages that code imports, a dataset's digest and the code's git state.
 
 The Snakemake rules use the first three as the identify rule's params and inputs (Snakemake's own rerun
-triggers then rerun exactly the affected jobs); the MLflow run key uses all five. Nothing here imports a
-method or MLflow: the workflow evaluates these functions for every job when it builds the DAG.
+triggers then rerun exactly the affected jobs); the MLflow run key uses all five. Nothing here runs a method
+or imports MLflow: the workflow evaluates these functions for every job when it builds the DAG (a method's
+module is imported for its ``Options`` schema only).
 """
 
 from __future__ import annotations
@@ -17,8 +18,17 @@ import sys
 from importlib.metadata import PackageNotFoundError, packages_distributions, version
 from pathlib import Path
 
+from hydra import compose, initialize_config_dir
+from hydra.core.config_store import ConfigStore
+from hydra.core.global_hydra import GlobalHydra
+from hydra.initialize import get_gh_backup, restore_gh_from_backup
+from omegaconf import OmegaConf
+
 import methods
-from experiments.jobs.config import method_of_config
+from experiments.config_schema import IdentifyConfig, method_of_config, method_schema
+
+__all__ = ["ROOT", "canonical_json", "digest", "resolved_method_config", "method_code_files", "package_versions",
+           "code_digest", "file_digest", "git_state"]
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -33,7 +43,7 @@ def digest(text: str | bytes, length: int = 16) -> str:
     return hashlib.sha256(data).hexdigest()[:length]
 
 
-_HYDRA_ROOT: list[str] = []     # the config folder Hydra was initialised on in this process
+_SCHEMAS: dict[str, bool] = {}  # method -> its real schema (True) or an empty stand-in (False) is stored
 
 
 @functools.cache
@@ -41,26 +51,28 @@ def resolved_method_config(config_name: str, overrides: tuple[str, ...] = (), ro
     """The method node of ``configs/identify.yaml`` with ``method=<config_name>`` and ``overrides``, composed
     by Hydra (defaults chain, variants, interpolations) and returned as canonical JSON.
 
-    The methods' structured schemas (``<name>_schema``, generated from ``Options``) are stood in for by empty
-    nodes, so no method module is imported: the ``Options`` defaults live in the method's module, which the
-    identify rule takes as an input (:func:`method_code_files`).
+    The method's structured schema is generated from its ``Options`` (its module is imported, not run), so
+    the node holds every option the job runs with, the dataclass defaults included, and an override of an
+    unknown option fails here with its name; the other methods' schemas are stood in for by empty nodes.
+    Hydra's global state is left as it was found (a caller's own initialisation survives the call).
     """
-    from hydra import compose, initialize_config_dir
-    from hydra.core.config_store import ConfigStore
-    from hydra.core.global_hydra import GlobalHydra
-    from omegaconf import OmegaConf
-
-    from experiments.jobs.config import IdentifyConfig
-
-    if not _HYDRA_ROOT or _HYDRA_ROOT[0] != root:
-        cs = ConfigStore.instance()
-        cs.store(name="identify_schema", node=IdentifyConfig)
-        for name in methods.names():
+    cs = ConfigStore.instance()
+    cs.store(name="identify_schema", node=IdentifyConfig)
+    for name in methods.names():
+        if name not in _SCHEMAS:
             cs.store(group="method", name=f"{name}_schema", node={})
-        GlobalHydra.instance().clear()
-        initialize_config_dir(config_dir=str(Path(root) / "configs"), version_base="1.3")
-        _HYDRA_ROOT[:] = [root]
-    cfg = compose(config_name="identify", overrides=[f"method={config_name}", *overrides])
+            _SCHEMAS[name] = False
+    method = method_of_config(config_name)
+    if method is not None and not _SCHEMAS.get(method):
+        cs.store(group="method", name=f"{method}_schema", node=method_schema(method))
+        _SCHEMAS[method] = True
+    backup = get_gh_backup()
+    GlobalHydra.instance().clear()
+    try:
+        with initialize_config_dir(config_dir=str(Path(root) / "configs"), version_base="1.3"):
+            cfg = compose(config_name="identify", overrides=[f"method={config_name}", *overrides])
+    finally:
+        restore_gh_from_backup(backup)
     return canonical_json(OmegaConf.to_container(cfg.method, resolve=True))
 
 

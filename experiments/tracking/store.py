@@ -20,13 +20,20 @@ taken for cut off only when its owner process (tag ``owner``, host:pid) is known
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import socket
+import sqlite3
 import time
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
+from filelock import FileLock
+
 from experiments.tracking.provenance import digest, git_state
+
+__all__ = ["DEFAULT_DB", "LOCK_TIMEOUT_S", "tracking_uri", "is_default_store", "lock_path", "store_lock", "client",
+           "experiment_id", "log_run", "dataset_entity", "source_tags", "git_commit"]
 
 DEFAULT_DB = Path("results") / "mlflow.db"   # relative to the working directory, like all outputs
 LOCK_TIMEOUT_S = 600
@@ -85,7 +92,6 @@ def _check_sqlite(path: Path) -> None:
     if pages and pages * page_size > size:
         raise ValueError(f"the MLflow store {path} is truncated ({size} bytes; its header records "
                          f"{pages * page_size}); {way_out}")
-    import sqlite3
 
     try:
         with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=30)) as db:
@@ -113,8 +119,6 @@ def lock_path(uri: str) -> Path:
 
 @contextlib.contextmanager
 def store_lock(uri: str):
-    from filelock import FileLock
-
     with FileLock(str(lock_path(uri)), timeout=LOCK_TIMEOUT_S):
         yield
 
@@ -178,7 +182,7 @@ def log_run(experiment: str, run_key: str, *, params: dict | None = None, metric
     ``mlflow.entities.Dataset`` logged as the run's input; ``parent_run_id`` makes it a child run (an
     existing run with the key is moved under that parent).
     """
-    from mlflow.entities import DatasetInput, InputTag, Metric, Param
+    from mlflow.entities import DatasetInput, InputTag, Metric, Param  # mlflow: ~2 s, tracking steps only
 
     uri = tracking_uri()
     c = client(uri)
@@ -244,9 +248,7 @@ def _owner_gone(run) -> bool:
 
 def dataset_entity(name: str, digest_: str, source: str, *, kind: str, profile: dict | None = None):
     """An MLflow dataset (name, digest, source) for ``log_run(dataset=...)``."""
-    import json
-
-    from mlflow.entities import Dataset
+    from mlflow.entities import Dataset  # mlflow: ~2 s, tracking steps only
 
     return Dataset(name=name, digest=digest_[:36], source_type="local",
                    source=json.dumps({"uri": str(source)}),

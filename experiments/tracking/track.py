@@ -21,11 +21,14 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+from omegaconf import OmegaConf
 
 from experiments.io import atomic_write_text, write_json
 from experiments.report.summary import job_metrics, summarize
 from experiments.tracking.provenance import canonical_json, digest, git_state
 from experiments.tracking.store import check_store, dataset_entity, log_run, source_tags
+
+__all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job", "grid_run", "aggregate_files", "main"]
 
 IDENTIFY_SOURCE = "experiments/jobs/identify.py"
 
@@ -55,8 +58,6 @@ def job_params(record: dict, table: pd.DataFrame | None = None) -> dict:
 
 
 def config_yaml(record: dict) -> str:
-    from omegaconf import OmegaConf
-
     return OmegaConf.to_yaml(OmegaConf.create(record["config"]))
 
 

@@ -7,7 +7,7 @@ The cells are simulated in memory exactly as the grids' dataset files (``make_ce
 paper grid's scoring seed, so the numbers are those of the grid's cells). Writes ``<out>_modes.{csv,md}``
 (RMSE/CRLB and failure rate per method, cell and mode) and ``<out>.{csv,md}`` (per method and cell: median
 RMSE/CRLB over the modes that delivered, failure rate, and the tuning objective J of
-``experiments.tuning.objective``). Nothing here tunes: it only reads the method configs.
+``experiments.report.objective``). Nothing here tunes: it only reads the method configs.
 """
 
 from __future__ import annotations
@@ -20,8 +20,15 @@ import numpy as np
 import pandas as pd
 from omegaconf import OmegaConf
 
+from experiments.config_schema import method_of_config, variant_label
 from experiments.io import atomic_write_text, markdown_table, write_table
 from experiments.jobs.app import CONFIG_DIR, fail, one_line
+from experiments.jobs.config import register
+from experiments.report.objective import DEFAULT_PENALTY, cell_objective
+from experiments.simulate.datasets import DatasetConfig, make_cell
+from experiments.tuning.tune import base_method, evaluate
+
+__all__ = ["parse_cell", "compare", "main"]
 
 
 def parse_cell(text: str) -> tuple[float, int]:
@@ -34,11 +41,6 @@ def parse_cell(text: str) -> tuple[float, int]:
 
 def compare(config_names: list[str], cells: list[tuple[float, int]], replicates: int, seed: int,
             penalty: float) -> tuple[pd.DataFrame, pd.DataFrame]:
-    from experiments.jobs.config import method_of_config, register, variant_label
-    from experiments.simulate.datasets import DatasetConfig, make_cell
-    from experiments.tuning.objective import cell_objective
-    from experiments.tuning.tune import base_method, evaluate
-
     register(with_methods=sorted({method_of_config(c) for c in config_names if method_of_config(c)}))
     data = [make_cell(DatasetConfig(noise_ug=nz, n_samples=n, replicates=replicates, seed=seed)) for nz, n in cells]
     modes, per_cell = [], []
@@ -62,8 +64,6 @@ def compare(config_names: list[str], cells: list[tuple[float, int]], replicates:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from experiments.tuning.objective import DEFAULT_PENALTY
-
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--methods", nargs="+", required=True, help="method configs, e.g. akf akf_tuned")
     p.add_argument("--cells", nargs="+", default=["10:256", "1000:256"], help="noise_ug:n_samples")
@@ -85,7 +85,7 @@ def main(argv: list[str] | None = None) -> None:
     written = write_table(table, out) + write_table(modes, out.with_name(out.name + "_modes"))
     title = (f"# Paper vs tuned: {args.replicates} replicates per cell, seed {seed}\n\n"
              "median RMSE/CRLB over the modes that delivered; failure rate = mean over modes; objective J = "
-             f"log10(median) + {args.penalty:g} × failure rate (experiments/tuning/objective.py)\n\n")
+             f"log10(median) + {args.penalty:g} × failure rate (experiments/report/objective.py)\n\n")
     atomic_write_text(out.with_suffix(".md"), title + markdown_table(table) + "\n")
     print(title + markdown_table(table))
     for f in written:

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 from typing import Any
 
+__all__ = ["KNOWN_KEYS", "check_space", "param_names", "suggest_options", "resolve", "base_params"]
+
 KNOWN_KEYS = {"low", "high", "log", "int", "choices", "per_mode", "relative"}
 
 

@@ -4,7 +4,7 @@
     OPENBLAS_NUM_THREADS=1 python -m experiments.tuning.tune tuning=akf
     python -m experiments.tuning.tune tuning=wkf tuning.trials=80 tuning.replicates=10
 
-Objective (``experiments.tuning.objective``): mean over the cells of log10(median over modes of RMSE/CRLB)
+Objective (``experiments.report.objective``): mean over the cells of log10(median over modes of RMSE/CRLB)
 + penalty × failure rate. Writes ``configs/method/<method>_<variant>.yaml`` (``defaults: [<method>,
 _self_]``, ``variant: <variant>``, the tuned options) with the study's provenance in its header; grids name
 it ``<method>:<variant>``. Every trial is an MLflow child run of one study run (experiment ``tuning``). The
@@ -24,15 +24,27 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from hydra import compose
+import pandas as pd
+from hydra import compose, initialize_config_dir
 from hydra.core.config_store import ConfigStore
+from hydra.core.global_hydra import GlobalHydra
 from omegaconf import MISSING, OmegaConf
 
 import methods
+from experiments.config_schema import TrackingConfig, method_of_config, variant_label
 from experiments.io import atomic_write_text
 from experiments.jobs.app import CONFIG_DIR, run_app
-from experiments.jobs.config import TrackingConfig, method_of_config, register, variant_label
+from experiments.jobs.config import register
+from experiments.jobs.identify import run_records
+from experiments.report.objective import objective
+from experiments.report.scoring import COLUMNS, replicate_rows
+from experiments.report.summary import summarize
+from experiments.simulate.datasets import DatasetConfig, make_cell
+from experiments.tracking.store import DEFAULT_DB, git_commit, log_run
 from experiments.tuning.space import base_params, check_space, suggest_options
+
+__all__ = ["PROJECT", "CellConfig", "TuningConfig", "TuneApp", "scoring_seeds", "check", "base_method",
+           "simulate_cells", "evaluate", "study_name", "storage_url", "task", "config_text", "main"]
 
 PROJECT = Path(CONFIG_DIR).parent
 
@@ -106,9 +118,6 @@ def check(cfg) -> None:
 
 def base_method(config_name: str):
     """The composed method config (its prior and options) the study starts from."""
-    from hydra import initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-
     if GlobalHydra.instance().is_initialized():        # inside the Hydra app
         return compose(config_name="identify", overrides=[f"method={config_name}"]).method
     with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):   # the pre-check
@@ -116,8 +125,6 @@ def base_method(config_name: str):
 
 
 def simulate_cells(t) -> list[dict]:
-    from experiments.simulate.datasets import DatasetConfig, make_cell
-
     return [make_cell(DatasetConfig(noise_ug=float(c.noise_ug), n_samples=int(c.n_samples),
                                     replicates=int(t.replicates), dt_s=float(t.dt_s), seed=int(t.seed)))
             for c in t.cells]
@@ -125,13 +132,6 @@ def simulate_cells(t) -> list[dict]:
 
 def evaluate(name: str, label: str, prior, options: dict, cells: list[dict], penalty: float):
     """Run the method on every replicate of every cell; the objective's parts and the summary table."""
-    import pandas as pd
-
-    from experiments.jobs.identify import run_records
-    from experiments.report.scoring import COLUMNS, replicate_rows
-    from experiments.report.summary import summarize
-    from experiments.tuning.objective import objective
-
     rows = []
     for cell in cells:
         results = run_records(name, cell["accel_m_s2"], float(cell["dt_s"]), prior, options, progress=False)
@@ -156,14 +156,13 @@ def study_name(t) -> str:
 def storage_url(t) -> str:
     if t.storage:
         return t.storage
-    from experiments.tracking.store import DEFAULT_DB
 
     DEFAULT_DB.parent.mkdir(parents=True, exist_ok=True)
     return f"sqlite:///{(DEFAULT_DB.parent / 'optuna.db').resolve()}"
 
 
 def task(cfg) -> None:
-    import optuna
+    import optuna  # optional extra (.[tuning])
 
     t = cfg.tuning
     base = base_method(t.method)
@@ -207,8 +206,6 @@ def task(cfg) -> None:
     atomic_write_text(out, text)
     print(f"best trial {best.number}: J = {best.value:.4g}\nwrote {out}")
     if parent is not None:
-        from experiments.tracking.store import log_run
-
         log_run(cfg.tracking.experiment, f"tuning/{sname}/best{len(study.trials)}", params=_flat(tuned),
                 metrics={"best_value": best.value, "best_trial": best.number}, artifacts=[out],
                 tags={"mlflow.parentRunId": parent, "kind": "tuning-result"})
@@ -216,7 +213,7 @@ def task(cfg) -> None:
 
 def _fail_stale(study) -> None:
     """A trial left RUNNING by a killed process is marked failed (this command runs trials one at a time)."""
-    from optuna.trial import TrialState
+    from optuna.trial import TrialState  # optional extra (.[tuning])
 
     for tr in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
         study._storage.set_trial_state_values(tr._trial_id, TrialState.FAIL)
@@ -233,8 +230,6 @@ def _round(value):
 
 
 def config_text(t, name: str, sname: str, study, best, tuned: dict) -> str:
-    from experiments.tracking.store import git_commit
-
     finished = [tr for tr in study.trials if tr.value is not None]
     base_trials = [tr for tr in finished if tr.user_attrs.get("base")]
     cells = ", ".join(f"{c.noise_ug:g} µg/{c.n_samples}" for c in t.cells)
@@ -247,7 +242,7 @@ def config_text(t, name: str, sname: str, study, best, tuned: dict) -> str:
         f'# Variant "{variant_label(name, t.variant)}": configs/method/{t.method}.yaml with options tuned by '
         "experiments.tuning.tune (Optuna TPE).",
         f"# Objective: mean over cells of log10(median over modes of RMSE/CRLB) + {t.penalty:g} x failure rate"
-        " (experiments/tuning/objective.py).",
+        " (experiments/report/objective.py).",
         f"# Cells: {cells}; tuning seed {t.seed} (never a scoring seed), {t.replicates} replicates per cell, "
         f"dt {t.dt_s:g} s.",
         f"# Trials: {len(study.trials)} ({len(finished)} complete); best trial #{best.number}, J = {best.value:.4g}"
@@ -274,8 +269,6 @@ def _flat(options: dict) -> dict:
 
 
 def _log_study(cfg, sname: str) -> str:
-    from experiments.tracking.store import git_commit, log_run
-
     params = {"study": sname, **{f"tuning.{k}": v for k, v in
                                  OmegaConf.to_container(cfg.tuning, resolve=True).items()}}
     run_id, _ = log_run(cfg.tracking.experiment, f"tuning/{sname}", params=params,
@@ -284,8 +277,6 @@ def _log_study(cfg, sname: str) -> str:
 
 
 def _log_trial(cfg, sname: str, parent: str, trial, options: dict, parts: dict) -> None:
-    from experiments.tracking.store import log_run
-
     log_run(cfg.tracking.experiment, f"tuning/{sname}/trial{trial.number}", params=_flat(options),
             metrics={k: v for k, v in parts.items() if np.isfinite(v)},
             tags={"mlflow.parentRunId": parent, "kind": "tuning-trial", "trial": str(trial.number)})

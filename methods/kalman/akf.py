@@ -16,6 +16,8 @@ from methods.estimate import Estimate, make_options
 from methods.kalman._filter import identify_record, settings_from
 from methods.kalman._lockstep import identify_each
 
+__all__ = ["Options", "identify", "identify_batch", "check_options"]
+
 
 @dataclass
 class Options:

@@ -23,6 +23,8 @@ from methods.estimate import check_prior
 from methods.kalman import akf, wkf
 from methods.kalman._filter import DETERMINED_VARIANCE_SHARE, FilterSettings, double_integrate, run_filter
 
+__all__ = ["OnlineRun", "settings", "causal_scale", "track_filter"]
+
 
 @dataclass(frozen=True)
 class OnlineRun:

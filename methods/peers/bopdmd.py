@@ -26,6 +26,8 @@ import numpy as np
 from methods.peers import hdmd
 from methods.peers._mode_picker import check_peer_options, identify_peer, too_short
 
+__all__ = ["Options", "check_options", "identify"]
+
 
 @dataclass
 class Options(hdmd.Options):
@@ -50,7 +52,7 @@ def _fit(y, dt, prior, opts: Options):
     if order < 2 * prior.size:
         return too_short(prior, y.size, "BOPDMD")
     from pydmd import BOPDMD  # optional extra (.[peers])
-    from pydmd.preprocessing import hankel_preprocessing
+    from pydmd.preprocessing import hankel_preprocessing  # optional extra (.[peers])
 
     dmd = hankel_preprocessing(BOPDMD(svd_rank=order, eig_constraints={"stable", "conjugate_pairs"},
                                       num_trials=opts.num_trials, trial_size=opts.trial_size), d=d)

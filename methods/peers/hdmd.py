@@ -19,6 +19,8 @@ import numpy as np
 
 from methods.peers._mode_picker import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
 
+__all__ = ["Options", "delays_and_order", "check_options", "identify"]
+
 
 @dataclass
 class Options(PeerOptions):

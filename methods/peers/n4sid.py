@@ -18,6 +18,8 @@ import numpy as np
 
 from methods.peers._mode_picker import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
 
+__all__ = ["Options", "check_options", "identify"]
+
 
 @dataclass
 class Options(PeerOptions):
@@ -36,7 +38,7 @@ def check_options(prior, dt, **options) -> Options:
 
 
 def _fit(y, dt, prior, opts: Options):
-    import pandas as pd  # nfoursid takes a DataFrame
+    import pandas as pd  # nfoursid takes a DataFrame; 0.4 s no other method pays
     from nfoursid.nfoursid import NFourSID  # optional extra (.[peers])
 
     order = opts.model_order(prior.size)

@@ -22,6 +22,8 @@ import numpy as np
 
 from methods.peers._mode_picker import PeerOptions, check_peer_options, continuous_poles, identify_peer, too_short
 
+__all__ = ["Options", "check_options", "fit_strid", "identify"]
+
 
 @dataclass
 class Options(PeerOptions):

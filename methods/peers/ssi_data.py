@@ -14,6 +14,8 @@ from functools import partial
 from methods.peers import ssi_cov
 from methods.peers._mode_picker import check_peer_options, identify_peer
 
+__all__ = ["Options", "check_options", "identify"]
+
 
 @dataclass
 class Options(ssi_cov.Options):

@@ -29,8 +29,11 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.cluster.hierarchy import fcluster, linkage
 
 from methods.peers._mode_picker import detected, physical
+
+__all__ = ["MAX_ORDER", "FREQ_TOL", "DAMPING_TOL", "MAX_DAMPING", "MIN_ORDERS", "Diagram", "stabilisation_diagram"]
 
 MAX_ORDER = 40              # model orders 1 … 40: up to 20 modes in the band
 FREQ_TOL = 0.01             # pyOMA2's default err_fn
@@ -153,8 +156,6 @@ def _stable(order, w, z, freq_tol: float, damping_tol: float) -> np.ndarray:
 
 def _clusters(order, w, z, mask, freq_tol: float, min_orders: int) -> np.ndarray:
     """The median pole of each cluster of stable poles seen at ``min_orders`` orders or more."""
-    from scipy.cluster.hierarchy import fcluster, linkage
-
     idx = np.flatnonzero(mask)
     if idx.size < min_orders:
         return np.zeros(0, complex)

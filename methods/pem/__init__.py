@@ -1,7 +1,7 @@
 """The prediction-error method with a Gauss–Newton search (paper §3.3, §4.3, eqs. 30–31, Tables 4–5).
 
-The face of the family is :func:`identify` with its :class:`Options` (the measured best setting) and
-:data:`PAPER_OPTIONS` (the paper's). Behind it:
+The face of the family is :func:`identify` with its :class:`Options` (the measured best setting; the
+paper's setting is the variant ``pem:paper``, configs/method/pem_paper.yaml). Behind it:
 
 - ``_fit``: the starts, the search per start, the repair restarts and the :class:`~methods.estimate.Estimate`;
 - :mod:`methods.pem.predictor`: the innovation-form predictor of eq. (31) and its exact Jacobian;
@@ -33,7 +33,6 @@ import numpy as np
 from methods.pem import _fast, predictor, search
 from methods.pem._drift import DriftReport, segment_drift
 from methods.pem._fit import (
-    PAPER_OPTIONS,
     Options,
     check_options,
     detection_std,
@@ -42,7 +41,7 @@ from methods.pem._fit import (
     starts,
 )
 
-__all__ = ["PAPER_OPTIONS", "DriftReport", "Options", "check_options", "detection_std", "free_mask", "identify",
+__all__ = ["DriftReport", "Options", "check_options", "detection_std", "free_mask", "identify",
            "predictor", "reference_path", "search", "segment_drift", "starts"]
 
 

@@ -22,7 +22,8 @@ lowest loss wins, then modes the record does not determine are restarted from th
 calculation" (the second): the output-error predictor and its Jacobian in closed form, O(N), nothing built
 per record shape; one BLAS thread inside the fit (small matrices; OpenBLAS threads only slow it down).
 
-The defaults of :class:`Options` are the measured best setting; the paper's is :data:`PAPER_OPTIONS`.
+The defaults of :class:`Options` are the measured best setting; the paper's is the variant ``pem:paper``
+(configs/method/pem_paper.yaml: the options it changes).
 See methods/pem/README.md for the choices and the measured numbers.
 """
 
@@ -33,6 +34,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from methods import labels
 from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
@@ -49,7 +51,7 @@ BIAS_MODES = ("estimate", "subtract_mean", "none")
 @dataclass
 class Options:
     """Keyword options of :func:`identify`. Defaults: the best setting (output error = ML); the paper's
-    setting is :data:`PAPER_OPTIONS`."""
+    setting is the variant ``pem:paper`` (configs/method/pem_paper.yaml)."""
 
     predictor: str = "output_error"      # "output_error" (gain 0, ML) or "kalman" (paper, eq. 31)
     kalman_qd: float = 0.001             # Qd of the paper's LQE (§4.3), Γ = I; only for "kalman"
@@ -81,11 +83,6 @@ class Options:
     absorb_lines: bool = True            # refit with a residual line outside every band as an extra mode
 
 
-# The paper's setting (§4.3): Kalman predictor with its LQE tuning, damping fixed, mean removed (§4 —
-# "estimate the mean and then remove it"), one run from the Table 4 prior.
-PAPER_OPTIONS = {"predictor": "kalman", "estimate_damping": False, "bias": "subtract_mean",
-                 "data_driven_start": False, "n_starts": 1, "search": "gauss_newton",
-                 "repair_rounds": 0, "drift_segments": 0, "absorb_lines": False}
 
 
 
@@ -124,8 +121,6 @@ def identify(y, dt, prior, **options) -> Estimate:
 
 @functools.cache
 def _blas():
-    from threadpoolctl import ThreadpoolController  # inspects the loaded libraries: once per process
-
     return ThreadpoolController()
 
 

@@ -38,6 +38,10 @@ import functools
 import math
 
 import numpy as np
+import scipy.linalg
+
+__all__ = ["n_params", "split", "paper_state_space", "kalman_gain", "modal_basis", "symmetric_eigh", "scaled_lstsq",
+           "ClosedForm", "predictor", "Recursive", "make_evaluator"]
 
 try:                                       # numpy's LAPACK kernels (private module; numpy 2.4 is pinned)
     from numpy.linalg import _umath_linalg
@@ -97,8 +101,6 @@ def kalman_gain(omega, zeta, dt: float, tip_shape, qd: float, rd: float) -> np.n
     K_paper = φPCᵀ(CPCᵀ + Rd)⁻¹ is the gain on the innovation in x(k+1) = φx(k) + Ke(k); here K = T⁻¹K_paper.
     (The paper used MATLAB's LQE with Qd = 0.001, Rd = 0.4, §4.3.)
     """
-    import scipy.linalg
-
     phi, C, T = paper_state_space(omega, zeta, dt, tip_shape)
     n = phi.shape[0]
     P = scipy.linalg.solve_discrete_are(phi.T, C.T, qd * np.eye(n), np.array([[rd]]))
@@ -283,7 +285,7 @@ def _step_function(n_modes: int, with_gain: bool, columns: tuple[int, ...]):
 
     Differentiating one step symbolically (SX) and repeating it with ``mapaccum`` costs the same for every
     N; differentiating the repeated map instead (MX) took 2 s to build and 160 ms to evaluate at N = 256."""
-    import casadi as ca
+    import casadi as ca  # 0.2 s of start-up, paid only by the CasADi predictor, not the fast path
 
     m = n_modes
     p = len(columns)
@@ -327,7 +329,7 @@ def predictor(n_samples: int, n_modes: int, free: tuple[bool, ...], with_gain: b
     linear_part : casadi.Function
         ↦ (ε, ∂ε/∂c_free) with c = (x₀, b) the unknowns that enter ε affinely; columns in θ order.
     """
-    import casadi as ca
+    import casadi as ca  # 0.2 s of start-up, paid only by the CasADi predictor, not the fast path
 
     m = n_modes
     if len(free) != n_params(m):

@@ -12,6 +12,12 @@ import numpy as np
 
 from methods.pem import predictor as pp
 
+__all__ = ["MAX_HALVINGS", "LM_HALVINGS", "IDENTIFIED_REL_STD", "LOCATED_REL_STD", "SETTLED_STD",
+           "SETTLED_ITERATIONS", "MAX_GROWTH_EXPONENT", "LOSS_FLOOR_REL", "PHASE_ROUNDING", "JOIN_STD",
+           "fit_one_start", "solve_linear", "gauss_newton", "SETTLED_MESSAGE", "at_iteration_limit", "loss_floor",
+           "JOINED_MESSAGE", "stop_after_step", "damped_step", "search_bounds", "LinearizedSystem",
+           "NormalEquations", "lstsq_step", "valid_modes"]
+
 MAX_HALVINGS = 40               # the paper's rule: μ = 1, 1/2, 1/4, … until the loss decreases
 LM_HALVINGS = 5                 # with Levenberg–Marquardt damping: halvings before λ grows
 IDENTIFIED_REL_STD = 0.01       # a mode is 'determined by the data' when std(ω) ≤ 1 % of ω

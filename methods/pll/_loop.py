@@ -74,7 +74,7 @@ class Options:
     input_filter: bool = True
     filter_bandwidth_rad_s: list[float] | None = None
     filter_centre_rad_s: list[float] | None = None
-    filter_order: int = 3
+    filter_order: int = 3                # §4.4: order 3
     filter_ripple_db: float = 0.5        # not given by the paper
     remove_mean: bool = True             # §4: a bias "is easy to estimate ... and then remove"
     # Phase-detector normalisation: "agc" (gain detector_gain per rad) or "none" (raw u·cos θ, gain A/2)

@@ -23,6 +23,13 @@ import numpy as np
 import scipy.optimize
 import scipy.signal
 
+__all__ = ["VCO_LOWPASS_TIMES_OMEGA_L", "loop_time_constants", "omega_l_from_time_constants", "LoopParameters",
+           "rule_parameters", "OMEGA_L_PER_PRIOR", "MAX_OMEGA_L_DT", "FILTER_BANDWIDTH_PER_PRIOR",
+           "MIN_FILTER_BANDWIDTH_PER_PRIOR", "FILTER_EDGE_NYQUIST_FRACTION", "default_loop_bandwidth",
+           "bandwidth_for_upper_edge", "bandwidth_for_lower_edge", "default_filter_bandwidth", "bilinear_prewarped",
+           "DiscreteLoop", "discretise_loop", "open_loop_response", "stability_margins", "band_edges",
+           "input_filter_sos"]
+
 # Table 6 uses T_VCO ≈ 0.5/ω_L for every loop (ω_L·T_VCO = 0.48, 0.48, 0.48, 0.51); the paper states no rule
 # for T_VCO. The "rule" design uses this ratio so that a loop can be set up from ω_L alone.
 VCO_LOWPASS_TIMES_OMEGA_L = 0.5

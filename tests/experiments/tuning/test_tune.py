@@ -13,8 +13,8 @@ import pytest
 from hydra import compose, initialize_config_dir
 
 from experiments.jobs.config import register
+from experiments.report.objective import DEFAULT_PENALTY, FAILED_RATIO, objective
 from experiments.simulate.datasets import DatasetConfig, write_cell
-from experiments.tuning.objective import DEFAULT_PENALTY, FAILED_RATIO, objective
 from experiments.tuning.space import base_params, resolve
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -71,12 +71,11 @@ def test_tiny_study_writes_a_config_that_composes_and_never_simulates_the_scorin
     """2 trials on one tiny cell: configs/method/akf_tiny.yaml is written, composes with Hydra as the variant
     akf:tiny over akf, carries its provenance, every simulated cell used the tuning seed, and the trials are
     MLflow child runs of the study's run."""
-    import experiments.simulate.datasets as datasets
     from experiments.tuning import tune
 
     seeds = []
-    real = datasets.make_cell
-    monkeypatch.setattr(datasets, "make_cell", lambda cfg: seeds.append(cfg.seed) or real(cfg))
+    real = tune.make_cell          # the simulator the tuning command calls
+    monkeypatch.setattr(tune, "make_cell", lambda cfg: seeds.append(cfg.seed) or real(cfg))
     configs = tmp_path / "configs"
     shutil.copytree(ROOT / "configs", configs)
     out = configs / "method" / "akf_tiny.yaml"

@@ -8,9 +8,9 @@ options get a ValueError naming the value; a record too short for the model says
 
 import numpy as np
 import pytest
+from _signals import DT, other_plant
 
 import methods
-from tests.methods._signals import DT, other_plant
 
 PEERS = ["era", "n4sid", "ssi_cov", "ssi_data", "lsce", "hdmd", "bopdmd"]
 PRIOR = np.array([3.80, 16.00, 26.00, 46.00])       # Table 3 (configs/method/<peer>.yaml)

@@ -1,4 +1,5 @@
-"""The tuning objective: how far a method is from the Cramér–Rao bound, with a price on failures.
+"""The tuning objective (shared by the tuning command and a sweep's identify jobs): how far a method is from
+the Cramér–Rao bound, with a price on failures.
 
 For one cell (noise level, record length) with summary rows per mode (``experiments.report.summary``):
 
@@ -17,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+
+__all__ = ["FAILED_RATIO", "DEFAULT_PENALTY", "cell_objective", "objective"]
 
 FAILED_RATIO = 1e12         # RMSE/CRLB charged to a cell where no mode converged in any replicate
 DEFAULT_PENALTY = 4.0       # decades of RMSE/CRLB per unit failure rate

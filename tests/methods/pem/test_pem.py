@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from experiments.config_schema import stated_options
 from methods import pem
 from methods.pem import _fit, search
 from methods.pem import predictor as pp
@@ -135,7 +136,7 @@ def test_subtracting_the_mean_biases_the_estimates_even_without_noise():
 
 def test_paper_setting_kalman_predictor_converges_from_table4_prior():
     plant, y = paper_record(256, 1000.0, seed=3)
-    est = pem.identify(y, DT, TABLE4_PRIOR, **pem.PAPER_OPTIONS)
+    est = pem.identify(y, DT, TABLE4_PRIOR, **stated_options("pem_paper"))
     assert est.extra["n_starts"] == 1
     np.testing.assert_allclose(est.frequencies, plant.freq_rad_s, rtol=5e-3)
 

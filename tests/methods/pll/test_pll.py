@@ -449,8 +449,8 @@ def test_derived_filter_fits_below_nyquist_and_floors_at_a_tenth_of_the_prior():
 
 def test_method_config_keeps_the_table6_values_for_the_papers_prior():
     from omegaconf import OmegaConf
-    cfg = OmegaConf.load(Path(__file__).parents[2] / "configs" / "method" / "pll.yaml")
+    cfg = OmegaConf.load(Path(__file__).parents[3] / "configs" / "method" / "pll.yaml")
     assert list(cfg.prior_rad_s) == PRIOR
     for key, value in TABLE6_OPTIONS.items():
         assert list(cfg.options[key]) == value, key
-    assert cfg.options.design == "table"
+    assert "design" not in cfg.options and pll.Options().design == "table"     # the default: one home

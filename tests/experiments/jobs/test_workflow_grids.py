@@ -1,0 +1,117 @@
+"""The workflow's Python (experiments/jobs/workflow.py) without Snakemake: a grid's cells, its jobs' command
+lines, and every refusal as one ``error:`` line naming the grid file and the value, before any job runs."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from experiments.jobs.workflow import GridError, Workflow, method_config, requested_grids
+
+ROOT = Path(__file__).resolve().parents[3]
+GRID = "name: {name}\nnoise_ug: [10, 1000]\nn_samples: [64]\nreplicates: 2\nseed: 5\nmethods: [fft, akf]\n"
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory):
+    """A checkout's configs with test grids only (the repository's configs/grid/ is never written)."""
+    root = tmp_path_factory.mktemp("checkout")
+    shutil.copytree(ROOT / "configs", root / "configs", ignore=shutil.ignore_patterns("grid"))
+    (root / "configs" / "grid").mkdir()
+    shutil.copy(ROOT / "configs" / "grid" / "schema.yaml", root / "configs" / "grid")
+    return root
+
+
+def workflow_with(root, name, text) -> Workflow:
+    (root / "configs" / "grid" / f"{name}.yaml").write_text(text)
+    return Workflow(root)
+
+
+def test_a_plain_grid_gives_one_dataset_and_one_table_per_cell_and_method(root):
+    wf = workflow_with(root, "plain", GRID.format(name="plain"))
+    assert wf.cells("plain") == ["noise10ug_n64", "noise1000ug_n64"]
+    assert wf.result_files("plain") == [f"results/plain/identify/{m}/noise{u}ug_n64.csv"
+                                        for m in ("fft", "akf") for u in (10, 1000)]
+    assert wf.dataset_jobs("plain")[1] == ["noise_ug=1000", "n_samples=64", "replicates=2", "seed=5", "dt_s=0.02",
+                                           "bias_m_s2=0.0", "out=results/plain/data/noise1000ug_n64.npz"]
+    assert wf.identify_jobs("plain", "akf")[0] == [
+        "method=akf", "data.dataset=results/plain/data/noise10ug_n64.npz",
+        "out=results/plain/identify/akf/noise10ug_n64.csv", "grid_name=plain", "tracking.enabled=false"]
+    assert wf.grid_targets("plain") == ["results/plain/README.md", "results/plain/mlflow_runs.json"]
+
+
+def test_a_measurement_cell_runs_only_the_methods_whose_options_have_it(root):
+    """akf and wkf have the option ``measurement`` (their Options), fft has not: asked of the registry."""
+    wf = workflow_with(root, "meas", GRID.format(name="meas").replace("[fft, akf]", "[fft, akf, \"pem:paper\"]")
+                       + "scenarios:\n  - {measurement: [acceleration]}\n")
+    cell = "noise10ug_n64_acceleration"
+    assert cell in wf.cells("meas")
+    assert wf.method_cells("meas", "akf") == wf.cells("meas")
+    assert wf.method_cells("meas", "fft") == [] == wf.method_cells("meas", method_config("pem:paper"))
+    assert wf.cell_overrides("meas", "akf", cell)[-1] == "method.options.measurement=acceleration"
+    with pytest.raises(GridError, match="runs on none of its cells"):
+        wf.identify_jobs("meas", "fft")
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (("[10, 1000]", "[.nan]"), "noise_ug.0: not a finite number"),
+    (("[10, 1000]", "[10, .inf]"), "noise_ug.1: not a finite number"),
+    (("[10, 1000]", "[-1]"), "noise_ug.0: -1 is less than or equal to the minimum of 0"),
+    (("n_samples: [64]\nreplicates: 2", "n_samples: [2048]\nreplicates: 1000000"),
+     "cell noise10ug_n2048: replicates × n_samples = 1000000 × 2048 needs 15.3 GiB"),
+    (("[fft, akf]", "[fft, nosuch]"), "unknown method 'nosuch'"),
+    (("name: bad", "name: other"), "name: 'other' must match the file name 'bad'"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {akf: [method.options.nosuch=1]}"), "method.options.nosuch"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {akf: [method.options.rd=-1]}"), "rd"),
+    (("seed: 5", "seed: 5\nmethods_overrides: {}"), "Additional properties are not allowed"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {pem: [method.options.n_starts=2]}"), "method_overrides.pem: not a "
+                                                                                   "method of the grid"),
+])
+def test_a_grid_a_job_would_refuse_is_refused_in_one_line(root, change, message):
+    text = GRID.format(name="bad").replace(*change)
+    wf = workflow_with(root, "bad", text)
+    with pytest.raises(GridError) as info:
+        wf.load_grid("bad")
+    line = str(info.value)
+    assert line.startswith("error: ") and "bad.yaml" in line and "\n" not in line
+    assert message in line, line
+
+
+def test_an_option_a_method_refuses_is_named_before_any_job(root):
+    """pem's own check_options refuses n_starts = -1 (the value a job would stop on, 76 lines later)."""
+    wf = workflow_with(root, "starts", GRID.format(name="starts").replace("[fft, akf]", "[pem]")
+                       + "method_overrides: {pem: [method.options.n_starts=-1]}\n")
+    with pytest.raises(GridError, match=r"method_overrides of pem: .*n_starts"):
+        wf.load_grid("starts")
+    ok = workflow_with(root, "starts_ok", GRID.format(name="starts_ok").replace("[fft, akf]", "[pem]")
+                       + "method_overrides: {pem: [method.options.n_starts=2]}\n")
+    assert ok.identify_jobs("starts_ok", "pem")[0][-1] == "method.options.n_starts=2"
+    assert '"n_starts":2' in ok.resolved_config("pem", ("method.options.n_starts=2",))
+
+
+def test_an_unknown_grid_is_refused_with_the_known_ones(root):
+    wf = workflow_with(root, "plain", GRID.format(name="plain"))
+    with pytest.raises(GridError, match="no such grid; known grids: .*plain"):
+        wf.load_grid("nosuch")
+
+
+@pytest.mark.parametrize(("targets", "expected"), [
+    (["smoke", "--cores", "2"], ["smoke"]),
+    (["-n", "results/paper/README.md", "results/smoke/tables"], ["paper", "smoke"]),
+    (["results/mlflow.db", "report.html"], []),
+])
+def test_the_requested_grids_are_read_off_the_targets(targets, expected):
+    assert requested_grids(targets, ["paper", "smoke"]) == expected
+
+
+@pytest.mark.parametrize(("target", "message"), [
+    ("results/nosuch/README.md", "no grid 'nosuch'"),
+    ("results/../../etc/README.md", "may not climb out"),
+    ("results/smoke/../../x", "may not climb out"),
+])
+def test_a_target_outside_the_grids_is_refused_in_one_line(target, message):
+    with pytest.raises(GridError, match=message) as info:
+        requested_grids([target], ["paper", "smoke"])
+    assert str(info.value).startswith(f"error: {target}: ")

@@ -1,0 +1,148 @@
+"""The layering, read from the source with ``ast`` (every import, at module level and inside functions).
+
+In the spirit of scikit-learn's import-consistency checks: the walls of the house are tested, not hoped for.
+
+- ``experiments/`` stages import one way: io (and the other modules at the top of ``experiments/``) ->
+  recordings / simulate (data read, data made) -> report -> tracking (MLflow) -> jobs -> tuning /
+  benchmarks / paper. A stage imports only its own modules and earlier stages'; stages of one rank do not
+  import each other.
+- ``methods/`` imports nothing from ``experiments/`` and never Hydra, OmegaConf, MLflow or Snakemake.
+- Outside a method family package (``methods/<family>/``), nothing imports the family's private
+  (underscore) modules: the family's ``__init__`` is its face. Tests are exempt: they test the insides.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# rank of each stage; modules directly under experiments/ (io.py, config_schema.py) are the ground floor
+STAGE_RANK = {"": 0, "recordings": 1, "simulate": 1, "report": 2, "tracking": 3, "jobs": 4,
+              "tuning": 5, "benchmarks": 5, "paper": 5}
+FORBIDDEN_IN_METHODS = ("experiments", "hydra", "omegaconf", "mlflow", "snakemake")
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def imported_modules(path: Path) -> list[tuple[int, str]]:
+    """(line, absolute module name) of every import in ``path``; ``from a import b`` yields ``a`` and
+    ``a.b`` (``b`` may be a module), relative imports resolved against the file's package."""
+    module = module_name(path)
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                parts = package.split(".")
+                base_parts = parts[: len(parts) - node.level + 1]
+                base = ".".join(base_parts + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            out.append((node.lineno, base))
+            out += [(node.lineno, f"{base}.{a.name}") for a in node.names if a.name != "*"]
+    return out
+
+
+def stage_of(module: str) -> str | None:
+    """The stage of an ``experiments`` module: its sub-package, or "" for the modules at the top."""
+    parts = module.split(".")
+    if parts[0] != "experiments":
+        return None
+    return parts[1] if len(parts) > 1 and parts[1] in STAGE_RANK else ""
+
+
+def family_private(module: str) -> str | None:
+    """The family of ``methods.<family>._private...``, else None."""
+    parts = module.split(".")
+    if len(parts) >= 3 and parts[0] == "methods" and parts[2].startswith("_") and not parts[2].startswith("__"):
+        return parts[1]
+    return None
+
+
+def violations(paths, *, is_test=False) -> list[str]:
+    """One line per import statement and broken rule."""
+    found = {}
+    for path in paths:
+        here = module_name(path)
+        here_stage = stage_of(here)
+        for line, target in imported_modules(path):
+            where = f"{path.relative_to(ROOT)}:{line} imports {target}"
+            there_stage = stage_of(target)
+            if here_stage is not None and there_stage is not None and here_stage != there_stage:
+                if STAGE_RANK[there_stage] >= STAGE_RANK[here_stage]:
+                    found.setdefault((path, line, "stage"),
+                                     f"{where}: stage {here_stage or 'top'} may not import stage {there_stage}")
+            if here.split(".")[0] == "methods" and target.split(".")[0] in FORBIDDEN_IN_METHODS:
+                found.setdefault((path, line, "methods"), f"{where}: methods/ is pure numerics")
+            family = family_private(target)
+            if family and not is_test and not here.startswith(f"methods.{family}"):
+                found.setdefault((path, line, "private"),
+                                 f"{where}: a private module of methods/{family}/ (use the family's face)")
+    return list(found.values())
+
+
+def source_files(*tops: str) -> list[Path]:
+    return sorted(p for top in tops for p in (ROOT / top).rglob("*.py") if "__pycache__" not in p.parts)
+
+
+def test_the_code_keeps_its_walls():
+    assert violations(source_files("methods", "experiments")) == []
+
+
+def test_every_stage_folder_has_a_rank():
+    """A new stage folder must be placed in the order before it can import or be imported."""
+    folders = {p.name for p in (ROOT / "experiments").iterdir()
+               if p.is_dir() and (p / "__init__.py").exists() and not p.is_symlink()}
+    assert folders <= set(STAGE_RANK)
+
+
+def test_tests_may_reach_inside_a_family():
+    """Tests are exempt from the private-module rule only (a test of jobs/ may import tuning/ fixtures)."""
+    assert not [v for v in violations(source_files("tests"), is_test=True) if "private" in v]
+
+
+@pytest.mark.parametrize("source, where, expected", [
+    ("from experiments.jobs import config\n", "experiments/tracking/x.py", "may not import stage jobs"),
+    ("def f():\n    from experiments.tuning.objective import objective\n", "experiments/jobs/x.py",
+     "may not import stage tuning"),
+    ("from ..jobs import config\n", "experiments/report/x.py", "may not import stage jobs"),
+    ("from experiments.paper import table5\n", "experiments/benchmarks/x.py", "may not import stage paper"),
+    ("def f():\n    import hydra\n", "methods/pem/x.py", "pure numerics"),
+    ("from experiments.io import read_npz\n", "methods/fft.py", "pure numerics"),
+    ("from methods.kalman import _filter\n", "experiments/benchmarks/x.py", "private module of methods/kalman/"),
+    ("from methods.pem._fit import fit\n", "methods/peers/x.py", "private module of methods/pem/"),
+])
+def test_the_check_sees_each_kind_of_breach(source, where, expected, monkeypatch, tmp_path):
+    """Each rule fires on a file that breaks it (module or function level, absolute or relative)."""
+    fake_root = tmp_path
+    path = fake_root / where
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(source)
+    monkeypatch.setitem(globals(), "ROOT", fake_root)
+    found = violations([path])
+    assert len(found) == 1 and expected in found[0], found
+
+
+@pytest.mark.parametrize("source, where", [
+    ("from experiments.jobs import config\n", "experiments/tuning/x.py"),
+    ("from experiments.io import read_npz\n", "experiments/simulate/x.py"),
+    ("from methods.kalman._filter import prepare\n", "methods/kalman/x.py"),
+    ("import methods\nfrom methods.kalman import akf\n", "experiments/jobs/x.py"),
+])
+def test_the_check_lets_the_allowed_imports_pass(source, where, monkeypatch, tmp_path):
+    path = tmp_path / where
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(source)
+    monkeypatch.setitem(globals(), "ROOT", tmp_path)
+    assert violations([path]) == []
