@@ -8,8 +8,9 @@ i is an oscillator
 
 and the tip accelerometer reads  y = Σᵢ (c·φᵢ) ξ̈ᵢ + Σⱼ (c M⁻¹ gⱼ) uⱼ  (the rigid-body modes carry no
 stiffness: they add only the direct term; c is the tip row of PHYSICS.md §2). Inputs gⱼ in the
-coordinates η: ``torque_z``, an attitude-thruster torque about z on the body (N·m, gⱼ = e_θz); and
-``force_tip``, a disturbance force on the tip along y (N, gⱼ = c). ωᵢ(t) is the schedule
+coordinates η: ``torque_z``, an attitude-thruster torque about z on the body (N·m, gⱼ = e_θz);
+``force_tip``, a force on the tip along y (N, gⱼ = c); ``force_body_y``, a force on the body's centre along
+y (N, gⱼ = e_Y). ωᵢ(t) is the schedule
 (``experiments.simulate.schedules``); ζᵢ and the gains are the nominal plant's.
 
 **Exactly how it is discretised.** Over each sample interval [t_k, t_{k+1}) the frozen system holds:
@@ -28,7 +29,7 @@ import scipy.linalg
 
 from experiments.simulate.plant import N_RIGID, Plant
 
-INPUTS = ("torque_z", "force_tip")
+INPUTS = ("torque_z", "force_tip", "force_body_y")
 
 
 @dataclass(frozen=True)
@@ -70,6 +71,7 @@ def modal_model(plant: Plant) -> ModalModel:
     g = np.zeros((n, len(INPUTS)))
     g[2, 0] = 1.0                                     # torque about z on the body
     g[:, 1] = c                                       # force along y at the tip (virtual work: c·δη)
+    g[4, 2] = 1.0                                     # force along y on the body's centre
     eta0 = plant.x0[:n]
     return ModalModel(freq_rad_s=plant.freq_rad_s.copy(), damping=plant.damping.copy(), tip_gain=c @ phi,
                       input_gain=phi.T @ g, feedthrough=c @ np.linalg.solve(M, g), xi0=phi.T @ M @ eta0)

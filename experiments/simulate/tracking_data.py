@@ -10,7 +10,9 @@ under an excitation, simulated exactly (``experiments.simulate.timevarying``), p
 * ``thruster_torque_n_m``: attitude-thruster pulses, a torque ±T about z on the body held for
   ``pulse_samples`` samples; at every ``thruster_period_s`` (periodic) or, with the period None, at random
   times (a Bernoulli draw per sample, mean rate ``thruster_rate_hz``), the sign random either way;
-* ``disturbance_force_n``: a white force on the tip along y, 1σ per sample, held over each sample.
+* ``disturbance_force_n``: a white force along y, 1σ per sample, held over each sample, on the body's
+  centre (``disturbance_at: body``, the environment's and the thrusters' noise) or on the tip (``tip``:
+  then its direct term, c M⁻¹ c ≈ 3 m/s² per N, is a white signal far above the modes' response).
 
 The random parts (pulse times and signs, the disturbance, the noise) of replicate r are drawn from
 ``numpy.random.default_rng([seed, noise_ng, N, r, stream])`` with one stream each, so the same config gives
@@ -26,7 +28,7 @@ File schema (plain arrays, ``experiments.io.read_npz`` verifies the checksum):
 | ``truth_freq_rad_s`` | (N, m) | the instantaneous eigenfrequencies ωᵢ(t_k) (the truth) |
 | ``truth_damping`` | (m,) | ζᵢ |
 | ``modal_state`` | (R, N, m, 2) float32 | [ξᵢ, ξ̇ᵢ] of the truth model (for the bound) |
-| ``inputs`` | (R, N, 2) float32 | torque about z (N·m) and tip force (N) held over each sample |
+| ``inputs`` | (R, N, 3) float32 | torque about z (N·m), tip force, body force (N) held over each sample |
 | ``prior_rad_s`` | (R, m) | the prior the harness gives every tracker |
 | ``pcrb_std_rad_s`` | (N, m) | the posterior Cramér–Rao bound (``experiments.simulate.pcrb``) |
 | ``window_bound_std_rad_s`` | (N, m) | the best sliding window's bound, NaN between its evaluation times |
@@ -66,6 +68,7 @@ class ExcitationConfig:
     thruster_rate_hz: float = 0.2
     pulse_samples: int = 1
     disturbance_force_n: float = 0.0
+    disturbance_at: str = "body"
 
 
 @dataclass
@@ -123,6 +126,8 @@ def check_cell_config(cfg: TrackingCellConfig) -> np.ndarray:
             raise ValueError(f"excitation.thruster_rate_hz = {ex.thruster_rate_hz} must be in (0, 1/dt_s]")
         if not (isinstance(ex.pulse_samples, int) and ex.pulse_samples >= 1):
             raise ValueError(f"excitation.pulse_samples = {ex.pulse_samples!r} must be an integer ≥ 1")
+    if ex.disturbance_at not in ("body", "tip"):
+        raise ValueError(f"excitation.disturbance_at = {ex.disturbance_at!r} must be 'body' or 'tip'")
     t = np.arange(cfg.n_samples) * cfg.dt_s
     w = schedules.frequencies(cfg.schedule, cfg.plant, t, dt_s=cfg.dt_s)
     top = float(w[0].max()) * (1 + cfg.prior_spread)
@@ -138,7 +143,7 @@ def _rng(cfg: TrackingCellConfig, replicate: int, stream: str) -> np.random.Gene
 
 
 def inputs(cfg: TrackingCellConfig) -> np.ndarray:
-    """The held inputs of every replicate, shape (R, N, len(INPUTS)): thruster torque (N·m), tip force (N)."""
+    """The held inputs of every replicate, shape (R, N, len(INPUTS)) (``timevarying.INPUTS``)."""
     ex, n = cfg.excitation, cfg.n_samples
     u = np.zeros((cfg.replicates, n, len(INPUTS)))
     for r in range(cfg.replicates):
@@ -152,7 +157,8 @@ def inputs(cfg: TrackingCellConfig) -> np.ndarray:
             for k0, sign in zip(starts, signs, strict=True):
                 u[r, k0:k0 + ex.pulse_samples, 0] = sign * ex.thruster_torque_n_m
         if ex.disturbance_force_n > 0:
-            u[r, :, 1] = ex.disturbance_force_n * _rng(cfg, r, "disturbance").standard_normal(n)
+            column = INPUTS.index("force_body_y" if ex.disturbance_at == "body" else "force_tip")
+            u[r, :, column] = ex.disturbance_force_n * _rng(cfg, r, "disturbance").standard_normal(n)
     return u
 
 

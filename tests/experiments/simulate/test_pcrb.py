@@ -21,7 +21,7 @@ DT = 0.02
 
 def one_mode(w=20.0, zeta=0.01):
     return ModalModel(freq_rad_s=np.array([w]), damping=np.array([zeta]), tip_gain=np.array([0.9]),
-                      input_gain=np.zeros((1, 2)), feedthrough=np.zeros(2), xi0=np.array([0.01]))
+                      input_gain=np.zeros((1, 3)), feedthrough=np.zeros(3), xi0=np.array([0.01]))
 
 
 def test_complex_step_derivative_matches_central_difference():

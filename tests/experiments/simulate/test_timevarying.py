@@ -39,13 +39,14 @@ def test_held_inputs_match_solve_ivp_of_the_20_state_plant():
     model = modal_model(plant)
     n = 150
     rng = np.random.default_rng(1)
-    u = np.zeros((1, n, 2))
+    u = np.zeros((1, n, 3))
     u[0, 10:12, 0] = 100.0
     u[0, :, 1] = 0.5 * rng.standard_normal(n)
+    u[0, :, 2] = 20.0 * rng.standard_normal(n)
     y, _ = simulate(model, np.tile(model.freq_rad_s, (n, 1)), DT, u)
     nq = plant.M.shape[0]
-    g = np.zeros((nq, 2))
-    g[2, 0], g[:, 1] = 1.0, plant.c_tip
+    g = np.zeros((nq, 3))
+    g[2, 0], g[:, 1], g[4, 2] = 1.0, plant.c_tip, 1.0
     x = np.zeros(2 * nq)
     ref = np.empty(n)
     for k in range(n):
@@ -64,8 +65,8 @@ def test_time_varying_frequencies_match_solve_ivp():
     n = 400
     t = np.arange(n) * DT
     w = model.freq_rad_s * (1 + 0.2 * t / t[-1])[:, None] * (1 + 0.03 * np.sin(2 * np.pi * 0.5 * t))[:, None]
-    u = np.zeros((1, n, 2))
-    u[0, 5, 0], u[0, 200, 1] = 80.0, 3.0
+    u = np.zeros((1, n, 3))
+    u[0, 5, 0], u[0, 200, 1], u[0, 300, 2] = 80.0, 3.0, 50.0
     y, x = simulate(model, w, DT, u, xi0=0.1 * model.xi0)
     m = w.shape[1]
     s = np.concatenate([np.stack([0.1 * model.xi0, np.zeros(m)], axis=1).reshape(-1)])
