@@ -75,3 +75,38 @@ def test_bad_input_is_one_error_line_exit_2_nothing_written(grid_file, tmp_path,
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and words in err and "\n" not in err
     assert not (tmp_path / "out").exists()
+
+
+def test_report_and_mlflow_steps_write_tables_figures_page_and_runs_once(grid_file, tmp_path, monkeypatch):
+    import mlflow
+
+    from experiments.report.tracking_report import main as report
+    from experiments.tracking.tracking_runs import main as log
+
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path / 'mlflow.db'}")
+    grid = grid_file(noise_ug=[100, 1000])
+    main(["data", grid, "--out", str(tmp_path / "data")])
+    folders = []
+    for tracker in ("stand_in", "broken"):
+        folders.append(str(tmp_path / "track" / tracker))
+        main(["run", grid, "--tracker", tracker, "--data", str(tmp_path / "data"), "--out", folders[-1]])
+    out = tmp_path / "res"
+    report(["--grid", grid, "--data", str(tmp_path / "data"), "--out", str(out), "--page", str(out / "summary.md"),
+            "--", *folders])
+    table = pd.read_csv(out / "tables" / "tracking_table.csv")
+    assert len(table) == 2 * 2 and set(table["tracker"]) == {"stand_in", "broken"}
+    assert (table.loc[table["tracker"] == "broken", "diverged_rate"] == 1.0).all()
+    for fig in ("tracking_estimates_step", "tracking_error_vs_time", "tracking_reconvergence",
+                "tracking_accuracy_vs_cpu"):
+        assert (out / "figures" / f"{fig}.png").stat().st_size > 10_000
+        assert "category" not in (out / "figures" / f"{fig}.rst").read_text()     # the caption body only
+    assert "## Verdict per cell" in (out / "summary.md").read_text()
+    args = ["--grid", "tracking_test", "--out", str(out / "mlflow_runs.json"), "--summary", str(out / "summary.md"),
+            "--page", str(out / "README.md"), "--aggregate", str(out / "tables"), "--", *folders]
+    log(args)
+    log(args)                                                    # again: nothing new
+    client = mlflow.MlflowClient(f"sqlite:///{tmp_path / 'mlflow.db'}")
+    exp = client.get_experiment_by_name("grid-tracking_test")
+    runs = client.search_runs([exp.experiment_id])
+    assert len(runs) == 1 + 2 * 2
+    assert "## Tracking" in (out / "README.md").read_text()
