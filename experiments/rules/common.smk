@@ -89,11 +89,12 @@ def _refuse(path, message):
 
 GRID_DIR = os.path.join(workflow.basedir, "configs", "grid")
 # Grid names are the file names; a grid is read and validated only when a target asks for it, so one
-# malformed file never breaks the other grids.
+# malformed file never breaks the other grids. The tracking grids (tracking*.yaml) have their own schema and
+# rules (experiments/rules/tracking.smk).
 GRID_NAMES = sorted(
     os.path.splitext(os.path.basename(p))[0]
     for p in glob.glob(os.path.join(GRID_DIR, "*.yaml"))
-    if os.path.basename(p) != "schema.yaml"
+    if not os.path.basename(p).startswith(("schema", "tracking"))
 )
 
 

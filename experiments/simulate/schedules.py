@@ -151,7 +151,7 @@ def check_frequencies(w: np.ndarray, t_s: np.ndarray, dt_s: float | None) -> Non
     if gaps.size and np.any(gaps <= 0):
         k, i = (int(v[0]) for v in np.nonzero(gaps <= 0))
         raise ValueError(f"the schedule crosses modes {i + 1} and {i + 2} at t = {t_s[k]:.4g} s "
-                         f"({w[k, i]:.4g} ≥ {w[k, i + 1]:.4g} rad/s)")
+                         f"({w[k, i]:.6g} ≥ {w[k, i + 1]:.6g} rad/s)")
     if dt_s is not None:
         nyquist = math.pi / float(dt_s)
         top = float(w.max())
