@@ -54,6 +54,10 @@ def grid_trackers(grid: dict) -> list[str]:
     for name in wanted:
         if name not in known:
             raise ValueError(f"grid {grid['name']}: unknown tracker '{name}'; known: {', '.join(known)}")
+    for name in grid.get("tracker_options") or {}:
+        if name not in wanted:
+            raise ValueError(f"grid {grid['name']}: tracker_options.{name}: '{name}' is not one of the grid's "
+                             f"trackers ({', '.join(wanted)})")
     return wanted
 
 
