@@ -64,7 +64,7 @@ def test_a_tracker_that_raises_is_recorded_per_record(grid_file, tmp_path):
     ({"noise_ug": [-1]}, "noise_ug"),
     ({"trackers": ["nope"]}, "unknown tracker 'nope'"),
     ({"tracker_options": {"stand_in": {"window_samples": 9}}}, "unknown option 'window_samples'"),
-    ({"tracker_options": {"pem": {"hop_samples": 9}}}, "tracker_options.pem"),
+    ({"trackers": ["stand_in"], "tracker_options": {"hdmd": {"hop_samples": 9}}}, "tracker_options.hdmd"),
 ])
 def test_bad_input_is_one_error_line_exit_2_nothing_written(grid_file, tmp_path, capsys, change, words):
     grid = grid_file(**change)
