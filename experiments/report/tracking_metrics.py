@@ -10,6 +10,8 @@ A track is the tracker's estimate ω̂ᵢ(t_j) at its own times t_j (each a samp
   instant. NaN when it never happens (reported as such, and counted).
 * **tracking error**: eᵢ(t) = |ω̂ᵢ − ωᵢ| after the first convergence, relative to ωᵢ and to the bound
   (the PCRB std at that sample); its median and 90th percentile over time and modes.
+* **late error**: the same error over the second half of the record whether or not the tracker converged
+  (``err_rel_median_late``, ``err_rel_p90_late``): it ranks trackers that never hold all four modes.
 * **share within 1 %**: the fraction of the track's times at which every mode is within ``tol``.
 * **lag under a drift**: the delay τ ≥ 0 that best explains the estimate as a late copy of the truth,
   argmin_τ median_t |ω̂ᵢ(t) − ωᵢ(t − τ)| over the drifting span after convergence, per mode; the median
@@ -121,6 +123,9 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
             out[f"err_bound_{name}"] = float(np.percentile(ratio, q))
         else:
             out[f"err_bound_{name}"] = math.nan
+    late = t_s >= t_s[0] + 0.5 * (t_s[-1] - t_s[0])
+    out["err_rel_median_late"] = float(np.percentile(rel[late], 50))
+    out["err_rel_p90_late"] = float(np.percentile(rel[late], 90))
     for i in range(m):
         out[f"err_rel_median_mode{i + 1}"] = float(np.median(rel[after, i])) if after.any() else math.nan
     out["t_reconverge_s"] = math.nan
@@ -142,7 +147,8 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
 
 
 SUMMARY_MEDIANS = ("t_converge_s", "t_reconverge_s", "err_rel_median", "err_rel_p90", "err_bound_median",
-                   "err_bound_p90", "share_within_1pct", "lag_s", "cpu_per_sample_s")
+                   "err_bound_p90", "err_rel_median_late", "err_rel_p90_late", "share_within_1pct", "lag_s",
+                   "cpu_per_sample_s")
 
 
 def summarize_cell(rows: pd.DataFrame, *, has_step: bool = False) -> dict:

@@ -31,9 +31,9 @@ from experiments.simulate.tracking_grid import load_grid
 BASELINE = "next_era"
 RECONVERGE_S = 20.0
 TABLE_COLUMNS = ["tracker", "schedule", "excitation", "noise_ug", "duration_s", "replicates", "err_rel_median",
-                 "err_rel_p90", "err_bound_median", "share_within_1pct", "t_converge_s", "t_reconverge_s",
-                 "lag_s", "never_converged_rate", "never_reconverged_rate", "diverged_rate", "false_lock_rate",
-                 "cpu_per_sample_s", "onboard_ok"]
+                 "err_rel_p90", "err_bound_median", "err_rel_median_late", "share_within_1pct", "t_converge_s",
+                 "t_reconverge_s", "lag_s", "never_converged_rate", "never_reconverged_rate", "diverged_rate",
+                 "false_lock_rate", "cpu_per_sample_s", "onboard_ok"]
 
 
 def read_records(folders: list[Path]) -> pd.DataFrame:
@@ -56,7 +56,8 @@ def summary_table(records: pd.DataFrame, steps: set[str]) -> pd.DataFrame:
 
 def per_tracker(summary: pd.DataFrame) -> pd.DataFrame:
     out = summary.groupby("tracker").agg(
-        err_rel_median=("err_rel_median", "median"), t_reconverge_s=("t_reconverge_s", "median"),
+        err_rel_median=("err_rel_median", "median"), err_rel_median_late=("err_rel_median_late", "median"),
+        t_reconverge_s=("t_reconverge_s", "median"),
         share_within_1pct=("share_within_1pct", "median"), diverged_rate=("diverged_rate", "mean"),
         cpu_per_sample_s=("cpu_per_sample_s", "median")).reset_index()
     out["onboard_ok"] = out["cpu_per_sample_s"] * 100 <= 0.020
@@ -69,7 +70,10 @@ def verdict(summary: pd.DataFrame) -> list[str]:
     for (sched, exc, noise), cell in summary.groupby(["schedule", "excitation", "noise_ug"], sort=True):
         ranked = cell.dropna(subset=["err_rel_median"]).sort_values("err_rel_median")
         if ranked.empty:
-            lines.append(f"- {sched} / {exc} / {noise:g} µg: no tracker converged.")
+            late = cell.dropna(subset=["err_rel_median_late"]).sort_values("err_rel_median_late")
+            lead = (f"; the smallest late error: {late.iloc[0]['tracker']}, "
+                    f"{100 * late.iloc[0]['err_rel_median_late']:.3g} % of ω") if len(late) else ""
+            lines.append(f"- {sched} / {exc} / {noise:g} µg: no tracker held every mode within 1 %{lead}.")
             continue
         best = ranked.iloc[0]
         text = (f"- {sched} / {exc} / {noise:g} µg: **{best['tracker']}**, median error "
@@ -128,7 +132,7 @@ def write_figures(grid: dict, data_dir: Path, folders: list[Path], summary: pd.D
 def page(grid: dict, summary: pd.DataFrame, trackers: pd.DataFrame, figures: list[str]) -> str:
     n_rep = int(summary["replicates"].max())
     short = summary[["tracker", "schedule", "excitation", "noise_ug", "err_rel_median", "err_rel_p90",
-                     "t_reconverge_s", "diverged_rate", "cpu_per_sample_s"]].copy()
+                     "err_rel_median_late", "t_reconverge_s", "diverged_rate", "cpu_per_sample_s"]].copy()
     short["cpu_per_sample_s"] = short["cpu_per_sample_s"] * 1e6
     short = short.rename(columns={"cpu_per_sample_s": "cpu_us_per_sample"})
     noises = ", ".join(f"{v:g}" for v in grid["noise_ug"])

@@ -54,6 +54,7 @@ def test_never_converged_is_nan_and_counted():
     truth = constant_truth()
     s = score(truth * 1.05, truth)
     assert math.isnan(s["t_converge_s"]) and math.isnan(s["err_rel_median"])
+    assert s["err_rel_median_late"] == pytest.approx(0.05)       # the late error still ranks it
     rows = pd.DataFrame([s, score(truth.copy(), truth)])
     summary = summarize_cell(rows)
     assert summary["never_converged_rate"] == 0.5 and summary["t_converge_s"] == 0.0
