@@ -83,10 +83,13 @@ def verdict(summary: pd.DataFrame) -> list[str]:
         base = cell[cell["tracker"] == BASELINE]
         if len(base) and best["tracker"] != BASELINE:
             b = base.iloc[0]
-            ratio = best["err_rel_median"] / b["err_rel_median"] if np.isfinite(b["err_rel_median"]) else 0.0
+            # the baseline's error after convergence, or its late error when it never converged
+            col = "err_rel_median" if np.isfinite(b["err_rel_median"]) else "err_rel_median_late"
+            ratio = best[col] / b[col]
             beats = ratio <= 0.5 and (not np.isfinite(best["never_reconverged_rate"])
                                       or (best["t_reconverge_s"] <= RECONVERGE_S))
-            text += (f"; {ratio:.2g}× the error of the naive {BASELINE}"
+            which = "" if col == "err_rel_median" else " late (it never held every mode)"
+            text += (f"; {ratio:.2g}× the{which} error of the naive {BASELINE}"
                      f" ({'beats it' if beats else 'does not beat it'} by the issue's test)")
         lines.append(text + ".")
     return lines
