@@ -120,6 +120,7 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
         out[f"err_rel_{name}"] = float(np.percentile(rel[after], q)) if after.any() else math.nan
         if bound is not None and after.any():
             ratio = err[after] / np.asarray(bound)[k][after]
+            ratio = np.where(np.isfinite(ratio), ratio, np.inf)     # a missing estimate is no small error
             out[f"err_bound_{name}"] = float(np.percentile(ratio, q))
         else:
             out[f"err_bound_{name}"] = math.nan

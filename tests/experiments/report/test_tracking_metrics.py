@@ -93,6 +93,14 @@ def test_divergence_and_false_lock_are_told_apart():
     assert score(nan_est, truth)["diverged"]
 
 
+def test_a_missing_estimate_counts_as_a_large_error_not_a_nan():
+    truth = constant_truth()
+    est = truth * 1.001
+    est[::5] = np.nan                                             # a fifth of the windows found nothing
+    s = score(est, truth, bound=0.001 * truth, hold_s=0.0)
+    assert s["err_bound_median"] == pytest.approx(1.0) and s["err_bound_p90"] == np.inf
+
+
 def test_onboard_verdict_at_20_ms_on_a_processor_100_times_slower():
     truth = constant_truth()
     fast = score(truth, truth, runtime_s=1.9e-4 * N)             # 0.19 ms/sample -> 19 ms on board

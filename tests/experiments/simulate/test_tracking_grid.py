@@ -6,7 +6,7 @@ import yaml
 from experiments.simulate.tracking_grid import CONFIGS, load_grid
 
 
-@pytest.mark.parametrize("name, cells", [("tracking", 4 * 1 * 2), ("tracking_smoke", 2), ("tracking_full", 4 * 3 * 2)])
+@pytest.mark.parametrize("name, cells", [("tracking", 4 * 2 * 2), ("tracking_smoke", 2), ("tracking_full", 4 * 3 * 2)])
 def test_shipped_grids_validate(name, cells):
     grid = load_grid(name, check_cells=(name != "tracking_full"))
     assert len(grid["cells"]) == cells
