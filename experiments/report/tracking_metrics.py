@@ -9,7 +9,8 @@ A track is the tracker's estimate ω̂ᵢ(t_j) at its own times t_j (each a samp
   t, from the record's start. **Re-convergence**: the first such t at or after a step, minus the step's
   instant. NaN when it never happens (reported as such, and counted).
 * **tracking error**: eᵢ(t) = |ω̂ᵢ − ωᵢ| after the first convergence, relative to ωᵢ and to the bound
-  (the PCRB std at that sample); its median and 90th percentile over time and modes.
+  (the PCRB std at that sample); its median and 90th percentile over time and modes (empirical quantiles,
+  no interpolation: a missing estimate counts as an infinite error).
 * **late error**: the same error over the second half of the record whether or not the tracker converged
   (``err_rel_median_late``, ``err_rel_p90_late``): it ranks trackers that never hold all four modes.
 * **share within 1 %**: the fraction of the track's times at which every mode is within ``tol``.
@@ -117,16 +118,17 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
     out["onboard_ok"] = bool(out["cpu_per_sample_s"] * ONBOARD_SLOWDOWN <= ONBOARD_BUDGET_S)
     after = t_s >= t_conv if math.isfinite(t_conv) else np.zeros(t_s.size, bool)
     for name, q in (("median", 50), ("p90", 90)):
-        out[f"err_rel_{name}"] = float(np.percentile(rel[after], q)) if after.any() else math.nan
+        out[f"err_rel_{name}"] = (float(np.percentile(rel[after], q, method="inverted_cdf")) if after.any()
+                                  else math.nan)
         if bound is not None and after.any():
             ratio = err[after] / np.asarray(bound)[k][after]
             ratio = np.where(np.isfinite(ratio), ratio, np.inf)     # a missing estimate is no small error
-            out[f"err_bound_{name}"] = float(np.percentile(ratio, q))
+            out[f"err_bound_{name}"] = float(np.percentile(ratio, q, method="inverted_cdf"))
         else:
             out[f"err_bound_{name}"] = math.nan
     late = t_s >= t_s[0] + 0.5 * (t_s[-1] - t_s[0])
-    out["err_rel_median_late"] = float(np.percentile(rel[late], 50))
-    out["err_rel_p90_late"] = float(np.percentile(rel[late], 90))
+    out["err_rel_median_late"] = float(np.percentile(rel[late], 50, method="inverted_cdf"))
+    out["err_rel_p90_late"] = float(np.percentile(rel[late], 90, method="inverted_cdf"))
     for i in range(m):
         out[f"err_rel_median_mode{i + 1}"] = float(np.median(rel[after, i])) if after.any() else math.nan
     out["t_reconverge_s"] = math.nan
