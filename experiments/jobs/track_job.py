@@ -3,6 +3,8 @@
     python -m experiments.jobs.track_job data tracking --out results/tracking/data
     python -m experiments.jobs.track_job run tracking --tracker akf --data results/tracking/data \
         --out results/tracking/track/akf
+    python -m experiments.jobs.track_job score tracking --tracker akf --data results/tracking/data \
+        --out results/tracking/track/akf      # score the stored tracks again (after a change of the metrics)
 
 ``tracking`` is a grid name (``configs/grid/tracking.yaml``) or a path to a grid file. ``data`` writes one
 ``<cell>.npz`` per cell (``experiments.simulate.tracking_data``). ``run`` calls
@@ -102,32 +104,37 @@ def run_cell(tracker: str, options: dict, data: dict, cell_meta: dict) -> tuple[
     """Every replicate of a cell through the tracker; the tracks (arrays) and their scores (a table)."""
     y_all, prior_all = data["accel_m_s2"], data["prior_rad_s"]
     dt = float(data["dt_s"])
-    truth = data["truth_freq_rad_s"]
-    n, m = truth.shape
-    tracks, rows = [], []
-    for r in range(y_all.shape[0]):
-        tr, message = track_record(tracker, y_all[r], dt, prior_all[r], options)
-        tracks.append((tr, message))
+    n, m = data["truth_freq_rad_s"].shape
+    tracks = [track_record(tracker, y_all[r], dt, prior_all[r], options) for r in range(y_all.shape[0])]
     t_ref = next((tr.t_s for tr, _ in tracks if tr is not None), np.arange(n) * dt)
-    k_len = t_ref.size
-    freq = np.full((len(tracks), k_len, m), np.nan)
+    freq = np.full((len(tracks), t_ref.size, m), np.nan)
     std = np.full_like(freq, np.nan)
     conv = np.zeros(freq.shape, bool)
     runtime = np.zeros(len(tracks))
+    messages = []
     for r, (tr, message) in enumerate(tracks):
         if tr is not None and (tr.t_s.shape != t_ref.shape or not np.allclose(tr.t_s, t_ref)):
             tr, message = None, "the track's times differ from the other replicates'"
         if tr is not None:
             freq[r], std[r], conv[r], runtime[r] = tr.frequencies, tr.std, tr.converged, tr.runtime_s
             message = tr.message
-        step = float(data["step_time_s"])
-        span = data["drift_span_s"]
-        s = score_track(t_ref, freq[r], conv[r], runtime[r], truth, dt, bound=data["pcrb_std_rad_s"][r],
+        messages.append(message)
+    arrays = {"t_s": t_ref, "frequencies": freq, "std": std, "converged": conv, "runtime_s": runtime}
+    return arrays, score_cell(tracker, arrays, data, cell_meta, messages)
+
+
+def score_cell(tracker: str, tracks: dict, data: dict, cell_meta: dict, messages: list[str]) -> pd.DataFrame:
+    """The scores of every replicate's track (``experiments.report.tracking_metrics.score_track``)."""
+    step = float(data["step_time_s"])
+    span = data["drift_span_s"]
+    rows = []
+    for r in range(tracks["frequencies"].shape[0]):
+        s = score_track(tracks["t_s"], tracks["frequencies"][r], tracks["converged"][r], tracks["runtime_s"][r],
+                        data["truth_freq_rad_s"], float(data["dt_s"]), bound=data["pcrb_std_rad_s"][r],
                         step_time_s=step if np.isfinite(step) else None,
                         drift_span_s=span if np.all(np.isfinite(span)) else None)
-        rows.append({"tracker": tracker, **cell_meta, "replicate": r, **s, "message": message[:300]})
-    arrays = {"t_s": t_ref, "frequencies": freq, "std": std, "converged": conv, "runtime_s": runtime}
-    return arrays, pd.DataFrame(rows)
+        rows.append({"tracker": tracker, **cell_meta, "replicate": r, **s, "message": str(messages[r])[:300]})
+    return pd.DataFrame(rows)
 
 
 WARM_UP_SAMPLES = 1000
@@ -142,13 +149,27 @@ def warm_up(tracker: str, options: dict, data: dict) -> None:
     track_record(tracker, y[: min(y.size, WARM_UP_SAMPLES)], float(data["dt_s"]), data["prior_rad_s"][0], options)
 
 
+def rescore_tracker(grid: dict, tracker: str, data_dir: Path, out: Path) -> None:
+    """Score the tracks a run step wrote again (after a change of the metrics), without running the tracker."""
+    for name, cell in grid["cells"].items():
+        data, tracks = read_npz(data_dir / f"{name}.npz"), read_npz(out / f"{name}.npz")
+        old = pd.read_csv(out / f"{name}.csv")
+        table = score_cell(tracker, tracks, data, _meta(name, cell), list(old["message"].fillna("")))
+        table.to_csv(out / f"{name}.csv", index=False)
+    print(f"{tracker}: {len(grid['cells'])} cells scored again", flush=True)
+
+
+def _meta(name: str, cell: dict) -> dict:
+    return {"cell": name, "schedule": cell["schedule"], "excitation": cell["excitation"],
+            "noise_ug": cell["noise_ug"], "duration_s": cell["duration_s"]}
+
+
 def run_tracker(grid: dict, tracker: str, options: dict, data_dir: Path, out: Path) -> None:
     code = git_state()
     warm_up(tracker, options, read_npz(data_dir / f"{next(iter(grid['cells']))}.npz"))
     for i, (name, cell) in enumerate(grid["cells"].items()):
         data = read_npz(data_dir / f"{name}.npz")
-        meta = {"cell": name, "schedule": cell["schedule"], "excitation": cell["excitation"],
-                "noise_ug": cell["noise_ug"], "duration_s": cell["duration_s"]}
+        meta = _meta(name, cell)
         t0 = time.process_time()
         arrays, table = run_cell(tracker, options, data, meta)
         write_npz(out / f"{name}.npz", arrays)
@@ -165,7 +186,7 @@ def run_tracker(grid: dict, tracker: str, options: dict, data_dir: Path, out: Pa
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m experiments.jobs.track_job", description=__doc__.split("\n")[0])
-    parser.add_argument("step", choices=("data", "run"))
+    parser.add_argument("step", choices=("data", "run", "score"))
     parser.add_argument("grid", help="a grid name (configs/grid/<name>.yaml) or a grid file")
     parser.add_argument("--out", required=True)
     parser.add_argument("--tracker")
@@ -173,6 +194,12 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     try:
         grid = load_grid(args.grid)
+        if args.step == "score":
+            if not args.tracker or not args.data:
+                raise ValueError("score needs --tracker NAME and --data DIR")
+            missing = [c for c in grid["cells"] if not (Path(args.out) / f"{c}.npz").is_file()]
+            if missing:
+                raise ValueError(f"{args.out}: no tracks of cell {missing[0]} (run the run step first)")
         if args.step == "run":
             if not args.tracker or not args.data:
                 raise ValueError("run needs --tracker NAME and --data DIR")
@@ -194,6 +221,8 @@ def main(argv: list[str] | None = None) -> None:
     with threadpool_limits(limits=1):
         if args.step == "data":
             run_data(grid, out)
+        elif args.step == "score":
+            rescore_tracker(grid, args.tracker, Path(args.data), out)
         else:
             run_tracker(grid, args.tracker, options, Path(args.data), out)
 

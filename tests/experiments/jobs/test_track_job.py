@@ -111,3 +111,14 @@ def test_report_and_mlflow_steps_write_tables_figures_page_and_runs_once(grid_fi
     runs = client.search_runs([exp.experiment_id])
     assert len(runs) == 1 + 2 * 2
     assert "## Tracking" in (out / "README.md").read_text()
+
+
+def test_score_step_scores_stored_tracks_again_identically(grid_file, tmp_path):
+    grid = grid_file()
+    main(["data", grid, "--out", str(tmp_path / "data")])
+    args = ["--tracker", "stand_in", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "t")]
+    main(["run", grid, *args])
+    first = pd.read_csv(tmp_path / "t" / "step_thrusters_noise100ug_8s.csv")
+    main(["score", grid, *args])
+    again = pd.read_csv(tmp_path / "t" / "step_thrusters_noise100ug_8s.csv")
+    pd.testing.assert_frame_equal(first, again)

@@ -88,9 +88,12 @@ def test_divergence_and_false_lock_are_told_apart():
     est[T >= 50.0, 1] *= 1.03                                     # settled 3 % off, flagged converged
     s = score(est, truth)
     assert s["false_lock"] and not s["diverged"]
-    nan_est = truth.copy()
-    nan_est[-10:, 0] = np.nan
-    assert score(nan_est, truth)["diverged"]
+    lost = truth.copy()
+    lost[T >= 50.0, 0] = np.nan                                   # mode 1 lost for good
+    assert score(lost, truth)["diverged"]
+    blip = truth.copy()
+    blip[-10:, 0] = np.nan                                        # 10 missing estimates of 300 in the tail
+    assert not score(blip, truth)["diverged"]
 
 
 def test_a_missing_estimate_counts_as_a_large_error_not_a_nan():
