@@ -89,8 +89,9 @@ def verdict(summary: pd.DataFrame) -> list[str]:
             beats = ratio <= 0.5 and (not np.isfinite(best["never_reconverged_rate"])
                                       or (best["t_reconverge_s"] <= RECONVERGE_S))
             which = "" if col == "err_rel_median" else " late (it never held every mode)"
-            text += (f"; {ratio:.2g}× the{which} error of the naive {BASELINE}"
-                     f" ({'beats it' if beats else 'does not beat it'} by the issue's test)")
+            verdict_word = "beats it" if beats else "does not beat it"
+            text += (f"; {ratio:.2g}× the{which} error of the naive {BASELINE} ({verdict_word}: half its error "
+                     "or less, and re-converged within 20 s of a step)")
         lines.append(text + ".")
     return lines
 

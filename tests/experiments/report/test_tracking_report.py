@@ -15,7 +15,7 @@ def row(tracker, err, late, reconv, never_re=0.0):
 
 def test_best_tracker_beats_the_baseline_at_half_its_error_and_20_s():
     lines = verdict(pd.DataFrame([row("pem", 0.002, 0.002, 8.0), row("next_era", 0.005, 0.005, 6.0)]))
-    assert "**pem**" in lines[0] and "0.4× the error of the naive next_era (beats it" in lines[0]
+    assert "**pem**" in lines[0] and "0.4× the error of the naive next_era (beats it:" in lines[0]
 
 
 def test_slow_reconvergence_does_not_beat_it():
