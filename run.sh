@@ -3,7 +3,7 @@
 #   ./run.sh reproduce     the paper reproduction: the paper grid, tables, figures (snakemake paper)
 #   ./run.sh test          lint, workflow lint, and the test suite (with the smoke workflow end to end)
 #   ./run.sh smoke | full  the CI grid / the R = 100 grid up to 2048 samples
-#   ./run.sh tracking-server postgresql+psycopg://USER:PASSWORD@HOST/DB   a shared MLflow server (README)
+#   ./run.sh tracking-server postgresql+psycopg://USER:PASSWORD@HOST/DB   a shared MLflow server (docs/cluster.md)
 #   ./run.sh snakemake ... / python ...   anything else, inside the environment
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -15,7 +15,7 @@ if [ ! -x .venv/bin/python ] || [ pyproject.toml -nt .venv/.installed ]; then
     || { echo "error: Python 3.11 is required (found $("$PYTHON" --version 2>&1))" >&2; exit 2; }
   [ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
   .venv/bin/python -m pip install --quiet --upgrade pip
-  .venv/bin/python -m pip install --quiet -e '.[dev,peers,tuning,cluster]'
+  .venv/bin/python -m pip install --quiet -e '.[dev,peers,tuning,cluster,measurements]'
   touch .venv/.installed
 fi
 export PATH="$PWD/.venv/bin:$PATH"

@@ -170,3 +170,18 @@ def save_figure(fig, path) -> Path:
     with atomic_path(path) as tmp, matplotlib.rc_context({"svg.hashsalt": "spacecraft-modal-id"}):
         fig.savefig(tmp, format=fmt, dpi=150, bbox_inches="tight", metadata=metadata)
     return path
+
+
+def check_writable(path: str | os.PathLike, what: str) -> None:
+    """Raise ``ValueError`` (one line) when files cannot be written at or under ``path``: the nearest folder
+    that exists on the way is a file, or this process may not write there (read-only folder or file
+    system). Called before any work, so that a job refused for it leaves nothing behind."""
+    target = Path(path).absolute()
+    here = target
+    while not here.exists():
+        here = here.parent
+    if not here.is_dir():
+        raise ValueError(f"{what} {path}: {here} is a file, not a folder; choose another path")
+    if not os.access(here, os.W_OK | os.X_OK):
+        raise ValueError(f"{what} {path}: cannot write in {here} (read-only or no permission); choose a "
+                         f"writable path")

@@ -22,6 +22,11 @@ Optional: ``identify_batch(y, dt, priors, **options) -> list[Estimate]`` on R re
 where that shares work (``akf``/``wkf``: the R filters in lock-step). :func:`get_batch` finds it; the jobs
 use it for a cell's replicates; tests/methods/test_contract.py checks it against ``identify`` row by row.
 
+**Tracking.** ``track(name, y, dt, prior, **options) -> Track`` runs a method online over a record whose
+frequencies move (:mod:`methods.tracking`): ``akf``, ``wkf``, ``pll`` natively, every other method here on a
+sliding window, and the trackers ``rls_ar`` and ``next_era``; ``track_names()``, ``track_options_class()``
+and ``check_track_options()`` are the registry's counterparts for trackers.
+
 ``get(name)`` finds a method by name. Adding a method: write ``methods/<name>.py`` with the three names
 above and add one line to ``_REGISTRY``. Nothing here imports the experiments, Hydra, MLflow or the file
 system.
@@ -74,8 +79,9 @@ _REQUIRES: dict[str, str] = {
 
 ENTRY_POINT_GROUP = "spacecraft_modal_id.methods"
 
-__all__ = ["ENTRY_POINT_GROUP", "Estimate", "check_inputs", "check_options", "check_prior", "failed", "flat_record",
-           "get", "get_batch", "module_name", "names", "options_class", "plugins", "require"]
+__all__ = ["ENTRY_POINT_GROUP", "Estimate", "Track", "check_inputs", "check_options", "check_prior",
+           "check_track_options", "failed", "flat_record", "get", "get_batch", "module_name", "names",
+           "options_class", "plugins", "require", "track", "track_names", "track_options_class"]
 
 
 @functools.cache
@@ -147,3 +153,7 @@ def check_options(name: str, prior, dt: float, options: dict | None = None):
     if hasattr(module, "check_options"):
         return module.check_options(np.asarray(prior), dt, **options)
     return make_options(module.Options, options, name)
+
+
+# The tracking face (methods/tracking/): every method run online over a record whose frequencies move.
+from methods.tracking import Track, check_track_options, track, track_names, track_options_class  # noqa: E402

@@ -1,9 +1,27 @@
-"""Benchmark commands (``python -m experiments.benchmarks.<name>``): medians, never timed tests."""
+"""Benchmark commands (``python -m experiments.benchmarks.<name>``): medians, never timed tests.
+
+Each command prints its tables and, run from the command line, also writes what it printed to the generated
+page ``results/bench/<name>.md`` (:func:`run_with_page`), headed by the command, the time, the commit and the
+machine's load: dated measurements live there, not in the READMEs.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import io
+import os
+import shlex
 import statistics
+import sys
 import time
+from datetime import UTC, datetime
+from pathlib import Path
+
+from experiments.io import atomic_write_text
+from experiments.tracking.provenance import git_state
+
+PAGE_DIR = Path("results") / "bench"
+_PAGE_ENV = "EXPERIMENTS_BENCH_PAGE"     # set while a page is being recorded: a child benchmark writes none
 
 
 def interleaved_medians(fns: dict, repeats: int) -> dict:
@@ -26,3 +44,63 @@ def median_seconds(fn, repeats: int) -> float:
         fn()
         times.append(time.perf_counter() - t0)
     return statistics.median(times)
+
+
+class _Tee(io.TextIOBase):
+    """A text stream that writes through to ``stream`` and keeps a copy (the standard library has no tee;
+    :func:`contextlib.redirect_stdout` needs one object that does both)."""
+
+    def __init__(self, stream):
+        self.stream = stream
+        self.copy = io.StringIO()
+
+    def write(self, s: str) -> int:
+        self.stream.write(s)
+        return self.copy.write(s)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+
+def page_text(name: str, argv: list[str], printed: str, when: datetime | None = None) -> str:
+    """The Markdown page of one benchmark run: a header (command, UTC time, commit, CPUs, load average,
+    ``OPENBLAS_NUM_THREADS``) and the printed output — as is when it holds Markdown tables, else fenced."""
+    when = when or datetime.now(UTC)
+    state = git_state()
+    commit = state["commit"][:12] + (" + uncommitted changes" if state.get("dirty") else "")
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
+    command = shlex.join(["python", "-m", f"experiments.benchmarks.{name}", *argv])
+    header = [f"# Benchmark `{name}` (generated)", "",
+              f"- command: `{command}`",
+              f"- run: {when:%Y-%m-%d %H:%M} UTC, commit {commit}",
+              f"- machine: {os.cpu_count()} CPUs, load average {load} (1, 5, 15 min), "
+              f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}",
+              "- times are medians on the machine as it was; compare rows of one run, not runs", ""]
+    tables = any(line.startswith("|---") for line in printed.splitlines())
+    body = printed if tables else f"```\n{printed.rstrip()}\n```\n"
+    return "\n".join(header) + "\n" + body
+
+
+def run_with_page(main, name: str, argv: list[str] | None = None, page_dir: Path = PAGE_DIR) -> int:
+    """Run a benchmark's ``main(argv)``, printing as it does, then write what it printed to
+    ``<page_dir>/<name>.md`` (atomically; see :func:`page_text`) and say so.
+
+    A run that fails (a non-zero status or an exception, e.g. a refused seed) writes nothing. A benchmark
+    started by another one (``pem --part speed`` runs ``pem_speed`` in child processes) writes no page of its
+    own: its output belongs to the parent's page.
+    """
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if os.environ.get(_PAGE_ENV):
+        return main(argv) or 0
+    os.environ[_PAGE_ENV] = name
+    tee = _Tee(sys.stdout)
+    try:
+        with contextlib.redirect_stdout(tee):
+            status = main(argv) or 0
+    finally:
+        del os.environ[_PAGE_ENV]
+    if status:
+        return status
+    path = atomic_write_text(Path(page_dir) / f"{name}.md", page_text(name, argv, tee.copy.getvalue()))
+    print(f"page: {path}")
+    return 0

@@ -1,4 +1,4 @@
-"""Basin of attraction of a method on random structures other than the paper's (issue 11's pem target).
+"""Basin of attraction of a method on random structures other than the paper's (pem's robustness target).
 
     python -m experiments.benchmarks.basin                         # pem, 100 structures (~15 min on a busy core)
     python -m experiments.benchmarks.basin --structures 20 --method pem --variant paper
@@ -15,6 +15,13 @@ Each structure is identified from priors with
 - a common error: prior = c · ω for every c of ``--scales`` (default 0.7 0.8 0.9 1.1 1.2 1.3);
 - independent errors: prior = ω (1 + s u), u ~ U(−1, 1) per mode, s = ``--spread`` (0.25), ``--draws`` draws;
 priors sorted. Success per trial: every mode within tolerance of the truth (experiments.report.success).
+
+Each mode of a trial is also classed by what the method *said*: a mode it calls determined
+(``converged_per_mode`` True and a finite frequency) is either right (within tolerance) or **called
+determined but wrong** — a crossed label, a mode in the wrong slot, a local minimum reported as an answer;
+a mode it flags as not determined is **honestly not determined**. The first is the dangerous failure (a
+user trusts it); the second costs only the mode. The report gives both per trial and per structure (a
+structure counts once if any of its trials has such a mode).
 
 Seeds: structure k draws from ``default_rng([seed, 0x4241, k])`` ("BA"), its noise and independent priors from
 ``default_rng([seed, 0x4241, k, trial])``; ``--seed`` defaults to 4242, never the grids' scoring seed 20261121.
@@ -38,7 +45,7 @@ import yaml  # noqa: E402
 import methods  # noqa: E402
 from experiments.io import write_json  # noqa: E402
 from experiments.report.scoring import identifiable  # noqa: E402
-from experiments.report.success import mode_success  # noqa: E402
+from experiments.report.success import mode_success, tolerance  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 
 STREAM = 0x4241
@@ -94,6 +101,26 @@ def trials(s: dict, scales, spread: float, draws: int, seed: int):
     return out
 
 
+def label_outcome(s: dict, freq, per_mode) -> tuple[bool, bool, bool]:
+    """(any mode called determined but wrong, any mode honestly not determined, any crossed label) of one
+    trial.
+
+    A mode is *called determined* when the method's ``converged_per_mode`` says so and its frequency is
+    finite; it is wrong when it is not within the success tolerance of its true mode
+    (experiments.report.success.tolerance: 5 CRLB std or 0.5 %, at most half-way to the neighbour). A wrong
+    one is a *crossed label* when it is within the tolerance of another true mode (the right frequency in
+    the wrong slot), else an inaccurate one.
+    """
+    freq = np.asarray(freq, float)
+    called = np.asarray(per_mode, bool) & np.isfinite(freq)
+    right = mode_success(s["freq"], s["crlb"], freq, called)
+    wrong = called & ~right
+    tol = tolerance(s["freq"], s["crlb"])
+    near = np.abs(np.where(np.isfinite(freq), freq, np.inf)[:, None] - s["freq"][None, :]) <= tol[None, :]
+    np.fill_diagonal(near, False)
+    return bool(wrong.any()), bool((~called).any()), bool((wrong & near.any(axis=1)).any())
+
+
 def run(args) -> dict:
     name = args.method
     config = f"{name}_{args.variant}" if args.variant else name
@@ -108,15 +135,21 @@ def run(args) -> dict:
             try:
                 est = identify(y, DT_S, prior, **options)
                 freq, conv, msg = np.asarray(est.frequencies, float), bool(est.converged), est.message
+                per_mode = np.asarray(est.converged_per_mode, bool)
             except Exception as exc:  # noqa: BLE001 - a crash is a failure of the trial, recorded
                 freq, conv, msg = np.full(prior.size, np.nan), False, f"{type(exc).__name__}: {exc}"
+                per_mode = np.zeros(prior.size, bool)
             ok = bool(mode_success(s["freq"], s["crlb"], freq, [conv] * prior.size).all())
+            wrong, undetermined, crossed = label_outcome(s, freq, per_mode)
             rows.append({"k": k, "m": s["freq"].size, "offset": s["offset"] != 0, "kind": kind, "value": value,
-                         "success": ok, "converged": conv})
+                         "success": ok, "converged": conv, "wrong_determined": wrong,
+                         "not_determined": undetermined, "crossed": crossed})
             if not ok:
                 failures.append({"structure": k, "kind": kind, "value": value, "true_rad_s": s["freq"],
                                  "damping": s["zeta"], "offset": s["offset"], "prior_rad_s": prior,
-                                 "estimate_rad_s": freq, "converged": conv, "message": str(msg)[:200]})
+                                 "estimate_rad_s": freq, "converged": conv,
+                                 "converged_per_mode": per_mode, "wrong_determined": wrong,
+                                 "message": str(msg)[:200]})
         if args.progress:
             print(f"structure {k + 1}/{args.structures}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     return {"rows": rows, "failures": failures, "seconds": time.perf_counter() - t0, "config": config}
@@ -133,6 +166,18 @@ def report(result: dict, args) -> str:
         failed = 100 * (~sub["converged"]).mean()
         return f"{100 * sub['success'].mean():.1f} % of {len(sub)} (not converged {failed:.1f} %)"
 
+    n_struct = df["k"].nunique()
+    by_structure = df.groupby("k")[["wrong_determined", "not_determined", "crossed"]].any()
+    lines.append(f"called determined but wrong: {100 * df['wrong_determined'].mean():.1f} % of {len(df)} trials, "
+                 f"{int(by_structure['wrong_determined'].sum())} of {n_struct} structures "
+                 f"({100 * by_structure['wrong_determined'].mean():.1f} %)")
+    lines.append(f"  of which a crossed label (another true mode's frequency): {100 * df['crossed'].mean():.1f} % "
+                 f"of trials, {int(by_structure['crossed'].sum())} of {n_struct} structures")
+    lines.append(f"honestly not determined (some mode): {100 * df['not_determined'].mean():.1f} % of trials, "
+                 f"{int(by_structure['not_determined'].sum())} of {n_struct} structures")
+    for kind, g in df.groupby("kind"):
+        lines.append(f"  {kind}: determined but wrong {100 * g['wrong_determined'].mean():.1f} %, "
+                     f"not determined {100 * g['not_determined'].mean():.1f} % of {len(g)} trials")
     common, indep = df[df["kind"] == "common"], df[df["kind"] == "independent"]
     lines.append(f"common factor {min(args.scales):g}…{max(args.scales):g}: success {rate(common)}")
     for c, g in common.groupby("value"):
@@ -178,4 +223,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "basin"))   # prints, and writes results/bench/basin.md

@@ -77,4 +77,6 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "kalman"))   # prints, and writes results/bench/kalman.md

@@ -138,4 +138,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "peers"))   # prints, and writes results/bench/peers.md

@@ -1,4 +1,4 @@
-"""Speed of ``pem`` (issue 12): warm and cold fits, scaling in N, BLAS threads — side by side in one run.
+"""Speed of ``pem``: warm and cold fits, scaling in N, BLAS threads — side by side in one run.
 
     python -m experiments.benchmarks.pem --part speed              # runs this module
     python -m experiments.benchmarks.pem_speed [--repeats 21] [--sizes 256 4096 65536 1000000]
@@ -12,7 +12,7 @@ record is the Table 5 cell (truth plant, 1000 µg, Table 4 prior, replicate 0 of
   perturbation; x₀ and b at their least-squares values), the lowest cost wins: with 2-point finite-difference
   and with the analytic Jacobian (:class:`methods.pem.predictor.ClosedForm`).
 - ``pem`` through the recursive CasADi predictor (``Recursive``, K = 0: the reference path, same search).
-- the peer identifiers that reach the bound on some records (issue 10): ``methods.peers.era``, ``methods.peers.hdmd``,
+- the peer identifiers that reach the bound on some records: ``methods.peers.era``, ``methods.peers.hdmd``,
   ``methods.peers.n4sid`` with their default options, and ``control.era`` called directly (order 2m + 1,
   64 × 64 Hankel blocks); their errors are printed beside the times.
 
@@ -32,6 +32,7 @@ import tracemalloc
 import numpy as np
 import scipy.optimize
 
+import methods
 from experiments.benchmarks import interleaved_medians
 from experiments.simulate.datasets import UG, replicate_rng
 from experiments.simulate.plant import build_plant
@@ -58,10 +59,10 @@ def _scipy_fit(y, jac: bool, labels: set[str] | None):
     ``labels``, or (None) the default's three — computed inside the timed call as pem computes them; the
     lowest cost wins."""
     m, opts = PRIOR.size, pem.Options(accept_white=labels is not None)
-    free = pem._free_mask(m, opts)
+    free = pem.free_mask(m, opts)
     ev = pp.ClosedForm(y, DT_S, m, free)
     best, todo = None, None if labels is None else set(labels)
-    for label, w0, z0 in pem._starts(y, DT_S, PRIOR, opts):
+    for label, w0, z0 in pem.starts(y, DT_S, PRIOR, opts):
         if todo is not None:
             if label not in todo:
                 continue
@@ -108,14 +109,13 @@ def warm(repeats: int) -> None:
             "pem through the reference search and the recursive CasADi predictor": lambda: _reference_fit(y, True),
             "pem paper setting (Kalman predictor, GN, 1 start)":
             lambda: pem.identify(y, DT_S, PRIOR, **pem.PAPER_OPTIONS).frequencies}
-    import importlib
     peers = []
-    for peer in ("era", "hdmd", "n4sid"):                   # the project's peer methods (issue 10), defaults
+    for peer in ("era", "hdmd", "n4sid"):                   # the project's peer methods, defaults
         try:
-            mod = importlib.import_module(f"methods.{peer}")
-            mod.identify(y, DT_S, PRIOR)
-            name = f"{peer} (methods/{peer}.py, default options) — peer"
-            rows[name] = lambda mod=mod: mod.identify(y, DT_S, PRIOR).frequencies
+            fit = methods.get(peer)
+            fit(y, DT_S, PRIOR)
+            name = f"{peer} (methods/peers/{peer}.py, default options) — peer"
+            rows[name] = lambda fit=fit: fit(y, DT_S, PRIOR).frequencies
             peers.append(name)
         except (ImportError, ValueError) as exc:
             print(f"(no {peer} row: {exc})")
@@ -221,8 +221,9 @@ def main(argv=None) -> None:
             env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
             if threads:
                 env["OPENBLAS_NUM_THREADS"] = threads
-            subprocess.run([sys.executable, "-m", "experiments.benchmarks.pem_speed", "--parts", "warm",
-                            "--repeats", str(args.repeats)], env=env, check=True)
+            print(subprocess.run([sys.executable, "-m", "experiments.benchmarks.pem_speed", "--parts", "warm",
+                                  "--repeats", str(args.repeats)], env=env, check=True,
+                                 stdout=subprocess.PIPE, text=True).stdout, end="")   # onto this run's page
     if "cold" in args.parts:
         cold()
     if "scaling" in args.parts:
@@ -230,4 +231,6 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "pem_speed"))   # prints, and writes results/bench/pem_speed.md

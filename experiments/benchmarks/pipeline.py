@@ -28,6 +28,8 @@ from pathlib import Path
 
 import pandas as pd
 
+import methods
+
 
 def _numeric_s(table: Path) -> float:
     res = pd.read_csv(table)
@@ -75,7 +77,7 @@ def import_cost_s(method: str, runs: int = 5) -> float:
             subprocess.run([sys.executable, "-c", code], check=True)
             times.append(time.perf_counter() - t0)
         return statistics.median(times)
-    return median(f"import methods.{method}") - median("pass")
+    return median(f"import {methods.module_name(method)}") - median("pass")
 
 
 def main(argv=None) -> int:
@@ -115,4 +117,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "pipeline"))   # prints, and writes results/bench/pipeline.md

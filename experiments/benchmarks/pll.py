@@ -51,4 +51,6 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "pll"))   # prints, and writes results/bench/pll.md

@@ -15,7 +15,10 @@ from pathlib import Path
 
 import hydra
 from hydra import compose, initialize_config_module
-from omegaconf import DictConfig, OmegaConf
+from hydra.errors import OverrideParseException
+from omegaconf import DictConfig, OmegaConf, open_dict
+
+from experiments.io import check_writable
 
 # configs/ travels with the code as the package data `experiments.configs` (experiments/configs links to it in
 # the repository; a wheel holds a copy), so Hydra finds it from any working directory, installed or not.
@@ -51,6 +54,21 @@ def one_line(exc: BaseException) -> str:
     return re.sub(r"\s+", " ", "; ".join(lines))
 
 
+_KEY_VALUE = re.compile(r"^([+~]{0,2}[\w.@/-]+)=(.*)$", re.S)
+
+
+def quote_unicode_value(arg: str) -> str:
+    """``key=value`` with a non-ASCII character in a plain value (``data.path=mesure_été.csv``) quoted for
+    Hydra, whose override grammar reads only ASCII in unquoted values; anything else is left as it is."""
+    match = _KEY_VALUE.match(arg)
+    if not match or arg.isascii():
+        return arg
+    key, value = match.groups()
+    if any(c in value for c in "'\"\\[]{},"):
+        return arg            # quoted, a list/dict/sweep, or escapes: the user's own syntax stands
+    return f"{key}='{value}'"
+
+
 def fail(message: str) -> None:
     print(f"error: {message}", file=sys.stderr)
     sys.exit(EXIT_BAD_INPUT)
@@ -63,14 +81,20 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
     ``check(cfg)`` raises ``ValueError`` (or FileNotFoundError) for impossible values; ``task(cfg)`` does
     the work. A bad-input exception from either becomes one line on stderr and exit status 2.
     """
-    args = sys.argv[1:]
+    args = sys.argv[1:] = [quote_unicode_value(a) for a in sys.argv[1:]]
     if not any(a in ("-m", "--multirun") or a.startswith("-") for a in args):
         try:
             with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
-                cfg = compose(config_name=config_name, overrides=args)
+                cfg = compose(config_name=config_name, overrides=args, return_hydra_config=True)
+            _check_outputs_writable(cfg)
+            with open_dict(cfg):
+                del cfg["hydra"]
             OmegaConf.resolve(cfg)
             if check is not None:
                 check(cfg)
+        except OverrideParseException as exc:
+            fail(f"cannot read the override {exc.override}: {one_line(exc)}; a value with brackets, commas, "
+                 f"spaces or quotes is quoted whole, e.g. prior='[3.8,16,26,46]'")
         except Exception as exc:  # noqa: BLE001 - every composition/validation error is bad input
             fail(one_line(exc))
 
@@ -86,6 +110,18 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
             fail(one_line(exc))
 
     hydra.main(config_path=f"pkg://{CONFIG_MODULE}", config_name=config_name, version_base="1.3")(guarded)()
+
+
+def _check_outputs_writable(cfg: DictConfig) -> None:
+    """Hydra's run folder (``hydra.run.dir``, made before the job starts) and the job's ``out``/``out_dir``
+    must be writable: else one line now instead of an ``os.mkdir`` traceback from Hydra or the job."""
+    run_dir = OmegaConf.select(cfg, "hydra.run.dir", default=None)
+    if run_dir is not None:
+        check_writable(run_dir, "hydra.run.dir")
+    for key in ("out", "out_dir"):
+        value = OmegaConf.select(cfg, key, default=None)
+        if isinstance(value, str) and value:
+            check_writable(value, key)
 
 
 def _remove_empty_run_dir() -> None:

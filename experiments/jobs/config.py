@@ -21,11 +21,18 @@ import methods
 
 @dataclass
 class DataConfig:
-    """Where the measurements come from: a generated dataset cell, or a user's CSV (columns t, accel)."""
+    """Where the measurements come from: a generated dataset cell, or a user's measurement file
+    (docs/measurements.md: .csv, .uff/.unv, .lvm, .tdms, .mat, chosen by extension)."""
 
     dataset: str | None = None       # a .npz cell written by experiments.jobs.make_dataset
-    path: str | None = None          # a CSV with columns t (s) and accel (m/s²)
+    path: str | None = None          # a measurement file (experiments/recordings/read.py)
     replicates: int | None = None    # use only the first k replicates of a cell (None: all)
+    channel: str | None = None       # the channel of a multi-channel file
+    units: str | None = None         # g, m/s^2 or mm/s^2, for a file that names no unit
+    dt: float | None = None          # sample interval, s, for a file without time stamps
+    start_s: float | None = None     # span to identify (file time); None: after the largest impulse
+    stop_s: float | None = None      # None: the end of the record
+    band_hz: Any = None              # hi or [lo, hi], Hz; None: from the spectrum
 
 
 @dataclass
@@ -39,6 +46,8 @@ class IdentifyConfig:
     method: Any = MISSING
     data: DataConfig = field(default_factory=DataConfig)
     prior: list[float] | None = None     # a-priori frequencies, rad/s; None: the method config's prior_rad_s
+    #                                      (a measurement file: found by a stabilisation diagram)
+    n_modes: int | None = None           # a measurement without a prior: at most this many modes
     out: str | None = None               # per-replicate results table (CSV); Snakemake sets it
     grid_name: str = "adhoc"             # the grid this job belongs to (MLflow tags)
     tracking: TrackingConfig = field(default_factory=TrackingConfig)

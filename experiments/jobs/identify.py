@@ -29,18 +29,19 @@ from experiments.jobs.app import fail, run_app
 from experiments.jobs.config import methods_named_on, register, variant_label
 from experiments.report.scoring import COLUMNS, replicate_rows
 from experiments.simulate.scenarios import AXES, result_columns
+from experiments.tracking.store import check_store
 
 
 def load_data(cfg) -> dict:
-    """The records to identify: ``y`` (R × N), ``dt`` and, for a dataset cell, the truth."""
+    """The records to identify: ``y`` (R × N), ``dt`` and, for a dataset cell, the truth; for a measurement
+    file, the segment chosen (:mod:`experiments.jobs.measurements`)."""
     d = cfg.data
     if (d.dataset is None) == (d.path is None):
-        raise ValueError("give exactly one of data.dataset (a generated cell) or data.path (a CSV file)")
+        raise ValueError("give exactly one of data.dataset (a generated cell) or data.path (a measurement file)")
     if d.path is not None:
-        from experiments.jobs.measurements import load_csv  # pandas: only for a user's CSV
+        from experiments.jobs import measurements  # pandas and the readers: only for a user's file
 
-        accel, dt = load_csv(d.path)
-        return {"y": accel[None, :], "dt": dt, "truth": None, "source": str(d.path)}
+        return measurements.load(d, None if cfg.prior is None else list(cfg.prior))
     from experiments.simulate.datasets import CELL_KEYS
 
     cell = read_npz(d.dataset, required=CELL_KEYS)
@@ -78,6 +79,15 @@ def check(cfg) -> None:
     """Everything that can be known wrong before any work: data readable, every record and the prior
     sensible, the method's options possible (``methods.check_options``, the contract of methods/__init__.py)."""
     data = load_data(cfg)
+    if data["truth"] is None and cfg.prior is None:
+        # a measurement without a prior: its modes come from the stabilisation diagram in the job; here the
+        # options are checked against one mode in the middle of the band
+        if cfg.n_modes is not None and cfg.n_modes < 1:
+            raise ValueError(f"n_modes = {cfg.n_modes} must be at least 1")
+        mid = np.pi * sum(data["segment"].band_hz) or np.pi / (2 * data["dt"])
+        methods.check_options(cfg.method.name, [min(mid, 0.9 * np.pi / data["dt"])], data["dt"],
+                              OmegaConf.to_container(cfg.method.options, resolve=True))
+        return
     priors = priors_of(cfg, data)
     for prior in np.unique(priors, axis=0):
         if data["truth"] is not None and prior.size != data["truth"]["truth_freq_rad_s"].size:
@@ -91,6 +101,8 @@ def check(cfg) -> None:
                              f"{data['source']}, replicate {r}: {exc}") from None
     methods.check_options(cfg.method.name, priors[0], data["dt"],
                           OmegaConf.to_container(cfg.method.options, resolve=True))
+    if cfg.tracking.enabled:
+        check_store()          # an empty or corrupt MLflow store: one line now, not a traceback after the work
 
 
 # A single record this long gets an info line (the progress bar counts records, and there is one).
@@ -167,17 +179,14 @@ def run_job(cfg, run_dir: Path, config_name: str | None, sweep: bool = False) ->
     method's config name and whether it is one job of a sweep (also called per cell by the workflow's
     batches, :mod:`experiments.jobs.batch`)."""
     data = load_data(cfg)
-    priors = priors_of(cfg, data)
     name = cfg.method.name
     label = variant_label(name, cfg.method.variant)
     options = OmegaConf.to_container(cfg.method.options, resolve=True)
+    if data["truth"] is None:
+        return _run_measurement(cfg, data, run_dir, config_name, options)
+    priors = priors_of(cfg, data)
     results = run_records(name, data["y"], data["dt"], priors, options, cfg.progress)
     record = job_record(cfg, data, config_name)
-    if data["truth"] is None:
-        path = report_measurement(name, priors[0], results[0][0], run_dir)
-        if cfg.tracking.enabled:
-            log_measurement(record, results[0][0], path)
-        return
     cell = data["truth"]
     scenario = scenario_of(cell)
     rows = []
@@ -224,18 +233,23 @@ def rows_to_csv(rows: list[dict]) -> str:
     return buf.getvalue()
 
 
-def report_measurement(name: str, prior, est, run_dir: Path) -> None:
-    per_mode = est.converged_per_mode
-    for i, (w, s) in enumerate(zip(est.frequencies, est.std, strict=True)):
-        note = "" if per_mode[i] else " — not determined by the record"
-        print(f"mode {i + 1}: {w:.6g} rad/s ± {s:.3g} (prior {prior[i]:g}){note}")
-    print(f"converged: {est.converged} ({est.message})")
-    path = write_json(run_dir / "estimate.json", {
-        "method": name, "frequencies_rad_s": est.frequencies, "std_rad_s": est.std,
-        "converged": bool(est.converged), "converged_per_mode": [bool(c) for c in per_mode],
-        "message": est.message, "prior_rad_s": prior})
-    print(f"wrote {path}")
-    return path
+def _run_measurement(cfg, data: dict, run_dir: Path, config_name: str | None, options: dict) -> None:
+    """A user's measurement: the notes on what was read and chosen, the modes (the prior, or the
+    stabilisation diagram's), the method, then the answer, the figure and the MLflow run."""
+    from experiments.jobs import measurements
+
+    measurements.print_notes(data)
+    diagram = None
+    if cfg.prior is None:
+        prior, diagram = measurements.find_modes(data, cfg.n_modes)
+        print(f"{diagram.how}: {', '.join(f'{w / (2 * np.pi):.5g}' for w in prior)} Hz")
+    else:
+        prior = prior_of(cfg)
+        methods.check_inputs(data["y"][0], data["dt"], prior)
+    est = run_records(cfg.method.name, data["y"], data["dt"], prior, options, cfg.progress)[0][0]
+    paths = measurements.report(cfg.method.name, prior, est, data, run_dir, diagram)
+    if cfg.tracking.enabled:
+        measurements.log(job_record(cfg, data, config_name), est, paths)
 
 
 def job_record(cfg, data, config_name: str | None) -> dict:
@@ -263,30 +277,6 @@ def job_record(cfg, data, config_name: str | None) -> dict:
         "code": {**provenance.git_state(), "method_files": provenance.code_digest(config_name)},
         "versions": json.loads(provenance.package_versions(config_name)),
     }
-
-
-MEASUREMENTS_EXPERIMENT = "measurements"
-
-
-def log_measurement(record: dict, est, estimate_path: Path) -> None:
-    """Log a run on a user's CSV in the MLflow experiment ``measurements`` (keyed like a cell's job)."""
-    from experiments.tracking.store import dataset_entity, log_run, source_tags
-    from experiments.tracking.track import IDENTIFY_SOURCE, config_yaml, job_params, run_key
-
-    record = {**record, "grid": "measurement"}
-    key = run_key(record)
-    metrics = {}
-    for i, (w, s) in enumerate(zip(est.frequencies, est.std, strict=True)):
-        metrics[f"freq_rad_s.mode{i + 1}"] = float(w)
-        metrics[f"std_rad_s.mode{i + 1}"] = float(s)
-    metrics["converged"] = float(bool(est.converged))
-    ds = record["dataset"]
-    _, created = log_run(
-        MEASUREMENTS_EXPERIMENT, key, params=job_params(record), metrics=metrics, artifacts=[estimate_path],
-        texts={"config.yaml": config_yaml(record)},
-        dataset=dataset_entity(ds["name"], ds["digest"], ds["path"], kind="measurement"),
-        tags={**source_tags(IDENTIFY_SOURCE, record["code"]), "kind": "measurement", "method": record["method"]})
-    print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} ({'logged' if created else 'already there'})")
 
 
 def main() -> None:

@@ -1,88 +1,167 @@
-"""A user's own measurement: a CSV with columns ``t`` (s) and ``accel`` (m/s²), uniformly sampled."""
+"""The identify job on a user's own measurement file (docs/measurements.md).
+
+    python -m experiments.jobs.identify method=pem data.path=beam.uff data.channel=tip
+
+Read (:func:`experiments.recordings.read_record`: the format by extension, channel, units, time step),
+segment and decimate (:func:`experiments.recordings.choose_segment`), and, with ``prior`` omitted, find
+the modes on a stabilisation diagram (:mod:`methods.peers.stabilisation`) and give them to the method as
+its prior. The answer: per mode the frequency in Hz and rad/s with 1σ, the damping ratio with 1σ, the
+amplitude and whether the record determines it, on the terminal and in ``estimate.json``; one figure
+(``measurement.png``/``.svg``) of the fit, the spectrum and the diagram.
+"""
 
 from __future__ import annotations
 
+import functools
+import os
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
-from experiments.simulate.datasets import MIN_SAMPLES
-from methods.estimate import MAX_ABS_ACCEL_M_S2
+from experiments.io import write_json
+from experiments.report import model_check
 
-REQUIRED = ("t", "accel")
+G_M_S2 = 9.80665
+MEASUREMENTS_EXPERIMENT = "measurements"
+INSTALL_HINT = "pip install -e '.[measurements]'"
+
+
+def load(d, prior=None) -> dict:
+    """The segment of the file ``d.path`` to identify (``d``: the job's ``data`` config), as the job's
+    data dict; read once per process (the job's check and its task both ask)."""
+    path = Path(d.path)
+    band = d.band_hz if isinstance(d.band_hz, str | int | float) or d.band_hz is None else list(d.band_hz)
+    cover = 1.25 * max(prior) / (2 * np.pi) if prior is not None and len(prior) else 0.0
+    stamp = os.stat(path).st_mtime_ns if path.is_file() else None
+    return _load(str(path), stamp, d.channel, d.units, d.dt, d.start_s, d.stop_s,
+                 tuple(band) if isinstance(band, list) else band, cover)
+
+
+@functools.lru_cache(maxsize=4)
+def _load(path, _stamp, channel, units, dt, start_s, stop_s, band_hz, cover_hz) -> dict:
+    from experiments.recordings import choose_segment, read_record
+
+    try:
+        rec = read_record(path, channel=channel, units=units, dt=dt)
+    except ModuleNotFoundError as exc:
+        raise ValueError(f"{path}: reading this format needs the package '{exc.name}': {INSTALL_HINT}") from None
+    seg = choose_segment(rec.accel_m_s2, rec.dt_s, rec.t0_s, start_s=start_s, stop_s=stop_s,
+                         band_hz=list(band_hz) if isinstance(band_hz, tuple) else band_hz, cover_hz=cover_hz,
+                         where=path)
+    return {"y": seg.y[None, :], "dt": seg.dt, "truth": None, "source": path, "record": rec, "segment": seg}
 
 
 def load_csv(path) -> tuple[np.ndarray, float]:
-    """Return (accel, dt) from a CSV; raise ``ValueError`` naming the offending row (1 = first data row).
+    """(accel in m/s², dt) of a CSV's single acceleration channel, the whole record (no segmentation)."""
+    from experiments.recordings import read_record
 
-    Time stamps must increase with a constant step (relative jitter below 1e-6 of the step).
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"measurement file {path} does not exist")
-    values = _read_numeric(path)
-    if values is None:                  # some field is not a plain number: find it and say where
-        values = _read_text(path)
-    t, accel = values["t"], values["accel"]
-    big = np.flatnonzero(np.abs(accel) > MAX_ABS_ACCEL_M_S2)
-    if big.size:
-        r = int(big[0])
-        raise ValueError(f"{path}: row {r + 1}: accel = {accel[r]:g} m/s² is not a physical acceleration "
-                         f"(|accel| ≤ {MAX_ABS_ACCEL_M_S2:g} m/s², 1e5 g); check the units")
-    if t.size < MIN_SAMPLES:
-        raise ValueError(f"{path}: {t.size} samples; at least {MIN_SAMPLES} are needed")
-    step = np.diff(t)
-    if np.any(step <= 0):
-        r = int(np.flatnonzero(step <= 0)[0]) + 1
-        raise ValueError(f"{path}: row {r + 1}: t = {t[r]} does not increase (previous row t = {t[r - 1]})")
-    dt = float(np.median(step))
-    jitter = np.abs(step - dt) > 1e-6 * dt
-    if np.any(jitter):
-        r = int(np.flatnonzero(jitter)[0]) + 1
-        raise ValueError(f"{path}: row {r + 1}: t = {t[r]} breaks the uniform sampling "
-                         f"(step {step[r - 1]:g} s, expected {dt:g} s)")
-    return accel, dt
+    rec = read_record(path)
+    return rec.accel_m_s2, rec.dt_s
 
 
-def _read_numeric(path: Path) -> dict[str, np.ndarray] | None:
-    """The columns t and accel parsed straight to floats by pandas' C parser (10⁶ rows in about a second),
-    or None when a field is not a finite number (then :func:`_read_text` finds and names it).
-
-    pandas' parser gives every value as the float nearest its decimal text, as ``float()`` does (checked in
-    tests/experiments/jobs/test_measurements.py); ``keep_default_na=False``: an empty field or "NA" is an
-    error, not a silent NaN.
-    """
+def find_modes(data: dict, n_modes: int | None):
+    """The modes of the segment from a stabilisation diagram: (prior in rad/s, the diagram)."""
     try:
-        df = pd.read_csv(path, dtype=float, keep_default_na=False, skipinitialspace=True)
-    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError):
-        return None
-    df.columns = [str(c).strip() for c in df.columns]
-    if any(col not in df.columns for col in REQUIRED) or len(set(df.columns)) != len(df.columns):
-        return None
-    values = {col: df[col].to_numpy(dtype=float) for col in REQUIRED}
-    if not all(np.isfinite(v).all() for v in values.values()):
-        return None
-    return values
+        from methods.peers.stabilisation import stabilisation_diagram
+        diagram = stabilisation_diagram(data["segment"].y, data["dt"],
+                                        band_rad_s=tuple(2 * np.pi * np.asarray(data["segment"].band_hz)),
+                                        n_modes=n_modes)
+    except ModuleNotFoundError as exc:
+        raise ValueError(f"finding the modes without a prior needs the package '{exc.name}': {INSTALL_HINT}"
+                         ) from None
+    if diagram.modes_rad_s.size == 0:
+        lo, hi = data["segment"].band_hz
+        raise ValueError(f"{data['source']}: no mode stands out of the noise between {lo:.4g} and {hi:.4g} Hz "
+                         f"({diagram.n_clusters} stable clusters on the stabilisation diagram); give a prior")
+    return diagram.modes_rad_s, diagram
 
 
-def _read_text(path: Path) -> dict[str, np.ndarray]:
-    """The columns as text, each field checked: ``ValueError`` naming the first row that is not a number."""
-    try:
-        df = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: not a readable CSV ({exc})") from None
-    df.columns = [str(c).strip() for c in df.columns]
-    for col in REQUIRED:
-        if col not in df.columns:
-            raise ValueError(f"{path}: missing column '{col}' (found: {', '.join(df.columns) or 'none'}); "
-                             f"columns t (s) and accel (m/s²) are required")
-    values = {}
-    for col in REQUIRED:
-        num = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(num))
-        if bad.size:
-            r = int(bad[0])
-            raise ValueError(f"{path}: row {r + 1}: {col} = '{df[col].iloc[r]}' is not a finite number")
-        values[col] = num
-    return values
+def print_notes(data: dict) -> None:
+    for note in data["record"].notes + data["segment"].notes:
+        print(f"{Path(data['source']).name}: {note}")
+
+
+def report(name: str, prior, est, data: dict, run_dir: Path, diagram=None) -> list[Path]:
+    """Print the modes, write ``estimate.json`` and the figure; return the paths written."""
+    from experiments.recordings.modal_fit import fit_modes
+    from experiments.report.measurement_figure import measurement_figure
+
+    seg = data["segment"]
+    m = est.frequencies.size
+    damping = np.asarray(est.extra.get("damping", np.full(m, np.nan)), float).reshape(-1)
+    damping_std = np.asarray(est.extra.get("damping_std", np.full(m, np.nan)), float).reshape(-1)
+    damping_from = "the method"
+    if np.isnan(damping).all() and diagram is not None:
+        damping, damping_from = diagram.modes_damping.copy(), "the stabilisation diagram (no 1σ)"
+    fit = fit_modes(seg.y, seg.dt, est.frequencies, damping)
+    how = (diagram.how + f"; refined by {name}" if diagram is not None else f"{name} from the prior given")
+    modes = []
+    for i in range(m):
+        w, s, ok = float(est.frequencies[i]), float(est.std[i]), bool(est.converged_per_mode[i])
+        modes.append({"mode": i + 1, "freq_hz": w / (2 * np.pi), "freq_std_hz": s / (2 * np.pi),
+                      "freq_rad_s": w, "freq_std_rad_s": s, "damping_ratio": float(damping[i]),
+                      "damping_std": float(damping_std[i]), "amplitude_m_s2": float(fit.amplitude[i]),
+                      "amplitude_g": float(fit.amplitude[i] / G_M_S2), "determined": ok,
+                      "prior_rad_s": float(prior[i])})
+        print(f"mode {i + 1}: {_digits(w, s)} rad/s ± {s:.2g} ({_digits(w / (2 * np.pi), s / (2 * np.pi))} Hz ± "
+              f"{s / (2 * np.pi):.2g}), damping ratio {_digits(damping[i], damping_std[i])} ± {damping_std[i]:.2g}, "
+              f"amplitude {fit.amplitude[i] / G_M_S2:.3g} g"
+              + ("" if ok else " — not determined by the record"))
+    print(f"how: {how}")
+    print(f"converged: {est.converged} ({est.message})")
+    for line in model_check.check_lines(est.extra):       # does the model explain the record? (pem)
+        print(line)
+    stem = run_dir / "measurement"
+    figures = measurement_figure(
+        stem, y=seg.y, dt=seg.dt, t0=seg.t0, model=fit.model, residual=fit.residual, freq_rad_s=est.frequencies,
+        std_rad_s=est.std, determined=est.converged_per_mode, diagram=diagram,
+        title=(f"{Path(data['source']).name}, channel {data['record'].channel}: {m} mode{'s' if m != 1 else ''}"
+               + (f" from the stabilisation diagram, refined by {name}" if diagram is not None
+                  else f" by {name} from the prior given")))
+    rec = data["record"]
+    path = write_json(run_dir / "estimate.json", {
+        "method": name, "how_found": how, "damping_from": damping_from, "modes": modes,
+        "frequencies_rad_s": est.frequencies, "std_rad_s": est.std,
+        "converged": bool(est.converged), "converged_per_mode": [bool(c) for c in est.converged_per_mode],
+        "message": est.message, "prior_rad_s": prior,
+        "record": {"path": rec.path, "channel": rec.channel, "unit": rec.unit, "dt_s": rec.dt_s,
+                   "n_samples": int(rec.accel_m_s2.size), "notes": rec.notes},
+        "segment": {"start_s": seg.t0, "stop_s": seg.stop_s, "n_samples": int(seg.y.size), "dt_s": seg.dt,
+                    "decimation": seg.decimation, "band_hz": list(seg.band_hz), "impulse_s": seg.impulse_s,
+                    "notes": seg.notes},
+        "figure": [p.name for p in figures], **model_check.check_json(est.extra)})
+    print(f"wrote {path}, {', '.join(str(p) for p in figures)}")
+    return [path, *figures]
+
+
+def _digits(value: float, std: float) -> str:
+    """``value`` with the decimals its 1σ ``std`` warrants (down to the std's second digit), else 6 digits."""
+    if not (np.isfinite(std) and std > 0 and np.isfinite(value)):
+        return f"{value:.6g}"
+    return f"{value:.{max(0, 1 - int(np.floor(np.log10(std))))}f}"
+
+
+def log(record: dict, est, paths: list[Path]) -> None:
+    """Log a run on a user's measurement in the MLflow experiment ``measurements`` (keyed like a cell's job)."""
+    from experiments.tracking.store import dataset_entity, log_run, source_tags
+    from experiments.tracking.track import IDENTIFY_SOURCE, config_yaml, job_params, run_key
+
+    record = {**record, "grid": "measurement"}
+    key = run_key(record)
+    metrics = {}
+    m = est.frequencies.size
+    damping = np.asarray(est.extra.get("damping", np.full(m, np.nan)), float).reshape(-1)
+    damping_std = np.asarray(est.extra.get("damping_std", np.full(m, np.nan)), float).reshape(-1)
+    for i, (w, s) in enumerate(zip(est.frequencies, est.std, strict=True)):
+        metrics[f"freq_rad_s.mode{i + 1}"] = float(w)
+        metrics[f"std_rad_s.mode{i + 1}"] = float(s)
+        metrics[f"damping.mode{i + 1}"] = float(damping[i])
+        metrics[f"damping_std.mode{i + 1}"] = float(damping_std[i])
+    metrics["converged"] = float(bool(est.converged))
+    ds = record["dataset"]
+    _, created = log_run(
+        MEASUREMENTS_EXPERIMENT, key, params=job_params(record), metrics=metrics, artifacts=paths,
+        texts={"config.yaml": config_yaml(record)},
+        dataset=dataset_entity(ds["name"], ds["digest"], ds["path"], kind="measurement"),
+        tags={**source_tags(IDENTIFY_SOURCE, record["code"]), "kind": "measurement", "method": record["method"]})
+    print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} ({'logged' if created else 'already there'})")

@@ -31,7 +31,11 @@ REFERENCE = {"prior_scale": 1.0, "prior_spread": 0.0, "damping": 0.005, "gap_rad
 LABEL = {"prior_scale": "common prior factor c (prior = c · ω)",
          "prior_spread": "independent prior error s (prior = ω (1 + s u), u ~ U(−1, 1))",
          "damping": "damping ratio ζ", "gap_rad_s": "mode 2–3 gap (rad/s)", "excitation": "excitation scale",
-         "dt_s": "sample interval Δt (s)", "bias_m_s2": "sensor bias (m/s²)", "measurement": "measurement"}
+         "dt_s": "sample interval Δt (s)", "bias_m_s2": "sensor bias (m/s²)", "measurement": "measurement",
+         "ar1": "AR(1) coefficient φ of the noise", "unmodelled_mode": "unmodelled mode (× mode 4's amplitude)",
+         "duffing": "Duffing frequency shift δ at release", "saturation": "clipping level (× peak)",
+         "quantisation": "rounding step (× noise std)"}
+REFERENCE.update({"ar1": 0.0, "unmodelled_mode": 0.0, "duffing": 0.0, "saturation": 1.0, "quantisation": 0.0})
 BASIN_LEVEL = 0.9
 VARIANT_MARKERS = "xP*hd+"
 

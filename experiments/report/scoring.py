@@ -1,7 +1,7 @@
 """Scoring one replicate's Estimate against the truth, as rows of the per-replicate results table.
 
 One row per (replicate, mode). A mode is *identifiable* in a cell when its CRLB std is at most 1 % of its
-frequency and at most 10 % of the distance to the nearest other mode (PHYSICS.md §4); elsewhere the local
+frequency and at most 10 % of the distance to the nearest other mode (docs/physics.md §4); elsewhere the local
 bound means little and the tables report failure rates rather than efficiency.
 """
 

@@ -3,7 +3,7 @@
 Bias, std and RMSE are over the replicates the method reported as converged with a finite estimate; the
 others count as failures. RMSE/CRLB is the efficiency yardstick (1 = at the bound); it is reported for every
 cell, but it means something only where the mode is identifiable (see experiments.report.scoring). Two bounds:
-``crlb`` with the sensor offset known (PHYSICS.md §4) and ``crlb_offset`` with it unknown, which is what a
+``crlb`` with the sensor offset known (docs/physics.md §4) and ``crlb_offset`` with it unknown, which is what a
 method that does not assume a calibrated sensor faces; on short records the second is several times larger
 for the slow mode 1.
 

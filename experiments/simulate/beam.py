@@ -1,7 +1,7 @@
 """Clamped–free Euler–Bernoulli beam: eigenvalues, mode shapes and modal coefficients (paper eqs. 1–2).
 
 Normalisation: W_n(x) = cosh βx − cos βx − σ_n (sinh βx − sin βx), so ∫₀ᴸ W_n² dx = L and W_n(L) = 2(−1)^(n+1)
-(Rao, *Mechanical Vibrations*). See PHYSICS.md §1.
+(Rao, *Mechanical Vibrations*). See docs/physics.md §1.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Cramér–Rao lower bound for the frequencies of damped sinusoids in white Gaussian noise (PHYSICS.md §4).
+"""Cramér–Rao lower bound for the frequencies of damped sinusoids in white Gaussian noise (docs/physics.md §4).
 
 Model of the noise-free record, t_k = k·Δt:  μ(t) = Σᵢ aᵢ e^(−ζᵢωᵢt) cos(ωᵢ rᵢ t + φᵢ), rᵢ = √(1−ζᵢ²),
 with 4 unknowns per mode (aᵢ, φᵢ, ωᵢ, ζᵢ) and, optionally, a constant offset. Fisher information

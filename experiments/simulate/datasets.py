@@ -16,6 +16,7 @@ File schema (every entry a plain numpy array; ``numpy.load(path)`` reads it, no 
 | ``provenance_json`` | () str | the config, seed scheme, package versions |
 | ``scenario_json`` | () str | the cell's scenario axis values (JSON; only in cells with an axis) |
 | ``prior_rad_s`` | (R, 4) | the harness's prior per replicate (only in cells with a prior axis) |
+| ``prior_std_rad_s`` | (4,) | the 1σ spread those priors were drawn with, c·ωᵢ·s/√3 (same cells) |
 | ``checksum_sha256`` | () str | SHA-256 of all the other arrays (``experiments.io.array_checksum``) |
 
 Read a cell with ``experiments.io.read_npz`` (or ``numpy.load``): it verifies the checksum, so a file
@@ -37,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from experiments.io import write_npz
-from experiments.simulate import scenarios
+from experiments.simulate import mismatch, scenarios
 from experiments.simulate.plant import PlantConfig
 
 G0 = 9.80665                 # standard gravity, m/s²
@@ -59,6 +60,11 @@ class ScenarioConfig:
     gap_rad_s: float | None = None
     excitation: Any = None           # scale of Table 2's displacements, for every mode or one per mode
     measurement: str | None = None   # read by the methods that offer it (the identify job's override)
+    ar1: float | None = None         # model mismatches (experiments.simulate.mismatch): AR(1) noise φ,
+    unmodelled_mode: float | None = None  # the beam's next mode (× mode 4's amplitude),
+    duffing: float | None = None     # Duffing frequency shift at release,
+    saturation: float | None = None  # clipping level (× the largest clean sample),
+    quantisation: float | None = None  # rounding step (× the noise std)
     axes: list[str] = field(default_factory=list)   # which settings are axes of the grid (names the cell)
 
 
@@ -126,11 +132,17 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
     plant = build_plant(scenarios.apply_to_plant(cfg.plant, axes))
     clean = plant.tip_acceleration(cfg.n_samples, cfg.dt_s)
     sigma = cfg.noise_ug * UG
+    truth = plant.truth()
+    wrong = mismatch.present(axes)
+    signal = mismatch.mismatched_signal(truth, clean, cfg.dt_s, wrong) if wrong else clean
     noisy = np.empty((cfg.replicates, cfg.n_samples))
     for r in range(cfg.replicates):
         rng = replicate_rng(cfg.seed, cfg.noise_ug, cfg.n_samples, r)
-        noisy[r] = clean + cfg.bias_m_s2 + sigma * rng.standard_normal(cfg.n_samples)
-    truth = plant.truth()
+        if wrong:
+            y = signal + cfg.bias_m_s2 + mismatch.noise(rng, cfg.n_samples, sigma, wrong)
+            noisy[r] = mismatch.sensor(y, signal, sigma, wrong)
+        else:
+            noisy[r] = clean + cfg.bias_m_s2 + sigma * rng.standard_normal(cfg.n_samples)
     modal = (truth["freq_rad_s"], truth["damping"], truth["amplitude_m_s2"], truth["phase_rad"])
     bound = crlb_std(*modal, cfg.n_samples, cfg.dt_s, sigma)
     bound_offset = crlb_std(*modal, cfg.n_samples, cfg.dt_s, sigma, offset=True)
@@ -146,6 +158,7 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
         provenance["plant_in_cell"] = asdict(scenarios.apply_to_plant(cfg.plant, axes))
     if scenarios.has_prior_axis(axes):
         extra["prior_rad_s"] = scenarios.harness_prior(truth["freq_rad_s"], axes, cfg.seed, cfg.replicates)
+        extra["prior_std_rad_s"] = scenarios.prior_std(truth["freq_rad_s"], axes)
         provenance["prior_scheme"] = ("prior[r] = sort(prior_scale * truth * (1 + prior_spread * "
                                       f"default_rng([seed, {scenarios.PRIOR_STREAM}, r]).uniform(-1, 1, m)))")
     return {

@@ -2,7 +2,7 @@
 
 Generalised coordinates η = [θx θy θz X Y Z q₁ q₂ q₃ q₄], state x = [η; η̇], M η̈ + D η̇ + K η = 0
 (no external force: the beam is released from the Table 2 displacements). The mass matrix couples the body
-and the beam through the modal momentum p_n and angular-momentum h_n coefficients (PHYSICS.md §2).
+and the beam through the modal momentum p_n and angular-momentum h_n coefficients (docs/physics.md §2).
 
 The frequencies that score a method are the eigenfrequencies |λ| of *this* 20-state model, computed here;
 by default the cantilever stiffnesses are calibrated so that they equal Table 3.
@@ -31,7 +31,7 @@ class PlantConfig:
     beam: BeamGeometry = field(default_factory=BeamGeometry)
     # Which clamped–free shape each identified mode uses. The paper's mode 3 (22.00 rad/s) is "modified in
     # shape and frequency" (§2); it takes the shape of cantilever mode 4, which keeps the modal mass matrix
-    # diagonal (mass-orthogonal shapes); mode 2's shape would make the mass matrix singular (PHYSICS.md §1).
+    # diagonal (mass-orthogonal shapes); mode 2's shape would make the mass matrix singular (docs/physics.md §1).
     shape_modes: list[int] = field(default_factory=lambda: [1, 2, 4, 3])
     # Modes whose stiffness is not the beam's own but set for target_freq_rad_s (the paper's mode 3).
     modified_modes: list[int] = field(default_factory=lambda: [3])
@@ -133,7 +133,7 @@ class Plant:
 
 
 def _matrices(cfg: PlantConfig, coeffs, cantilever_freq_rad_s):
-    """M, D, K of eq. (5) in the coordinates η (PHYSICS.md §2 table)."""
+    """M, D, K of eq. (5) in the coordinates η (docs/physics.md §2 table)."""
     beam = cfg.beam
     r0 = cfg.body_side_m / 2.0
     rho_a, m_b, L = beam.mass_per_length, beam.mass_kg, beam.length_m

@@ -15,6 +15,11 @@ block) gives the plain cells ``noise{x}ug_n{N}`` of before, bit-identical.
 | ``dt_s`` | Δt > 0 | the sample interval (Nyquist π/Δt above every mode and prior) | ``_dt{Δt}`` |
 | ``bias_m_s2`` | b | a constant sensor offset, m/s² | ``_bias{b}`` |
 | ``measurement`` | acceleration / position | the methods' option (akf, wkf); others skip the cell | ``_{value}`` |
+| ``ar1`` | −1 < φ < 1 | AR(1) measurement noise of the same variance (experiments.simulate.mismatch) | ``_ar{φ}`` |
+| ``unmodelled_mode`` | r ≥ 0 | the beam's next mode (111 rad/s) at r × mode 4's amplitude | ``_um{r}`` |
+| ``duffing`` | δ | every mode a Duffing oscillator, frequency (1 + δ)ω at release; truth: the linear ω | ``_duf{δ}`` |
+| ``saturation`` | 0 < s ≤ 1 | the sensor clips at s × the largest clean sample | ``_sat{s}`` |
+| ``quantisation`` | q > 0 | the sensor rounds to q × the noise std | ``_qt{q}`` |
 
 **The prior.** In a cell without a prior axis, every method gets its own config's prior (the paper's, as
 before). In a cell with ``prior_scale`` and/or ``prior_spread`` the harness forms the prior from the
@@ -43,6 +48,12 @@ AXES: dict[str, str] = {
     "dt_s": "dt",
     "bias_m_s2": "bias",
     "measurement": "",
+    # the model mismatches (experiments/simulate/mismatch.py)
+    "ar1": "ar",
+    "unmodelled_mode": "um",
+    "duffing": "duf",
+    "saturation": "sat",
+    "quantisation": "qt",
 }
 PER_MODE_AXES = ("damping", "excitation")     # a number (every mode) or one value per mode
 PRIOR_AXES = ("prior_scale", "prior_spread")
@@ -140,6 +151,20 @@ def harness_prior(freq_rad_s, axes: dict, seed: int, replicates: int) -> np.ndar
     return np.sort(prior, axis=1)
 
 
+def prior_std(freq_rad_s, axes: dict) -> np.ndarray:
+    """The 1σ spread the harness's priors are drawn with, per mode: c·ωᵢ·s/√3, rad/s.
+
+    prior = c·ω·(1 + s·u) with u ~ U(−1, 1) has std c·ω·s/√3 around c·ω (the std of U(−1, 1) is 1/√3).
+    The common factor c is a fixed error of the cell, not a spread: a cell with ``prior_scale`` alone has
+    spread 0 (its prior is wrong by a known-to-the-harness bias that a method's prior_std_rad_s does not
+    describe). This is what a method's ``prior_std_rad_s`` would state for the cell's priors.
+    """
+    w = np.asarray(freq_rad_s, dtype=float)
+    c = float(axes.get("prior_scale") or 1.0)
+    s = float(axes.get("prior_spread") or 0.0)
+    return c * w * s / math.sqrt(3.0)
+
+
 def check_cell(axes: dict, plant_cfg, dt_s: float) -> None:
     """Raise ``ValueError`` (one sentence naming the value) for an impossible cell: mode order broken by the
     gap, a mode or a prior at or above Nyquist, a measurement no method reads."""
@@ -161,6 +186,9 @@ def check_cell(axes: dict, plant_cfg, dt_s: float) -> None:
             raise ValueError(f"prior_scale/prior_spread {axes.get('prior_scale')}/{axes.get('prior_spread')} "
                              f"allow a prior of {top:.4g} rad/s, at or above Nyquist {nyquist:.4g} rad/s "
                              f"(dt_s = {dt_s:g} s)")
+    from experiments.simulate import mismatch
+
+    mismatch.check_axes(mismatch.present(axes))
     if axes.get("measurement") is not None and axes["measurement"] not in MEASUREMENTS:
         raise ValueError(f"measurement = {axes['measurement']!r} must be one of {', '.join(MEASUREMENTS)}")
 

@@ -40,15 +40,71 @@ def tracking_uri() -> str:
     return f"sqlite:///{DEFAULT_DB.resolve()}"
 
 
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+def sqlite_path(uri: str) -> Path | None:
+    """The file of a ``sqlite:///`` store (None for other stores and in-memory SQLite)."""
+    if uri.startswith("sqlite:///") and ":memory:" not in uri:
+        return Path(unquote(urlparse(uri).path[1:]))
+    return None
+
+
+def check_store(uri: str | None = None) -> None:
+    """Refuse, before any work, a SQLite store that exists but is empty, truncated or corrupt.
+
+    MLflow would rebuild an empty file silently (every run it held gone without a word) and fail on a
+    truncated one with a long traceback after the job's outputs are written. Neither is repaired here:
+    the file is left as it is, and the message says how to go on. Raises ``ValueError`` (one line).
+    Checks: the SQLite header, the database size the header records against the file's size (what a
+    truncation breaks), and SQLite's own ``PRAGMA quick_check``.
+    """
+    uri = uri or tracking_uri()
+    path = sqlite_path(uri)
+    if path is None or not path.exists():
+        return                                     # a server, or a store to be created: nothing to check
+    with store_lock(uri):        # another process may be creating the store this instant (0 bytes for now)
+        _check_sqlite(path)
+
+
+def _check_sqlite(path: Path) -> None:
+    way_out = (f"move it aside (mv {path} {path}.broken) to start a fresh store, point MLFLOW_TRACKING_URI to "
+               f"another store, or run with tracking.enabled=false")
+    size = path.stat().st_size
+    if size == 0:
+        raise ValueError(f"the MLflow store {path} is empty (0 bytes): it is not rebuilt silently, since the "
+                         f"runs it held would be lost without a word; {way_out}")
+    with open(path, "rb") as f:
+        header = f.read(100)
+    if len(header) < 100 or not header.startswith(_SQLITE_MAGIC):
+        raise ValueError(f"the MLflow store {path} is not an SQLite database ({size} bytes, no SQLite header); "
+                         f"{way_out}")
+    page_size = int.from_bytes(header[16:18], "big")
+    page_size = 65536 if page_size == 1 else page_size
+    pages = int.from_bytes(header[28:32], "big")
+    if pages and pages * page_size > size:
+        raise ValueError(f"the MLflow store {path} is truncated ({size} bytes; its header records "
+                         f"{pages * page_size}); {way_out}")
+    import sqlite3
+
+    try:
+        with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=30)) as db:
+            verdict = db.execute("PRAGMA quick_check(1)").fetchone()[0]
+    except sqlite3.DatabaseError as exc:
+        raise ValueError(f"the MLflow store {path} cannot be read ({exc}); {way_out}") from None
+    if verdict != "ok":
+        raise ValueError(f"the MLflow store {path} is corrupt (SQLite: {verdict}); {way_out}")
+
+
 def is_default_store(uri: str) -> bool:
     return not os.environ.get("MLFLOW_TRACKING_URI") and uri == tracking_uri()
 
 
 def lock_path(uri: str) -> Path:
     """The lock file that serialises this project's writers to the store ``uri``."""
-    if uri.startswith("sqlite:///") and ":memory:" not in uri:
-        # sqlite:///relative.db or sqlite:////absolute.db (SQLAlchemy's forms)
-        path = Path(unquote(urlparse(uri).path[1:]) + ".lock")
+    db = sqlite_path(uri)            # sqlite:///relative.db or sqlite:////absolute.db (SQLAlchemy's forms)
+    if db is not None:
+        path = Path(f"{db}.lock")
     else:
         path = DEFAULT_DB.parent / f".mlflow-{digest(uri, 12)}.lock"
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -77,6 +133,9 @@ def client(uri: str | None = None):
         import mlflow  # imported here: ~2 s, and only the tracking steps need it
 
         with store_lock(uri):            # the client may open the store on construction (tracing)
+            path = sqlite_path(uri)
+            if path is not None and path.exists():
+                _check_sqlite(path)      # never let MLflow rebuild an emptied store or trip on a broken one
             c = mlflow.MlflowClient(tracking_uri=uri)
             _retry(lambda: c.search_experiments(max_results=1))   # creates/migrates the schema, once
         _CLIENTS[uri] = c

@@ -25,7 +25,7 @@ import pandas as pd
 from experiments.io import atomic_write_text, write_json
 from experiments.report.summary import job_metrics, summarize
 from experiments.tracking.provenance import canonical_json, digest, git_state
-from experiments.tracking.store import dataset_entity, log_run, source_tags
+from experiments.tracking.store import check_store, dataset_entity, log_run, source_tags
 
 IDENTIFY_SOURCE = "experiments/jobs/identify.py"
 
@@ -95,6 +95,36 @@ def aggregate_files(paths: list[Path]) -> list[Path]:
     return out
 
 
+# What the track step needs of a job: its table's columns and its record's keys.
+TABLE_COLUMNS = ("method", "noise_ug", "n_samples", "replicate", "mode", "estimate_rad_s", "error_rad_s")
+RECORD_KEYS = ("grid", "method", "config", "dataset", "code", "versions")
+
+
+def read_job(path: Path) -> tuple[Path, Path, dict]:
+    """(table, record path, record) of one identify job; ``ValueError`` (one line) when ``path`` is not a
+    job's result table with its record ``<table>.json`` beside it."""
+    record_path = path.with_suffix(".json")
+    if not path.is_file():
+        raise ValueError(f"{path}: no such result table")
+    try:
+        columns = pd.read_csv(path, nrows=0).columns
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not a CSV result table ({exc})") from None
+    missing = [c for c in TABLE_COLUMNS if c not in columns]
+    if missing:
+        raise ValueError(f"{path}: not an identify job's result table (no column {', '.join(missing)})")
+    if not record_path.is_file():
+        raise ValueError(f"{path}: the job's record {record_path.name} is missing beside it")
+    try:
+        record = json.loads(record_path.read_text())
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{record_path}: not a JSON job record ({exc})") from None
+    if not isinstance(record, dict) or any(k not in record for k in RECORD_KEYS):
+        absent = [k for k in RECORD_KEYS if not isinstance(record, dict) or k not in record]
+        raise ValueError(f"{record_path}: not an identify job's record (no {', '.join(absent)})")
+    return path, record_path, record
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", required=True)
@@ -106,11 +136,17 @@ def main(argv=None) -> int:
                     help="tables/figures (files or folders) to log with the grid's parent run")
     ap.add_argument("results", nargs="+", type=Path, help="the jobs' tables; <table>.json beside each")
     args = ap.parse_args(argv)
+    try:
+        check_store()
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     experiment = f"grid-{args.grid}"
-    jobs = []
-    for path in sorted(args.results):
-        record_path = path.with_suffix(".json")
-        jobs.append((path, record_path, json.loads(record_path.read_text())))
+    try:
+        jobs = [read_job(path) for path in sorted(args.results)]
+    except ValueError as exc:              # checked before anything is logged: one line, nothing written
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     child_keys = [run_key(rec) for _, _, rec in jobs]
     files = aggregate_files(args.aggregate) + ([args.summary] if args.summary else [])
     parent_key, parent_id, created = grid_run(args.grid, child_keys, files)

@@ -141,7 +141,16 @@ def settings_from(opts, prior: np.ndarray, method: str, **more) -> FilterSetting
             raise ValueError(f"{method}: {name} = {val} must be a non-negative number")
     if not opts.max_variance_growth > 1:
         raise ValueError(f"{method}: max_variance_growth = {opts.max_variance_growth} must exceed 1")
-    if opts.p0_frequency_var is None:       # derived from the prior: σ = P0_FREQUENCY_REL_STD × prior
+    prior_std = getattr(opts, "prior_std_rad_s", None)
+    if prior_std is not None:               # the prior as a distribution: P0 of the frequencies is its spread²
+        if opts.p0_frequency_var is not None:
+            raise ValueError(f"{method}: give prior_std_rad_s or p0_frequency_var, not both (P0 = std²)")
+        std = np.asarray(list(prior_std) if hasattr(prior_std, "__len__") else prior_std, dtype=float)
+        if std.ndim > 1 or std.size not in (1, prior.size) or not np.all(np.isfinite(std) & (std > 0)):
+            raise ValueError(f"{method}: prior_std_rad_s = {prior_std!r} must be one positive std in rad/s "
+                             f"or one per prior frequency ({prior.size})")
+        p0 = np.square(std).reshape(-1)
+    elif opts.p0_frequency_var is None:     # derived from the prior: σ = P0_FREQUENCY_REL_STD × prior
         p0 = np.square(P0_FREQUENCY_REL_STD * prior)
     else:
         p0 = np.asarray(opts.p0_frequency_var, dtype=float).reshape(-1)
@@ -201,17 +210,17 @@ def _measurement_row(x: np.ndarray, lay: _Layout, s: FilterSettings):
 
 
 def _initial_covariance(z: np.ndarray, y: np.ndarray, prior: np.ndarray, lay: _Layout,
-                        s: FilterSettings) -> np.ndarray:
+                        s: FilterSettings, scale: tuple[float, float] | None = None) -> np.ndarray:
     """P0: the frequency variances (§4.1's, or (0.27·prior)² by default: ``P0_FREQUENCY_REL_STD``); zero
     for the weighting states (§4.2); and for the modal and drift states, whose initial values are unknown
     and set to zero, broad variances scaled by the largest magnitude of the record: any one mode could
     carry the whole signal. (The paper's zeros for the modal states presume the initial displacement
     known.) The largest magnitude, not the RMS, so that P0 does not change with the record length once
-    the first peaks are in."""
+    the first peaks are in. ``scale`` = (max |y|, max |z|) given by the caller (a tracker, which may use
+    only the samples it has seen) replaces the record's."""
     p0 = np.zeros(lay.n)
-    y_max = float(np.max(np.abs(y)))
+    y_max, z_max = (float(np.max(np.abs(y))), float(np.max(np.abs(z)))) if scale is None else scale
     if s.measurement == "position":
-        z_max = float(np.max(np.abs(z)))
         p0[lay.q] = (s.p0_modal_scale * z_max) ** 2
         p0[lay.v] = (s.p0_modal_scale * z_max * prior) ** 2
         scales = [z_max, z_max * prior.max(), y_max]          # c, v, bias b
@@ -224,10 +233,12 @@ def _initial_covariance(z: np.ndarray, y: np.ndarray, prior: np.ndarray, lay: _L
     return np.diag(p0)
 
 
-def prepare(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings):
+def prepare(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings,
+            scale: tuple[float, float] | None = None):
     """What a filter run on ``y`` starts from: the sequence the filter measures (the record, integrated
     twice for position, weighted for ``wkf``), the state layout, filterpy's EKF with x0, P0, Q and R, the
-    transition F with its constant blocks and the measurement row H (shared with the lock-step run)."""
+    transition F with its constant blocks and the measurement row H (shared with the lock-step run).
+    ``scale``: (max |y|, max |z|) for P0 instead of the whole record's (see ``_initial_covariance``)."""
     if s.measurement == "position":
         z = double_integrate(y, dt)
         n_drift = 3 if s.estimate_bias else 2
@@ -237,7 +248,7 @@ def prepare(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings):
     wf = s.weighting
     lay = _Layout(prior.size, n_drift, 0 if wf is None else wf.phi_f.shape[0])
     meas = z if wf is None else wf.apply(z)   # the weighted filter sees y_f, eq. (26)
-    ekf, F, H = _build_filter(z, y, dt, prior, lay, s)
+    ekf, F, H = _build_filter(z, y, dt, prior, lay, s, scale)
     return meas, lay, ekf, F, H
 
 
@@ -253,14 +264,16 @@ def identify_record(y, dt, prior, settings_for) -> Estimate:
 
 
 def run_filter(y: np.ndarray, dt: float, prior: np.ndarray, s: FilterSettings, *,
-               observer=None) -> Estimate:
+               observer=None, scale: tuple[float, float] | None = None) -> Estimate:
     """Run the augmented (optionally frequency-weighted) EKF over the record ``y`` (tip acceleration).
 
     Returns an Estimate whose history holds the frequency states after every measurement update (and
     ``extra["std_history"]`` their filter standard deviations), or a failed Estimate with the history up
     to the failure when the filter diverges. ``observer(k, x, P)``, if given, sees every posterior (tests).
+    ``scale``: (max |y|, max |z|) for P0 (the online tracker's, from the samples it has seen); None: the
+    record's.
     """
-    meas, lay, ekf, F, H = prepare(y, dt, prior, s)
+    meas, lay, ekf, F, H = prepare(y, dt, prior, s, scale)
     wf = s.weighting
 
     n, nm = lay.n, lay.n_model
@@ -350,14 +363,14 @@ def _determined(var_w: np.ndarray, n: int, s: FilterSettings) -> tuple[np.ndarra
     return share <= DETERMINED_VARIANCE_SHARE, share
 
 
-def _build_filter(z, y, dt, prior, lay: _Layout, s: FilterSettings):
+def _build_filter(z, y, dt, prior, lay: _Layout, s: FilterSettings, scale=None):
     """filterpy's EKF with x0, P0, Q, R of the augmented model; the transition F with its constant
     blocks filled in (updated in place every step); the measurement row H."""
     ekf = _AugmentedEKF(lay.n, 1)
     x0 = np.zeros(lay.n)
     x0[lay.w] = prior
     ekf.x = x0.reshape(-1, 1)
-    ekf.P = _initial_covariance(z, y, prior, lay, s)
+    ekf.P = _initial_covariance(z, y, prior, lay, s, scale)
     qdiag = np.zeros(lay.n)
     if s.measurement == "position":
         qdiag[lay.q] = qdiag[lay.v] = s.qd_modal

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import Any
 
 from methods.estimate import Estimate, make_options
 from methods.kalman._filter import identify_record, settings_from
@@ -43,6 +44,10 @@ class Options:
         derived from the prior, (0.27·ω̄_n)² for each prior frequency ω̄_n — §4.1's "uncertainty of
         approximately 30 %", fitted to its P = diag(0,…,0, 1, 20, 40, 200) for the Table 3 priors, which it
         gives as 1.05, 18.7, 49.3, 154. The paper's explicit list is in ``configs/method/akf.yaml``.
+    prior_std_rad_s : float or list[float] or None
+        The prior as a distribution (the face pem shares): the 1σ spread of the prior frequencies, rad/s.
+        The frequency states' P0 *is* that spread: P0 = diag(prior_std_rad_s²). Give it or
+        ``p0_frequency_var``, not both; None: ``p0_frequency_var``'s rule.
     p0_modal_scale : float
         The modal states start at zero with standard deviation ``p0_modal_scale`` × the largest
         magnitude of the measurement (× ω_prior for the rates; ÷ ω_prior² for acceleration): any mode could
@@ -59,6 +64,7 @@ class Options:
     qd_frequency: float = 1e-4
     rd: float = 1e-2
     p0_frequency_var: list[float] | None = None
+    prior_std_rad_s: Any = None          # P0 of the frequencies = prior_std_rad_s² (Any: a number or a list)
     p0_modal_scale: float = 1.0
     estimate_bias: bool = True
     max_variance_growth: float = 1e8

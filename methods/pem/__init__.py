@@ -7,7 +7,9 @@ The face of the family is :func:`identify` with its :class:`Options` (the measur
 - :mod:`methods.pem.predictor`: the innovation-form predictor of eq. (31) and its exact Jacobian;
 - :mod:`methods.pem.search`: the Gauss–Newton / Levenberg–Marquardt search of eq. (30) (the reference path);
 - ``_fast``: the same search by variable projection for the default options;
-- ``_pencil``: the matrix-pencil start from the record.
+- ``_pencil``: the matrix-pencil start from the record;
+- ``_residual``: the residual's whiteness check and the robust (sandwich) std, in every estimate;
+- ``_drift``: :func:`segment_drift`, the test for a frequency that drifts over the record.
 
 ``predictor`` and ``search`` are public so that a study can drive the search on its own problem
 (``experiments.benchmarks.pem`` compares it with SciPy's ``least_squares`` on the same predictor).
@@ -29,6 +31,7 @@ import contextlib
 import numpy as np
 
 from methods.pem import _fast, predictor, search
+from methods.pem._drift import DriftReport, segment_drift
 from methods.pem._fit import (
     PAPER_OPTIONS,
     Options,
@@ -39,8 +42,8 @@ from methods.pem._fit import (
     starts,
 )
 
-__all__ = ["PAPER_OPTIONS", "Options", "check_options", "detection_std", "free_mask", "identify",
-           "predictor", "reference_path", "search", "starts"]
+__all__ = ["PAPER_OPTIONS", "DriftReport", "Options", "check_options", "detection_std", "free_mask", "identify",
+           "predictor", "reference_path", "search", "segment_drift", "starts"]
 
 
 @contextlib.contextmanager

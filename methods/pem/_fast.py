@@ -102,7 +102,7 @@ def _reduced(Jr: np.ndarray, e: np.ndarray, n_unknowns: int, loss: float) -> sea
 
 
 def applies(opts) -> bool:
-    """Whether a fit with these options takes this path (else the reference, _pem_search.gauss_newton)."""
+    """Whether a fit with these options takes this path (else the reference, search.gauss_newton)."""
     return opts.predictor == "output_error" and opts.separable and opts.search == "levenberg_marquardt"
 
 
@@ -203,7 +203,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     if std_free is None:                     # the std at the final point (a stop other than the step rule)
         std_free = _reduced(Jr, e, n_unknowns, loss).std
     fit = _result(model, x, c, loss, iterations, message, converged, step_lengths, free, std_free)
-    fit.update(e=e, joined=joined, floor=floor)
+    fit.update(e=e, joined=joined, floor=floor, Jr=Jr)    # Jr: the robust std (methods.pem._residual)
     return fit
 
 

@@ -29,14 +29,15 @@ See methods/pem/README.md for the choices and the measured numbers.
 from __future__ import annotations
 
 import functools
-import itertools
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from methods.estimate import Estimate, check_inputs, failed, make_options
+from methods import labels
+from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
+from methods.pem import _drift, _lines, _map, _residual, search
 from methods.pem import _fast as fast
-from methods.pem import search
 from methods.pem._pencil import PENCIL_WINDOW, pencil_start
 from methods.pem.predictor import modal_basis
 
@@ -71,13 +72,20 @@ class Options:
     max_iterations: int = 50             # Gauss–Newton iterations per start
     tol_loss: float = 1e-10              # stop when the relative loss improvement falls below this
     tol_step: float = 1e-4               # stop when every step is below this many standard deviations
+    # 1σ of the prior frequencies, rad/s (a list, or one number for every mode): a Gaussian prior, and the
+    # fit is the MAP one (methods/pem/_map.py); None: no prior information, the ML fit. Typed Any because
+    # OmegaConf's structured configs take no union of a list and a number; _check_prior_std checks it.
+    prior_std_rad_s: Any = None
+    damping_prior_std: float | None = None   # with prior_std_rad_s: ζ ~ N(damping_ratio, this²); None: ζ free
+    drift_segments: int = 3              # segments of the drift test when the residual is not white; 0: off
+    absorb_lines: bool = True            # refit with a residual line outside every band as an extra mode
 
 
 # The paper's setting (§4.3): Kalman predictor with its LQE tuning, damping fixed, mean removed (§4 —
 # "estimate the mean and then remove it"), one run from the Table 4 prior.
 PAPER_OPTIONS = {"predictor": "kalman", "estimate_damping": False, "bias": "subtract_mean",
                  "data_driven_start": False, "n_starts": 1, "search": "gauss_newton",
-                 "repair_rounds": 0}
+                 "repair_rounds": 0, "drift_segments": 0, "absorb_lines": False}
 
 
 
@@ -107,7 +115,11 @@ def identify(y, dt, prior, **options) -> Estimate:
     # One BLAS thread inside the fit: its matrices are small (p ≤ 4m + 1 columns), and OpenBLAS's own
     # threads made it 2.6–5× slower on 2 cores (measured: experiments.benchmarks.pem_speed --parts warm blas).
     with _blas().limit(limits=1, user_api="blas"):
-        return _identify(y, dt, prior, opts)
+        if opts.prior_std_rad_s is not None:
+            return _identify_map(y, dt, prior, opts)
+        est = _lines.absorb(_identify(y, dt, prior, opts), y, dt, prior, opts,
+                            lambda wider: _identify(y, dt, wider, opts))
+        return _drift.attach(est, y, dt, prior, opts)
 
 
 @functools.cache
@@ -156,7 +168,44 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         if not fit["loss"] < best["loss"]:
             break
         best = fit
-    return _estimate(best, fits, prior, free, n, dt, opts.predictor == "output_error")
+    return _estimate(best, fits, prior, free, n, dt, opts, opts.predictor == "output_error")
+
+
+def prior_std(opts: Options, prior: np.ndarray) -> np.ndarray | None:
+    """``prior_std_rad_s`` as m numbers (rad/s), or None when absent."""
+    if opts.prior_std_rad_s is None:
+        return None
+    return np.broadcast_to(np.asarray(opts.prior_std_rad_s, dtype=float), prior.shape).copy()
+
+
+def _identify_map(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Estimate:
+    """The MAP fit (:mod:`methods.pem._map`) as an Estimate: frequencies in prior order (the prior term
+    names each mode), the posterior std (Laplace), a mode flagged not determined where the fit crossed a
+    neighbour."""
+    if why := flat_record(y):
+        return failed(prior, why)
+    m = prior.size
+    free = free_mask(m, opts)
+    if opts.bias == "subtract_mean":
+        y = y - y.mean()
+    fit = _map.map_fit(y, dt, prior, prior_std(opts, prior), opts, search.search_bounds(prior, dt, opts), free)
+    if "failed" in fit:
+        return failed(prior, fit["failed"])
+    freq, z = fit["theta"][:m], fit["theta"][m:2 * m]
+    std, z_std = fit["std_free"][:m], (fit["std_free"][m:2 * m] if opts.estimate_damping else np.full(m, np.nan))
+    lo, hi = np.r_[0.0, freq[:-1]], np.r_[freq[1:], np.inf]
+    # per mode: the search stopped on a tolerance, the posterior locates the mode (std ≤ 10 % of ω, as
+    # for the ML fit), the record determined it (at least as much information from the data as from the
+    # prior: posterior variance ≤ half the prior's; else the answer is the prior's, and says so) and it
+    # kept its place between its neighbours
+    per_mode = (fit["converged"] & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
+                & (std <= prior_std(opts, prior) / np.sqrt(2.0)) & (lo < freq) & (freq < hi))
+    extra = {"damping": z, "damping_std": z_std, "offset_m_s2": float(fit["theta"][-1]), "loss": fit["loss"],
+             "posterior_cost": fit["cost"], "noise_std_m_s2": float(np.sqrt(fit["sigma2"])),
+             "data_dof": fit["edf"], "best_start": fit["start"], "total_iterations": fit["iterations"]}
+    message = f"MAP: {fit['message']} (start '{fit['start']}', {fit['iterations']} iterations)"
+    return Estimate(freq, std, converged=bool(per_mode.any()), iterations=int(fit["iterations"]),
+                    message=message, extra=extra, converged_per_mode=per_mode)
 
 
 def _fit(y, dt, w0, z0, shape, free, opts: Options, bounds, join=None) -> dict:
@@ -266,7 +315,7 @@ def _repaired_start(best: dict, free, prior: np.ndarray, opts: Options):
     modes alike), so they are the natural place to restart the spare modes from.
     """
     m = prior.size
-    w, w_std, z, _, slot = _labelled(best, free, prior)
+    w, w_std, z, _, slot, _ = _labelled(best, free, prior, opts)
     w, w_std, z = w[slot], w_std[slot], z[slot]
     determined = w_std <= search.IDENTIFIED_REL_STD * w
     if determined.all() or not determined.any():
@@ -299,18 +348,52 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
     lo, hi = opts.damping_bounds if len(opts.damping_bounds) == 2 else (1.0, -1.0)
     if not -0.9 < lo < hi < 0.9:
         raise ValueError(f"damping_bounds = {opts.damping_bounds} must be [low, high] inside (−0.9, 0.9)")
-    if opts.n_starts < 1:
-        raise ValueError(f"n_starts = {opts.n_starts} must be at least 1")
-    if opts.max_iterations < 1:
-        raise ValueError(f"max_iterations = {opts.max_iterations} must be at least 1")
+    if not 1 <= opts.n_starts <= MAX_STARTS:
+        raise ValueError(f"n_starts = {opts.n_starts} must be between 1 and {MAX_STARTS} (each start is a "
+                         f"whole search)")
+    if not 1 <= opts.max_iterations <= MAX_ITERATIONS:
+        raise ValueError(f"max_iterations = {opts.max_iterations} must be between 1 and {MAX_ITERATIONS}")
     if not (opts.start_spread >= 0 and opts.tol_loss >= 0 and opts.tol_step >= 0):
         raise ValueError("start_spread, tol_loss and tol_step must be non-negative")
+    if opts.drift_segments != 0 and opts.drift_segments < 2:
+        raise ValueError(f"drift_segments = {opts.drift_segments} must be 0 (off) or at least 2")
     if opts.pencil_extra_order < 0:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
+    if opts.prior_std_rad_s is not None:
+        _check_prior_std(opts, prior)
+    if opts.damping_prior_std is not None and not (np.isfinite(opts.damping_prior_std)
+                                                   and opts.damping_prior_std > 0):
+        raise ValueError(f"damping_prior_std = {opts.damping_prior_std} must be positive (None: no prior on ζ)")
+
+
+def _check_prior_std(opts: Options, prior: np.ndarray) -> None:
+    """``prior_std_rad_s``: one positive finite number, or one per mode; only with the output-error model."""
+    value = opts.prior_std_rad_s
+    if hasattr(value, "_content"):                       # an OmegaConf ListConfig from a Hydra job
+        value = list(value)
+    if isinstance(value, (bool, str, dict)):
+        raise ValueError(f"prior_std_rad_s = {value!r} must be a number or a list of numbers in rad/s")
+    try:
+        std = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"prior_std_rad_s = {value!r} must be a number or a list of numbers in rad/s") from None
+    if std.ndim > 1 or (std.ndim == 1 and std.size != prior.size):
+        raise ValueError(f"prior_std_rad_s = {value!r} must be one number or {prior.size} (one per mode)")
+    if not (np.all(np.isfinite(std)) and np.all(std > 0)):
+        raise ValueError(f"prior_std_rad_s = {value!r} must be positive and finite (absent: no prior)")
+    if not (opts.predictor == "output_error" and opts.separable):
+        raise ValueError(f"prior_std_rad_s needs predictor = 'output_error' and separable = true "
+                         f"(got predictor = '{opts.predictor}', separable = {opts.separable})")
+
+
+# Bounds on the work one fit may be asked for: beyond them an option is a typo, not a setting (a thousand
+# starts of a ~1 ms search is a second per record; the default is 3, and 3-30 iterations converge).
+MAX_STARTS = 1000
+MAX_ITERATIONS = 10_000
 
 
 def check_options(prior, dt, **options) -> Options:
-    """The options contract of :mod:`methods` (validated without a record, before any work). Issue 9:
+    """The options contract of :mod:`methods` (validated without a record, before any work):
     keep this function (or its equivalent) when rewriting the module; ``identify`` runs the same checks."""
     opts = make_options(Options, options, "pem")
     _check_options(opts, np.atleast_1d(np.asarray(prior, dtype=float)))
@@ -375,17 +458,18 @@ def detection_std(n: int, dt: float, alpha: float = 0.01) -> float:
     return float(np.sqrt(3.0 / np.log(n / (2.0 * alpha))) / (n * dt))
 
 
-def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float,
+def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float, opts: Options,
               energy: bool = True) -> Estimate:
-    """The winning fit as an Estimate, its modes labelled with the prior entries (:func:`_label_modes`)."""
-    w, w_std, z, z_std, slot = _labelled(best, free, prior)
+    """The winning fit as an Estimate, its modes labelled with the prior entries (:func:`_label_modes`);
+    a mode whose entry is uncertain is not determined."""
+    w, w_std, z, z_std, slot, placed = _labelled(best, free, prior, opts)
     detected = _detected(best, w_std, n, dt, 0.01, energy)[slot]
     freq, std, damp, damp_std = w[slot], w_std[slot], z[slot], z_std[slot]
     identified = std <= search.IDENTIFIED_REL_STD * freq
     agree, agree_converged = 0, False
     for f in fits:
         if np.isfinite(f["loss"]):
-            fw, _, _, _, fw_slot = _labelled(f, free, prior)
+            fw, _, _, _, fw_slot, _ = _labelled(f, free, prior, opts)
             fw = fw[fw_slot]
             if (np.abs(fw - freq)[identified] <= 3 * std[identified]).all():
                 agree += 1
@@ -397,7 +481,7 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
     # within 10 % of ω) and detects it (below); no such mode — an all-zero, constant or pure-noise record
     # — is no answer at all
     per_mode = (converged & np.isfinite(std) & (std > 0) & (std <= search.LOCATED_REL_STD * freq)
-                & detected)
+                & detected & placed)
     converged = converged and bool(per_mode.any())
     std = np.where(np.isfinite(std), std, np.nan)   # a column the record does not move: no std, not inf
     extra = {
@@ -409,8 +493,24 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
         "total_iterations": int(sum(f["iterations"] for f in fits)),
     }
     message = f"{best['message']} (start '{best['start']}', {agree}/{len(fits)} starts agree)"
+    std, message = _residual_hook(best, slot, free, dt, std, extra, message)
     return Estimate(freq, std, converged=converged, iterations=int(best["iterations"]),
                     message=message, extra=extra, converged_per_mode=per_mode)
+
+
+def _residual_hook(best, slot, free, dt, std, extra, message):
+    """extra["residual_check"] (:func:`methods.pem._residual.assess_fit`); when the residual is not white,
+    the reported std is the Newey–West robust one (the white-noise one kept in extra["white_noise_std"])."""
+    check = _residual.assess_fit(best, slot, int(sum(free)), dt)
+    extra["residual_check"] = check
+    if check is None or check["white"]:
+        return std, message
+    robust = check["robust_std_rad_s"]
+    extra["white_noise_std"] = std
+    std = np.where(np.isfinite(robust) & np.isfinite(std), robust, std)
+    return std, (f"{message}; residual not white (Ljung-Box p = {check['ljung_box_p']:.2g}, peak "
+                 f"{check['peak_over_floor']:.3g}x floor at {check['peak_rad_s']:.4g} rad/s): std is the robust "
+                 "(sandwich) one")
 
 
 def _mode_table(fit: dict, free, m: int):
@@ -429,41 +529,40 @@ def _free_index(free: tuple[bool, ...]) -> np.ndarray:
     return index
 
 
-def _labelled(fit: dict, free, prior: np.ndarray):
-    """:func:`_mode_table` of a fit and its :func:`_label_modes` slots, computed once per fit (the repair
-    rule, the agreement count and the estimate all ask for the winning fit's); read-only arrays."""
+def _labelled(fit: dict, free, prior: np.ndarray, opts: Options):
+    """:func:`_mode_table` of a fit, its :func:`_label_modes` slots and which slots are placed, computed
+    once per fit (the repair rule, the agreement count and the estimate all ask for the winning fit's)."""
     if "labelled" not in fit:
         w, w_std, z, z_std = _mode_table(fit, free, prior.size)
-        fit["labelled"] = (w, w_std, z, z_std, _label_modes(w, w_std, prior))
+        band = np.inf if opts.frequency_band is None else opts.frequency_band
+        fit["labelled"] = (w, w_std, z, z_std, *_label_modes(w, w_std, prior, band))
     return fit["labelled"]
 
 
-def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray) -> np.ndarray:
-    """Which fitted mode answers for each prior entry: ``slot[i]`` is the mode reported for ``prior[i]``.
+def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray, band: float = 0.5):
+    """Which fitted mode answers for each prior entry, and whether its slot is certain.
 
-    Modes the data determine (std ≤ 1 % of ω) keep their frequency order and take the prior entries that
-    fit them best in log distance (an order-preserving choice of entries); the undetermined ones — a model
-    with more modes than the record supports parks them anywhere, e.g. above the highest mode — fill the
-    remaining entries in frequency order. With every mode determined this is plain sorting.
+    Returns ``slot`` (``slot[i]`` is the mode reported for ``prior[i]``) and ``placed`` (per prior entry).
+    Modes the data determine (std ≤ 1 % of ω) take prior entries by :func:`methods.labels.assign`: in
+    frequency order (with every mode determined this is plain sorting), the entries of the others told by
+    the common scale factor of the determined ones; one whose entry is uncertain is not placed. The
+    undetermined modes — a model with more modes than the record supports parks them anywhere, e.g. above
+    the highest mode — fill the remaining entries in frequency order, placed only where that keeps the
+    reported frequencies increasing and within the band of their entry.
     """
     m = prior.size
-    by_prior = prior.argsort()
     good = np.flatnonzero(w_std <= search.IDENTIFIED_REL_STD * w)
     good = good[w[good].argsort()]
-    if good.size == m:                                             # every mode determined: plain sorting
-        slot = np.empty(m, int)
-        slot[by_prior] = good
-        return slot
+    lab = labels.assign(w[good], prior, band=band)
+    slot, placed = np.empty(m, int), np.zeros(m, bool)
+    slot[lab.slot], placed[lab.slot] = good, lab.placed
     rest = np.setdiff1d(np.arange(m), good)
     rest = rest[np.argsort(w[rest])]
-    best_cost, best_slots = np.inf, by_prior[:good.size]
-    for ranks in itertools.combinations(range(m), good.size):      # increasing: order-preserving
-        slots = by_prior[list(ranks)]
-        cost = np.sum(np.abs(np.log(w[good] / prior[slots])))
-        if cost < best_cost:
-            best_cost, best_slots = cost, slots
-    slot = np.empty(m, int)
-    slot[best_slots] = good
-    free_slots = by_prior[~np.isin(by_prior, best_slots)]          # in prior order
+    free_slots = np.setdiff1d(np.arange(m), lab.slot)                 # in prior order
     slot[free_slots] = rest
-    return slot
+    if good.size < m:
+        f = w[slot]
+        lo, hi = np.r_[0.0, f[:-1]], np.r_[f[1:], np.inf]
+        in_band = np.abs(np.log(f / prior)) <= np.log1p(band)
+        placed[free_slots] = ((lo < f) & (f < hi) & in_band)[free_slots]
+    return slot, placed

@@ -48,7 +48,7 @@ class Options:
     """Keyword options of :func:`identify`.
 
     The per-loop options (one entry per prior, or a single entry for every loop) default to None, i.e.
-    derived from the prior ω₀ and Δt (methods/pll/design.py, README_pll.md), so that any number of modes at
+    derived from the prior ω₀ and Δt (methods/pll/design.py, methods/pll/README.md), so that any number of modes at
     any frequencies works: ω_L = 0.22 min(ω₀, π/Δt − ω₀) with ω_LΔt ≤ 0.25 (Table 6: ω_L/ω₀ ≈ 0.21–0.25);
     T₁, T₂, T₃ by the rule under eq. (37) at phase_margin_deg; T_VCO = 0.5/ω_L (Table 6's ratio); K = 1;
     input-filter bandwidth 0.5 ω₀, capped so that neighbouring pass bands do not overlap. The paper's own

@@ -104,7 +104,7 @@ OMEGA_L_PER_PRIOR = 0.22
 # (rule loop, K = 1: 20.1° continuous, 14.0° at ω_LΔt = 0.226, 13.4° at 0.25, 9.3° at 0.4); cap at 0.25.
 MAX_OMEGA_L_DT = 0.25
 # Input filter: bandwidth 0.5 ω₀, a pass band of about ω₀ ± 25 % — §4.4's "at least 7–8 rad/s" for priors
-# 16 and 18 rad/s that are 21–27 % below the truth (Table 6 itself: 5, 9, 9, 12 rad/s; see README_pll.md).
+# 16 and 18 rad/s that are 21–27 % below the truth (Table 6 itself: 5, 9, 9, 12 rad/s; see methods/pll/README.md).
 FILTER_BANDWIDTH_PER_PRIOR = 0.5
 # Never narrower than 0.1 ω₀ (priors too close to give each loop its own band)
 MIN_FILTER_BANDWIDTH_PER_PRIOR = 0.1
@@ -296,7 +296,7 @@ def input_filter_sos(centre: float, bandwidth: float, dt: float, order: int = 3,
 @functools.lru_cache(maxsize=64)
 def _input_filter_sos(centre: float, bandwidth: float, dt: float, order: int, ripple_db: float) -> np.ndarray:
     if order < 1:
-        raise ValueError(f"input filter order {order} must be at least 1")
+        raise ValueError(f"filter_order = {order}: the input filter's order must be at least 1")
     if not ripple_db > 0:
         raise ValueError(f"input filter ripple {ripple_db} dB must be positive")
     w1, w2 = band_edges(centre, bandwidth, dt)

@@ -1,4 +1,4 @@
-"""The basin benchmark's random structures obey the issue's rules, and it refuses the scoring seed."""
+"""The basin benchmark's random structures obey the documented rules, and it refuses the scoring seed."""
 
 import numpy as np
 import pytest
@@ -34,3 +34,11 @@ def test_trials_give_sorted_priors_within_the_stated_errors():
 def test_scoring_seed_is_refused(capsys):
     assert basin.main(["--seed", "20261121", "--structures", "1"]) == 2
     assert capsys.readouterr().err.startswith("error: --seed 20261121 is the grids' scoring seed")
+
+
+def test_label_outcome_tells_a_crossed_label_from_an_inaccurate_mode_and_an_honest_gap():
+    s = {"freq": np.array([5.0, 10.0, 20.0]), "crlb": np.full(3, 1e-4)}
+    assert basin.label_outcome(s, [5.0, 10.0, 20.0], [True] * 3) == (False, False, False)
+    assert basin.label_outcome(s, [10.0, 5.0, 20.0], [True] * 3) == (True, False, True)      # swapped
+    assert basin.label_outcome(s, [5.0, 10.0, 23.0], [True] * 3) == (True, False, False)     # inaccurate
+    assert basin.label_outcome(s, [5.0, np.nan, 23.0], [True, False, False]) == (False, True, False)

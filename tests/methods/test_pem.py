@@ -170,6 +170,9 @@ def test_invalid_options_raise_value_error_naming_them():
         pem.identify(y, DT, TABLE4_PRIOR, gain=0.1)
     with pytest.raises(ValueError, match="tip_mode_shape"):
         pem.identify(y, DT, TABLE4_PRIOR[:3], predictor="kalman")
+    for absurd in (0, -1, 1_000_000_000):          # a bound, not only a sign: a billion starts is a typo
+        with pytest.raises(ValueError, match=f"n_starts = {absurd} must be between 1 and"):
+            pem.check_options(np.array(TABLE4_PRIOR), DT, n_starts=absurd)
 
 
 def test_the_first_start_is_accepted_only_when_it_explains_the_record():

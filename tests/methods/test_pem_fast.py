@@ -1,4 +1,4 @@
-"""The closed-form output-error predictor of pem (issue 12): exact derivatives, the same answers as the
+"""The closed-form output-error predictor of pem: exact derivatives, the same answers as the
 recursive reference predictor, linear cost in N, and honest answers on records without information."""
 
 from __future__ import annotations

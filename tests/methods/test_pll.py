@@ -31,7 +31,7 @@ TABLE6 = pll.Options(                              # Table 6 and §4.4 (configs/
     t1_s=[5.7, 0.15, 0.15, 0.02], t2_s=[3.7, 0.6, 0.6, 0.22], t3_s=[0.64, 0.10, 0.10, 0.04],
     gain=[1.0, 1.0, 1.0, 1.0], filter_bandwidth_rad_s=[5.0, 9.0, 9.0, 12.0])
 TABLE6_OPTIONS = {k: getattr(TABLE6, k) for k in pll.PER_LOOP_OPTIONS}
-AMPLITUDE = [1.06, 3.90, 5.12, 6.47]               # PHYSICS.md §3, coupled model, m/s²
+AMPLITUDE = [1.06, 3.90, 5.12, 6.47]               # docs/physics.md §3, coupled model, m/s²
 
 
 def one_loop(j: int, **extra) -> dict:
@@ -157,6 +157,8 @@ def test_invalid_options_raise_value_error():
         pll.identify(np.ones(100), DT, PRIOR, gain=[1.0, 1.0, 1.0])
     with pytest.raises(ValueError, match="design"):
         pll.identify(np.ones(100), DT, PRIOR, design="magic")
+    with pytest.raises(ValueError, match=r"^filter_order = 0: "):     # the option's name, not the helper's
+        pll.check_options(np.array(PRIOR), DT, filter_order=0)
 
 
 # --- the design rule under eq. (37) ---------------------------------------------------------------------

@@ -60,7 +60,7 @@ def assert_one_line_error(proc, *fragments):
     (["method=fft", "data.dataset=cell.npz", "method.options.window=bogus"], ["window = 'bogus'"]),
     (["method=akf", "data.dataset=cell.npz", "method.options.measurement=velocity"], ["measurement", "velocity"]),
     (["method=wkf", "data.dataset=cell.npz", "method.options.weight_gain=-1"], ["weight_gain = -1"]),
-    (["method=pll", "data.dataset=cell.npz", "method.options.filter_order=0"], ["filter order 0"]),
+    (["method=pll", "data.dataset=cell.npz", "method.options.filter_order=0"], ["filter_order = 0"]),
 ])
 def test_identify_rejects_bad_input_with_one_line(workdir, args, fragments):
     before = set(workdir.rglob("*"))
@@ -101,9 +101,34 @@ def test_a_long_single_record_says_what_it_is_doing(workdir):
     t = np.arange(100_000) * 0.02
     y = np.cos(3.0 * t) + 0.1 * np.random.default_rng(6).standard_normal(t.size)
     (workdir / "long.csv").write_text("t,accel\n" + "".join(f"{a:.2f},{b:.6f}\n" for a, b in zip(t, y, strict=True)))
+    # the band up to Nyquist: without it the job would decimate this record to its 0.6-Hz band first
     proc = run("experiments.jobs.identify", "method=fft", "data.path=long.csv", "prior=[2.5]", "hydra.run.dir=long",
-               cwd=workdir)
+               "data.band_hz=25", cwd=workdir)
     assert proc.returncode == 0, proc.stderr
     info = [ln for ln in proc.stderr.splitlines() if ln.startswith("info: ")]
     assert len(info) == 2 and "100000 samples" in info[0] and "done in" in info[1], proc.stderr
     assert "mode 1: 3 rad/s" in proc.stdout
+
+
+def test_an_unbalanced_override_names_it_and_how_to_quote(workdir):
+    proc = run("experiments.jobs.identify", "method=fft", "data.dataset=cell.npz", "prior=[1,2",
+               "tracking.enabled=false", cwd=workdir)
+    assert_one_line_error(proc, "cannot read the override prior=[1,2", "prior='[3.8,16,26,46]'")
+
+
+def test_a_path_with_non_ascii_letters_is_read(workdir):
+    (workdir / "mesure_été.csv").write_text((workdir / "ok.csv").read_text())
+    proc = run("experiments.jobs.identify", "method=fft", "data.path=mesure_été.csv", "prior=[3.5]",
+               "tracking.enabled=false", "hydra.run.dir=run_été", cwd=workdir)
+    assert proc.returncode == 0, proc.stderr
+    assert "mode 1: 2.99" in proc.stdout and (workdir / "run_été" / "estimate.json").exists()
+
+
+def test_quoting_leaves_the_users_own_syntax_alone():
+    from experiments.jobs.app import quote_unicode_value
+
+    assert quote_unicode_value("data.path=été.csv") == "data.path='été.csv'"
+    assert quote_unicode_value("data.path='été.csv'") == "data.path='été.csv'"
+    assert quote_unicode_value("data.path=plain.csv") == "data.path=plain.csv"
+    assert quote_unicode_value("prior=[1,2]") == "prior=[1,2]"
+    assert quote_unicode_value("method.options.x=a,é") == "method.options.x=a,é"     # a sweep stands

@@ -20,8 +20,8 @@ def test_reads_uniform_record(tmp_path):
 
 
 @pytest.mark.parametrize("text, message", [
-    ("time,accel\n" + rows(), "missing column 't'"),
-    ("t,acc\n" + rows(), "missing column 'accel'"),
+    ("accel\n" + "".join(f"{0.1 * k}\n" for k in range(10)), "no time column or sample interval; give data.dt="),
+    ("t,acc\n" + rows(), "names no unit for channel 'acc'; give data.units="),
     ("t,accel\n" + rows(3) + "0.06,abc\n" + rows(6, start=4), r"row 4: accel = 'abc' is not a finite number"),
     ("t,accel\n" + rows(3) + "0.06,nan\n" + rows(6, start=4), r"row 4: accel = 'nan'"),
     ("t,accel\n" + rows(3) + "0.05,1\n" + rows(6, start=4), r"row 4: t = 0.05 breaks the uniform sampling"),

@@ -4,14 +4,14 @@ from scipy.integrate import quad
 
 from experiments.simulate.beam import BeamGeometry, cantilever_beta_l, modal_coefficients, mode_shape
 
-# Clamped-free eigenvalues (Rao, Mechanical Vibrations, table of beta_n L) and PHYSICS.md section 1.
+# Clamped-free eigenvalues (Rao, Mechanical Vibrations, table of beta_n L) and docs/physics.md §1.
 BETA_L = [1.875104, 4.694091, 7.854757, 10.995541]
 OMEGA = [3.2300, 20.2423, 56.6790, 111.068]
 P = [4.2282, 2.3433, 1.3739, 0.9822]
 H = [33.427, 13.677, 7.570, 5.269]
 
 
-def test_geometry_numbers_match_physics_md():
+def test_geometry_numbers_match_the_physics_reference():
     b = BeamGeometry()
     assert b.youngs_modulus_pa * b.second_moment_m4 == pytest.approx(291.67, rel=1e-4)
     assert b.mass_per_length == pytest.approx(1.35)

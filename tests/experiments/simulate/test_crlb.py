@@ -7,14 +7,14 @@ from experiments.simulate.datasets import UG
 W = [3.23, 20.24, 22.00, 56.67]
 Z = [0.005] * 4
 A = [1.04, -4.10, -4.84, 6.42]
-# PHYSICS.md section 4, 1 mg. Our N = 32, mode 2 value is 5.33 (60-digit arithmetic gives 5.334), which
-# rounds to 5.3, not the printed 5.4: the tolerance below is 5 %, i.e. 2 significant digits +- 1 in the last.
+# docs/physics.md §4, 1 mg, as first derived (N = 32, mode 2 printed 5.4; our 5.33, and 60-digit arithmetic's
+# 5.334, round to 5.3, which the page now gives): the tolerance below is 5 %, 2 significant digits +- 1.
 REFERENCE = {32: [3.2e1, 5.4e0, 8.8e0, 4.2e-3], 64: [1.3e-2, 2.7e-2, 2.6e-2, 9.3e-4],
              128: [1.7e-3, 2.2e-3, 1.8e-3, 3.8e-4], 256: [6.3e-4, 2.4e-4, 2.2e-4, 1.9e-4]}
 
 
 @pytest.mark.parametrize("n", sorted(REFERENCE))
-def test_crlb_matches_physics_md_table(n):
+def test_crlb_matches_the_physics_reference_table(n):
     got = crlb_std(W, Z, A, [0.0] * 4, n, 0.02, 1000 * UG)
     np.testing.assert_allclose(got, REFERENCE[n], rtol=0.05)
 

@@ -5,7 +5,7 @@ import scipy.linalg
 from experiments.simulate.plant import PlantConfig, build_plant
 
 TABLE3 = [3.23, 20.24, 22.00, 56.67]
-FREE_FREE = [3.3208, 20.3557, 22.0210, 56.7821]          # PHYSICS.md section 2, 270 kg body, no calibration
+FREE_FREE = [3.3208, 20.3557, 22.0210, 56.7821]          # docs/physics.md §2, 270 kg body, no calibration
 CALIBRATED_CANTILEVER = [3.1417, 20.1272, 21.9791, 56.5671]
 
 
@@ -64,7 +64,7 @@ def test_zero_initial_momentum_means_no_rigid_drift(plant):
     assert np.all(np.abs(momentum[:6]) < 1e-10)
 
 
-def test_tip_amplitudes_match_physics_md(plant):
+def test_tip_amplitudes_match_the_physics_reference(plant):
     p = build_plant(PlantConfig(calibrate=False))
     np.testing.assert_allclose(p.modal_amplitude, [1.06, 3.90, 5.12, 6.47], atol=0.006)
 

@@ -76,6 +76,19 @@ def test_harness_prior_follows_its_axes_and_never_enters_a_plain_cell(base):
     np.testing.assert_array_equal(more[:3], s2)  # R = 3 is a prefix of R = 10
 
 
+def test_prior_cells_store_the_spread_their_priors_were_drawn_with(base):
+    assert "prior_std_rad_s" not in base
+    w = base["truth_freq_rad_s"]
+    np.testing.assert_allclose(cell(prior_scale=0.8)["prior_std_rad_s"], 0.0)      # a bias, not a spread
+    c = cell(prior_spread=0.2, prior_scale=1.1)
+    np.testing.assert_allclose(c["prior_std_rad_s"], 1.1 * w * 0.2 / np.sqrt(3))
+    # against the draws themselves: U(−1, 1) over many replicates has std 1/√3
+    many = scenarios.harness_prior(w, {"prior_spread": 0.2}, 5, 4000)
+    unsorted = w * (1 + 0.2 * scenarios.prior_draws(5, 4000, 4))
+    np.testing.assert_allclose(unsorted.std(axis=0), scenarios.prior_std(w, {"prior_spread": 0.2}), rtol=0.05)
+    assert many.shape == (4000, 4)
+
+
 def test_cell_names_are_deterministic_and_plain_cells_keep_their_names():
     assert scenarios.cell_name(1000.0, 256) == "noise1000ug_n256"
     assert scenarios.cell_name(0.1, 20, {}) == "noise0.1ug_n20"

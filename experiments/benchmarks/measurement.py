@@ -1,0 +1,178 @@
+"""Speed of the identify job on a user's measurement file, start-up included, and where the time goes.
+
+    python -m experiments.benchmarks.measurement [--samples 100000] [--repeats 3] [--before /path/to/old/repo]
+
+The record is the simulated steel-cantilever impact (:mod:`experiments.simulate.impact`, seed 1) written as
+a logger's CSV (time stamps rounded to 1 µs, the signal in g). Rows, each the median of ``--repeats``
+runs of the job as a user types it (``python -m experiments.jobs.identify ...``, a fresh process):
+
+- no prior (stabilisation diagram, then pem), MLflow tracking off and on (a fresh SQLite store);
+- with ``--before``: the same jobs run by another checkout (``PYTHONPATH``), e.g. the release before
+  this one, on the same record as a plain ``t,accel`` CSV in m/s² with the prior given (what it reads);
+  and both checkouts on the first 512 samples of that CSV with the prior (the first user's record size).
+
+Wall time on a shared machine is noisy: the CPU time of the child (user + system) is given beside it, and
+the load average. Where the time goes: one run under ``cProfile`` (cumulative time of the job's phases;
+the profiler's own overhead inflates Python-heavy parts) and one under ``python -X importtime`` (the
+import of each top-level package). Writes ``results/bench/measurement.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import pstats
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from experiments.simulate.impact import G, simulate
+
+ROOT = Path(__file__).resolve().parents[2]
+JOB = ["-m", "experiments.jobs.identify", "method=pem"]
+# The job's phases, as (label, profiled function: file suffix, function name), in the order they run.
+PHASES = [
+    ("command line composed and checked before Hydra starts (app.run_app's pre-check)", "hydra/compose.py", "compose"),
+    ("file read (read_record)", "recordings/read.py", "read_record"),
+    ("segmented, decimated (choose_segment)", "recordings/segment.py", "choose_segment"),
+    ("stabilisation diagram (pyOMA2 SSI-cov, clusters, detection)", "peers/stabilisation.py", "stabilisation_diagram"),
+    ("pem refines the modes (run_records)", "jobs/identify.py", "run_records"),
+    ("figure, PNG and SVG (measurement_figure)", "report/measurement_figure.py", "measurement_figure"),
+    ("MLflow run logged (measurements.log)", "jobs/measurements.py", "log"),
+    ("Hydra's run (output dir, logging) around the task", "hydra/core/utils.py", "run_job"),
+    ("the whole job after start-up (identify.main)", "jobs/identify.py", "main"),
+]
+
+
+def write_records(d: Path, n: int) -> dict[str, Path]:
+    import pandas as pd
+
+    rec = simulate(1, n_samples=n)
+    logger = d / "impact.csv"
+    pd.DataFrame({"t": np.round(rec.t, 6), "tip [g]": rec.accel_g}).to_csv(logger, index=False)
+    plain = d / "impact_plain.csv"             # what the first release reads: t exact, accel in m/s²
+    pd.DataFrame({"t": rec.t, "accel": rec.accel_g * G}).to_csv(plain, index=False, float_format="%.17g")
+    return {"logger": logger, "plain": plain, "prior": rec.freq_rad_s}
+
+
+def run_job(args: list[str], cwd: Path, pythonpath: Path, env: dict | None = None) -> tuple[float, float, str]:
+    """Wall and CPU seconds (user + system of the child) of one job, and its stderr's last line."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, *args], cwd=cwd, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(pythonpath), **(env or {})})
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    if proc.returncode != 0:
+        raise RuntimeError(f"job failed ({proc.returncode}): {proc.stderr.strip()[-400:]}")
+    return wall, cpu, proc.stdout
+
+
+def timed(label: str, args: list[str], cwd: Path, pythonpath: Path, repeats: int, env=None) -> dict:
+    runs = [run_job(args, cwd, pythonpath, env) for _ in range(repeats)]
+    walls, cpus = [r[0] for r in runs], [r[1] for r in runs]
+    print(f"{label}: wall {np.median(walls):.2f} s, CPU {np.median(cpus):.2f} s", file=sys.stderr, flush=True)
+    return {"label": label, "wall": float(np.median(walls)), "cpu": float(np.median(cpus)),
+            "wall_min": float(min(walls)), "cpu_min": float(min(cpus)), "stdout": runs[-1][2]}
+
+
+def profile_phases(args: list[str], cwd: Path) -> tuple[list[tuple[str, float]], float]:
+    out = cwd / "job.prof"
+    subprocess.run([sys.executable, "-m", "cProfile", "-o", str(out), *args], cwd=cwd, check=True,
+                   capture_output=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    stats = pstats.Stats(str(out)).stats
+    total = max(v[3] for v in stats.values())
+    rows = []
+    for label, suffix, func in PHASES:
+        cum = sum(v[3] for (file, _, name), v in stats.items() if file.endswith(suffix) and name == func)
+        rows.append((label, cum))
+    return rows, total
+
+
+def import_times(args: list[str], cwd: Path, pythonpath: Path = ROOT, env=None,
+                 top: int = 12) -> list[tuple[str, float]]:
+    """Import time (s) per package (scipy per subpackage), summed over every module's own time, from
+    ``python -X importtime``."""
+    proc = subprocess.run([sys.executable, "-X", "importtime", *args], cwd=cwd, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(pythonpath), **(env or {})})
+    per = {}
+    for line in proc.stderr.splitlines():
+        m = re.match(r"import time:\s+(\d+) \|\s+\d+ \|\s*(\S+)", line)
+        if m:
+            parts = m.group(2).split(".")
+            pkg = ".".join(parts[:2]) if parts[0] == "scipy" and len(parts) > 1 else parts[0]
+            per[pkg] = per.get(pkg, 0.0) + int(m.group(1)) * 1e-6
+    total = sum(per.values())
+    return [("all imports", total), *sorted(per.items(), key=lambda kv: -kv[1])[:top]]
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--samples", type=int, default=100_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--before", type=Path, default=None, help="another checkout to time on the same record")
+    a = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        files = write_records(d, a.samples)
+        small = d / "small_plain.csv"
+        small.write_text("".join(files["plain"].read_text().splitlines(keepends=True)[:513]))
+        prior = "[" + ",".join(f"{w:.1f}" for w in files["prior"] * 0.98) + "]"
+        store = {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow.db'}"}
+        new = [*JOB, f"data.path={files['logger']}", "hydra.run.dir=run"]
+        rows = [timed("this release, no prior, tracking off", [*new, "tracking.enabled=false"], d, ROOT, a.repeats),
+                timed("this release, no prior, MLflow tracking on", new, d, ROOT, a.repeats, store)]
+        if a.before is not None:
+            old = [*JOB, f"data.path={files['plain']}", f"prior={prior}", "hydra.run.dir=run_before"]
+            rows += [timed("before (--before), prior given, tracking off", [*old, "tracking.enabled=false"], d,
+                           a.before, a.repeats),
+                     timed("before (--before), prior given, MLflow tracking on", old, d, a.before, a.repeats,
+                           {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_before.db'}"})]
+            for label, path in (("before (--before)", a.before), ("this release", ROOT)):
+                args = [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_small"]
+                rows += [timed(f"{label}, 512 samples, prior given, tracking off", [*args, "tracking.enabled=false"],
+                               d, path, a.repeats),
+                         timed(f"{label}, 512 samples, prior given, MLflow tracking on", args, d, path, a.repeats,
+                               {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})]
+        phases, total = profile_phases([*new, "hydra.run.dir=run_prof"], d)
+        os.environ.update(store)
+        imports = {"this release, tracking off": import_times([*new, "hydra.run.dir=run_imp",
+                                                               "tracking.enabled=false"], d),
+                   "this release, tracking on": import_times([*new, "hydra.run.dir=run_imp2"], d)}
+        if a.before is not None:
+            imports["before, 512 samples, tracking on"] = import_times(
+                [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_imp3"], d, a.before,
+                {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})
+        answer = rows[0]["stdout"]
+    print(report(a, rows, phases, total, imports, answer))
+
+
+def report(a, rows, phases, total, imports, answer) -> str:
+    lines = [f"The identify job on a {a.samples}-sample logger CSV and on 512 samples, each a fresh process "
+             f"(median and min of {a.repeats}; wall times on a shared machine are noisy, CPU time is the "
+             "child's user + system):", "",
+             "| job | wall (median) | CPU (median) | wall (min) | CPU (min) |", "|---|---|---|---|---|"]
+    lines += [f"| {r['label']} | {r['wall']:.2f} s | {r['cpu']:.2f} s | {r['wall_min']:.2f} s | {r['cpu_min']:.2f} s |"
+              for r in rows]
+    lines += ["", f"## Where the time goes (one run under cProfile, {total:.2f} s profiled, tracking on)", "",
+              "| phase | cumulative |", "|---|---|"]
+    lines += [f"| {label} | {cum:.2f} s |" for label, cum in phases]
+    for label, table in imports.items():
+        lines += ["", f"Imports, {label} (`python -X importtime`, each module's own time summed per package; "
+                  "scipy per subpackage):", "", "| package | import |", "|---|---|"]
+        lines += [f"| {pkg} | {sec:.2f} s |" for pkg, sec in table]
+    lines += ["", "The answer of the first run:", "", "```", answer.strip(), "```", ""]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    from experiments.benchmarks import run_with_page
+
+    raise SystemExit(run_with_page(main, "measurement"))   # prints, and writes results/bench/measurement.md

@@ -1,0 +1,196 @@
+"""Is a reported std honest when the record is not what the model assumes? Coverage per mismatch axis.
+
+    python -m experiments.benchmarks.mismatch [--grid configs/grid/mismatch.yaml] [--replicates R]
+                                              [--methods pem akf] [--out results/benchmarks/mismatch]
+
+For each cell of the grid (the mismatch axes of ``experiments.simulate.mismatch``: coloured noise, an
+unmodelled mode, a Duffing frequency, saturation, quantisation, and the plain cell; the records made by the
+workflow's ``experiments.simulate.datasets.make_cell``), every method of the grid identifies the R records
+with its own config's prior and options (``configs/method/<name>.yaml``), and the errors against the
+plant's eigenfrequencies are scored by ``experiments.report.coverage.coverage`` on the modes each
+replicate determined (``converged_per_mode``). For pem these stds are scored:
+
+- ``reported``: what it answers (the white-noise std, or the robust one when its residual check fails,
+  with the drift term for a drifting mode);
+- ``white``: the white-noise std σ̂√diag((JᵀJ)⁻¹) of the same fit;
+- ``robust``: the sandwich std, without the drift term;
+- ``before``: pem as it was before the residual check (``absorb_lines`` and ``drift_segments`` off,
+  the white-noise std);
+- on the Duffing cells, the drift test's claims (:func:`drift_claims`).
+
+``flagged`` is the share of records whose final residual check failed; ``absorbed`` the share whose
+residual line outside every band was refitted as an extra mode (``methods.pem._lines``). Writes
+``coverage.csv`` / ``coverage.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from omegaconf import OmegaConf
+
+import methods
+from experiments.io import markdown_table, write_table
+from experiments.jobs.app import CONFIG_DIR
+from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, coverage
+from experiments.simulate import mismatch, scenarios
+
+DEFAULT_GRID = f"{CONFIG_DIR}/grid/mismatch.yaml"
+
+
+def method_setup(name: str) -> tuple[str, list[float], dict]:
+    """(registry name, prior, options) of a method config ``name`` or variant ``name:variant``."""
+    base, _, variant = name.partition(":")
+    cfg = OmegaConf.load(f"{CONFIG_DIR}/method/{base}.yaml")
+    options = OmegaConf.to_container(cfg.get("options") or OmegaConf.create({}))
+    if variant:
+        options.update(OmegaConf.to_container(OmegaConf.load(f"{CONFIG_DIR}/method/{base}_{variant}.yaml")
+                                              .get("options") or OmegaConf.create({})))
+    return base, list(cfg.prior_rad_s), options
+
+
+def cell_label(axes: dict) -> tuple[str, str]:
+    """(axis, value) naming a cell; the plain cell is ("none", "")."""
+    if not axes:
+        return "none", ""
+    (axis, value), = axes.items()
+    return axis, f"{value:g}"
+
+
+# pem as it was before the residual check: no line absorbed, no drift test, and its white-noise std
+BEFORE = {"absorb_lines": False, "drift_segments": 0}
+
+
+def run_method(name: str, records: np.ndarray, dt: float, extra_options: dict | None = None) -> list:
+    base, prior, options = method_setup(name)
+    options = {**options, **(extra_options or {})}
+    batch = methods.get_batch(base)
+    if batch is not None:
+        return batch(records, dt, prior, **options)
+    identify = methods.get(base)
+    return [identify(y, dt, prior, **options) for y in records]
+
+
+def std_kinds(est) -> dict[str, np.ndarray]:
+    """The stds a method's Estimate offers: ``reported`` always; pem's ``white`` and ``robust`` too."""
+    out = {"reported": est.std}
+    check = est.extra.get("residual_check") if isinstance(est.extra, dict) else None
+    if check is not None:
+        out["white"] = est.extra.get("white_noise_std", est.std)
+        out["robust"] = check.get("robust_std_rad_s", est.std)       # a white residual: its own std
+        out["spectral"] = check.get("spectral_std_rad_s", est.std)
+    return out
+
+
+def drift_claims(est, truth: np.ndarray, amplitude: np.ndarray, delta: float) -> dict:
+    """What pem's drift test claims on a Duffing record, as (error, std) pairs: ``small_amplitude`` — the
+    amplitude line's ω₀ ± its std against the linear frequency; ``at_reference_amplitude`` — the answer ±
+    its std against the backbone ω√(1 + 2δ(a_ref/a)²) at the amplitude a_ref the answer says it refers to."""
+    drift = est.extra.get("drift") if isinstance(est.extra, dict) else None
+    if drift is None:
+        return {}
+    ref = np.asarray(drift["reference_amplitude_m_s2"], float)
+    at_ref = mismatch.backbone_rad_s(truth, ref / amplitude, delta)
+    drifting = np.asarray(drift["drifting"], bool) & est.converged_per_mode
+    return {"small_amplitude": (np.where(drifting, drift["small_amplitude_rad_s"] - truth, np.nan),
+                                drift["small_amplitude_std"]),
+            "at_reference_amplitude": (np.where(drifting, est.frequencies - at_ref, np.nan), est.std)}
+
+
+def score(estimates: list, truth: np.ndarray, claims=None) -> list[dict]:
+    """Coverage rows (one per std kind) of a method's R estimates; ``claims(est)``: more (error, std)
+    pairs by name (:func:`drift_claims`)."""
+    pooled: dict[str, tuple[list, list]] = {}
+    flagged, absorbed = [], []
+    for est in estimates:
+        ok = est.converged_per_mode & np.isfinite(est.frequencies)
+        err = np.where(ok, est.frequencies - truth, np.nan)
+        pairs = {kind: (err, std) for kind, std in std_kinds(est).items()}
+        pairs.update(claims(est) if claims is not None else {})
+        for kind, (error, std) in pairs.items():
+            e, s = pooled.setdefault(kind, ([], []))
+            e.append(np.asarray(error, float))
+            s.append(np.asarray(std, float))
+        check = est.extra.get("residual_check") if isinstance(est.extra, dict) else None
+        if check is not None:
+            flagged.append(not check["white"])
+            absorbed.append("absorbed_line_rad_s" in est.extra)
+    rows = []
+    for kind, (e, s) in pooled.items():
+        row = {"std": kind, **coverage(np.array(e), np.array(s))}
+        row["flagged"] = float(np.mean(flagged)) if flagged else np.nan
+        row["absorbed"] = float(np.mean(absorbed)) if absorbed else np.nan
+        rows.append(row)
+    return rows
+
+
+def cell_records(grid: dict, cell: dict, replicates: int) -> dict:
+    """The cell's dataset as the workflow makes it (``experiments.simulate.datasets.make_cell``)."""
+    from experiments.simulate.datasets import DatasetConfig, ScenarioConfig, make_cell
+
+    axes = dict(cell["axes"])
+    cfg = DatasetConfig(noise_ug=float(cell["noise_ug"]), n_samples=int(cell["n_samples"]), replicates=replicates,
+                        dt_s=float(axes.pop("dt_s", grid.get("dt_s", 0.02))), seed=int(grid["seed"]),
+                        bias_m_s2=float(axes.pop("bias_m_s2", grid.get("bias_m_s2", 0.0))),
+                        scenario=ScenarioConfig(**axes))
+    return make_cell(cfg)
+
+
+def run(grid: dict, replicates: int | None = None, method_names: list[str] | None = None) -> pd.DataFrame:
+    reps = int(replicates or grid["replicates"])
+    rows = []
+    for cell in scenarios.grid_cells(grid).values():
+        axes = {k: v for k, v in cell["axes"].items() if k in mismatch.AXES}
+        data = cell_records(grid, cell, reps)
+        truth, dt = data["truth_freq_rad_s"], float(data["dt_s"])
+        axis, value = cell_label(axes)
+        claims = None
+        if axes.get("duffing"):
+            def claims(est, delta=float(axes["duffing"]), amp=data["truth_amplitude_m_s2"], truth=truth):
+                return drift_claims(est, truth, amp, delta)
+        for name in method_names or grid["methods"]:
+            t0 = time.perf_counter()
+            estimates = run_method(name, data["accel_m_s2"], dt)
+            seconds = time.perf_counter() - t0
+            for row in score(estimates, truth, claims):
+                rows.append({"axis": axis, "value": value, "method": name, **row, "seconds": seconds})
+            if name.partition(":")[0] == "pem":
+                before = [dataclasses.replace(e, std=e.extra.get("white_noise_std", e.std), extra={})
+                          for e in run_method(name, data["accel_m_s2"], dt, BEFORE)]
+                row = next(r for r in score(before, truth) if r["std"] == "reported")
+                rows.append({"axis": axis, "value": value, "method": name, **row, "std": "before",
+                             "seconds": np.nan})
+            print(f"{axis:>16} {value:>6} {name:>10}: {seconds:6.1f} s", flush=True)
+    return pd.DataFrame(rows)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grid", default=DEFAULT_GRID)
+    parser.add_argument("--replicates", type=int, default=None)
+    parser.add_argument("--methods", nargs="+", default=None)
+    parser.add_argument("--out", default="results/benchmarks/mismatch")
+    args = parser.parse_args(argv)
+    if args.replicates is not None and args.replicates < 1:
+        parser.exit(2, f"error: --replicates = {args.replicates} must be at least 1\n")
+    try:
+        grid = OmegaConf.to_container(OmegaConf.load(args.grid))
+        for cell in scenarios.grid_cells(grid).values():
+            mismatch.check_axes(mismatch.present(cell["axes"]))
+        for name in args.methods or grid["methods"]:
+            method_setup(name)
+    except (ValueError, OSError, KeyError) as exc:
+        parser.exit(2, f"error: {exc}\n")
+    table = run(grid, args.replicates, args.methods)
+    write_table(table, Path(args.out) / "coverage")
+    print(f"ideal: {IDEAL_1STD:.3f} within 1 std, {IDEAL_2STD:.3f} within 2 std")
+    print(markdown_table(table.drop(columns=["seconds"]), ".3g"))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,34 @@
+"""Does the model explain the record? The lines and the JSON part a job shows for an estimate's residual
+check and drift test (``extra["residual_check"]``, ``extra["drift"]`` of :mod:`methods.pem`; docs/uncertainty.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def check_lines(extra: dict) -> list[str]:
+    """Terminal lines: the residual's verdict with its numbers, then one line per drifting mode."""
+    check = extra.get("residual_check") if isinstance(extra, dict) else None
+    if check is None:
+        return []
+    verdict = ("white: the model explains the record, std is the white-noise one" if check["white"] else
+               "NOT white: the model does not explain the record, std is the robust (sandwich) one")
+    lines = [f"residual: {verdict} (Ljung-Box p = {check['ljung_box_p']:.2g} on {check['ljung_box_lags']} lags; "
+             f"largest line {check['peak_over_floor']:.3g}x the noise floor {check['noise_floor_m_s2']:.3g} m/s² "
+             f"at {check['peak_rad_s']:.4g} rad/s, threshold {check['peak_threshold']:.3g}; residual variance "
+             f"{check['variance_ratio']:.3g}x the floor)"]
+    if "robust_std_rad_s" in check:
+        robust = np.asarray(check["robust_std_rad_s"])
+        lines.append("robust std (rad/s): " + ", ".join(f"{s:.3g}" for s in robust))
+    drift = extra.get("drift")
+    if drift is not None:
+        lines += [f"drift: {note}" for note in drift["notes"]]
+    return lines
+
+
+def check_json(extra: dict) -> dict:
+    """The ``estimate.json`` entries: ``residual_check`` and ``drift`` (present when the method gives them)."""
+    if not isinstance(extra, dict):
+        return {}
+    return {key: extra[key] for key in ("residual_check", "drift", "white_noise_std") if extra.get(key) is not None}

@@ -1,0 +1,218 @@
+"""Does the record have one frequency per mode? Successive segments fitted alone, and their agreement.
+
+A structure whose stiffness depends on its amplitude (a clamp, a joint, a Duffing spring) or changes over
+time has no single "frequency": a fit to the whole record averages it, and its white-noise std describes
+the noise only. :func:`segment_drift` fits K successive, disjoint segments with :func:`methods.pem.identify`
+(from the whole record's answer) and tests, per mode, whether their frequencies ω̂ₖ agree within their
+robust std sₖ (``extra["residual_check"]["robust_std_rad_s"]``, or the white-noise std of a segment whose
+residual is white):
+
+    ω̄ = Σ ω̂ₖ/sₖ² / Σ 1/sₖ²,   χ² = Σₖ (ω̂ₖ − ω̄)²/sₖ²  ~  χ²_{K−1}  when the frequency is constant.
+
+When χ²'s p-value is below α the mode drifts: the report gives ω̂ against the segments' mid-times and
+envelope amplitudes âₖ (the mode's fitted amplitude aᵢe^{−ζωt} at the segment's middle, m/s²), the
+weighted lines ω = ω₀ + β_t t and ω = ω₀ + β_a a² (the Duffing backbone's form for small shifts,
+ω(a) ≈ ω₀(1 + 3εa²/(8ω₀²)); ω₀ is then the small-amplitude frequency), by ``numpy.polyfit`` with weights 1/sₖ
+and its unscaled covariance (the slopes' std from the sₖ alone), and the amplitude and time the whole record's
+frequency corresponds to: a_ref = √((ω̂ − ω₀)/β_a), t_ref where the segments' log-envelope line reaches it.
+
+The spread between segments beyond their own std, τ² = max(0, (χ² − (K − 1))/(Σwₖ − Σwₖ²/Σwₖ)),
+wₖ = 1/sₖ² (the DerSimonian–Laird between-segment variance), is how far "the frequency" of a drifting
+mode moves over the record: :func:`attach` adds it to the reported std of a drifting mode,
+σ² = σ²_robust + τ², and says which amplitude the frequency refers to.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from methods.pem.predictor import modal_basis
+
+MIN_SEGMENT_SAMPLES = 64
+DRIFT_ALPHA = 0.05       # level of the per-mode drift test (a false alarm widens one std by τ)
+
+
+@dataclass
+class DriftReport:
+    """Per-segment frequencies and the per-mode drift test of :func:`segment_drift` (arrays K × m or m)."""
+
+    t_mid_s: np.ndarray                 # (K,) segment mid-times from the record's start
+    frequencies: np.ndarray             # (K, m) ω̂ₖ, rad/s (NaN where the segment did not determine the mode)
+    std: np.ndarray                     # (K, m) robust std sₖ, rad/s
+    amplitude_m_s2: np.ndarray          # (K, m) envelope amplitude at the segment's middle
+    chi2: np.ndarray                    # (m,)
+    p_value: np.ndarray                 # (m,)
+    drifting: np.ndarray                # (m,) bool: p < alpha
+    slope_per_s: np.ndarray             # (m,) β_t, rad/s per s
+    slope_per_s_std: np.ndarray
+    slope_per_amp2: np.ndarray          # (m,) β_a, rad/s per (m/s²)²
+    slope_per_amp2_std: np.ndarray
+    small_amplitude_rad_s: np.ndarray   # (m,) ω₀ of the amplitude line: the frequency as a → 0
+    small_amplitude_std: np.ndarray
+    tau_rad_s: np.ndarray               # (m,) between-segment spread τ (0 when the segments agree)
+    whole_record: np.ndarray            # (m,) the whole record's frequencies
+    reference_amplitude_m_s2: np.ndarray  # (m,) where the whole-record frequency sits on the amplitude line
+    reference_time_s: np.ndarray        # (m,) and on the time line
+    notes: list[str] = field(default_factory=list)
+
+    def summary(self) -> list[str]:
+        """One line per mode: constant (and the test), or drifting with its trend and reference point."""
+        return list(self.notes)
+
+
+def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = DRIFT_ALPHA,
+                  whole=None, **options) -> DriftReport:
+    """Fit ``n_segments`` disjoint successive segments of ``y`` and test each mode's frequency for drift.
+
+    Parameters
+    ----------
+    y : array_like, shape (N,)
+        Tip acceleration, m/s².
+    dt : float
+        Sample interval, s.
+    prior : array_like, shape (m,)
+        A-priori frequencies, rad/s (for the whole-record fit).
+    n_segments : int
+        K ≥ 2; every segment needs at least :data:`MIN_SEGMENT_SAMPLES` samples.
+    alpha : float
+        Level of the χ² agreement test per mode.
+    whole : Estimate, optional
+        The whole record's pem estimate, if already computed with the same options.
+    **options
+        :class:`methods.pem.Options` fields, for every fit.
+
+    Returns
+    -------
+    DriftReport
+    """
+    from methods.pem._fit import identify
+
+    y = np.asarray(y, float)
+    k_seg = int(n_segments)
+    if k_seg < 2:
+        raise ValueError(f"n_segments = {n_segments} must be at least 2")
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha = {alpha} must be in (0, 1)")
+    seg = y.size // k_seg
+    if seg < MIN_SEGMENT_SAMPLES:
+        raise ValueError(f"n_segments = {n_segments} leaves {seg} samples per segment of a {y.size}-sample "
+                         f"record; at least {MIN_SEGMENT_SAMPLES} are needed")
+    prior = np.asarray(prior, float)
+    whole = identify(y, dt, prior, **options) if whole is None else whole
+    start = np.where(whole.converged_per_mode, whole.frequencies, prior)
+    if not np.all(np.diff(start) > 0):
+        start = prior
+    m = prior.size
+    freq, std, amp = (np.full((k_seg, m), np.nan) for _ in range(3))
+    t_mid = (np.arange(k_seg) * seg + seg / 2) * dt
+    for k in range(k_seg):
+        part = y[k * seg:(k + 1) * seg]
+        est = identify(part, dt, start, **options)
+        check = est.extra.get("residual_check")
+        ok = est.converged_per_mode & np.isfinite(est.frequencies)
+        if check is None or not ok.any():
+            continue
+        s = np.asarray(check.get("robust_std_rad_s", est.std), float)     # a white segment: its std
+        freq[k] = np.where(ok, est.frequencies, np.nan)
+        std[k] = np.where(ok & (s > 0), s, np.nan)
+        amp[k] = _envelope(part, dt, est.frequencies, est.extra["damping"])
+    return _report(t_mid, freq, std, amp, whole.frequencies, alpha)
+
+
+def _envelope(part: np.ndarray, dt: float, w: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Each mode's envelope at the segment's middle, √(Aᵢ² + Bᵢ²)·e^{−ζᵢωᵢt_mid}: the amplitudes by linear
+    least squares on the modal basis at the fitted (ω, ζ) (:func:`methods.pem.predictor.modal_basis`)."""
+    n = part.size
+    ok = np.isfinite(w) & np.isfinite(z)
+    out = np.full(w.size, np.nan)
+    if not ok.any():
+        return out
+    phi = modal_basis(w[ok], z[ok], dt, n)
+    c = np.linalg.lstsq(phi, part, rcond=None)[0]
+    a = np.hypot(c[0:-1:2], c[1:-1:2]) * np.exp(-z[ok] * w[ok] * dt * n / 2)
+    out[ok] = a
+    return out
+
+
+def _line(x: np.ndarray, f: np.ndarray, s: np.ndarray) -> tuple[float, float, float, float]:
+    """(slope, its std, intercept, its std) of the weighted line f = intercept + slope·x (weights 1/s)."""
+    coef, cov = np.polyfit(x, f, 1, w=1.0 / s, cov="unscaled")
+    return float(coef[0]), float(np.sqrt(cov[0, 0])), float(coef[1]), float(np.sqrt(cov[1, 1]))
+
+
+def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
+    m = freq.shape[1]
+    keys = ("chi2", "p", "bt", "bt_s", "ba", "ba_s", "w0", "w0_s", "tau", "a_ref", "t_ref")
+    out = {key: np.full(m, np.nan) for key in keys}
+    drifting = np.zeros(m, bool)
+    notes = []
+    for i in range(m):
+        ok = np.isfinite(freq[:, i]) & np.isfinite(std[:, i]) & np.isfinite(amp[:, i])
+        if ok.sum() < 2:
+            notes.append(f"mode {i + 1}: fewer than two segments determine it; no drift test")
+            continue
+        f, s, t, a = freq[ok, i], std[ok, i], t_mid[ok], amp[ok, i]
+        w = 1.0 / s ** 2
+        wbar = np.sum(w * f) / np.sum(w)
+        chi2 = float(np.sum(w * (f - wbar) ** 2))
+        p = float(stats.chi2.sf(chi2, ok.sum() - 1))
+        out["chi2"][i], out["p"][i] = chi2, p
+        out["tau"][i] = np.sqrt(max(0.0, (chi2 - (ok.sum() - 1)) / (w.sum() - (w ** 2).sum() / w.sum())))
+        if ok.sum() >= 3:
+            out["bt"][i], out["bt_s"][i], _, _ = _line(t, f, s)
+            if np.ptp(a) > 0:
+                out["ba"][i], out["ba_s"][i], out["w0"][i], out["w0_s"][i] = _line(a ** 2, f, s)
+                a2 = (whole[i] - out["w0"][i]) / out["ba"][i] if out["ba"][i] != 0 else np.nan
+                if a2 > 0 and np.all(a > 0):
+                    out["a_ref"][i] = np.sqrt(a2)
+                    decay, log_a0 = np.polyfit(t, np.log(a), 1)
+                    out["t_ref"][i] = (np.log(out["a_ref"][i]) - log_a0) / decay if decay != 0 else np.nan
+        if p >= alpha:
+            notes.append(f"mode {i + 1}: one frequency over the record ({ok.sum()} segments agree: "
+                         f"chi2 = {chi2:.3g}, p = {p:.2g})")
+            continue
+        drifting[i] = True
+        note = (f"mode {i + 1}: the frequency drifts (segments disagree: chi2 = {chi2:.3g} on {ok.sum() - 1} "
+                f"dof, p = {p:.2g}): {', '.join(f'{x:.6g}' for x in f)} rad/s at "
+                f"{', '.join(f'{x:.3g}' for x in t)} s")
+        if np.isfinite(out["ba"][i]):
+            note += (f", amplitudes {', '.join(f'{x:.3g}' for x in a)} m/s²; omega = {out['w0'][i]:.6g} "
+                     f"± {out['w0_s'][i]:.2g} + ({out['ba'][i]:.3g} ± {out['ba_s'][i]:.2g})·a² rad/s")
+        if np.isfinite(out["a_ref"][i]):
+            note += (f"; the whole record's {whole[i]:.6g} rad/s is the frequency at an amplitude of about "
+                     f"{out['a_ref'][i]:.3g} m/s² (t ≈ {out['t_ref'][i]:.3g} s)")
+        notes.append(note)
+    return DriftReport(t_mid, freq, std, amp, out["chi2"], out["p"], drifting, out["bt"], out["bt_s"],
+                       out["ba"], out["ba_s"], out["w0"], out["w0_s"], out["tau"], np.asarray(whole, float),
+                       out["a_ref"], out["t_ref"], notes)
+
+
+def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
+    """The estimate with the drift test when its residual is not white (``extra["residual_check"]``):
+    :func:`segment_drift` with ``opts.drift_segments`` segments, its report in ``extra["drift"]``, for
+    for a drifting mode σ = √(σ² + τ²) and which amplitude the frequency refers
+    to (in the message). A white residual, ``drift_segments = 0`` or a record too
+    short for the segments: the estimate unchanged."""
+    import dataclasses
+
+    check = est.extra.get("residual_check")
+    k = int(opts.drift_segments)
+    if k < 2 or check is None or check["white"] or y.size // k < MIN_SEGMENT_SAMPLES:
+        return est
+    options = {**dataclasses.asdict(opts), "drift_segments": 0}
+    report = segment_drift(y, dt, prior, k, whole=est, **options)
+    extra = {**est.extra, "drift": dataclasses.asdict(report)}
+    # τ for the modes whose segments disagree at level DRIFT_ALPHA (a stationary record keeps its std in
+    # 19 modes of 20; τ for every mode made the std of coloured-noise records 15 points too conservative)
+    tau = np.where(report.drifting & np.isfinite(report.tau_rad_s), report.tau_rad_s, 0.0)
+    moved = (tau > 0) & np.isfinite(est.std)
+    if not moved.any():
+        return dataclasses.replace(est, extra=extra)
+    std = np.where(moved, np.hypot(est.std, tau), est.std)
+    notes = [report.notes[i] for i in np.flatnonzero(report.drifting)]
+    message = "; ".join([est.message, *notes, "the std includes the spread between segments (modes "
+                         + ", ".join(str(i + 1) for i in np.flatnonzero(moved)) + ")"])
+    return dataclasses.replace(est, std=std, extra=extra, message=message)

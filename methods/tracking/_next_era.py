@@ -1,0 +1,104 @@
+"""``next_era``: the naive baseline — NExT (the window's autocorrelation) through ERA, modes matched in order.
+
+On each window of W samples (every H samples, stamped at its last sample):
+
+1. NExT (James, Carne & Lauffer, 1993): under white excitation the autocorrelation of the response,
+   R(τ) = (1/W) Σ_k y(k) y(k + τ), τ = 0 … L − 1 with L = ``lags_fraction``·W, is a sum of decaying
+   sinusoids at the structure's modes — a free decay (scipy.signal.correlate, the biased estimate);
+2. ERA (python-control's ``control.era``, as :mod:`methods.peers.era`) realises R(1 …) with order 2m + 1 +
+   ``extra_order``; poles z become s = log(z)/Δt;
+3. the physical poles (ω_d > 0, below Nyquist, damping in [0, ``max_damping``]) are sorted by frequency and
+   matched to the previous window's estimates (the prior at the start) by ``linear_sum_assignment`` on
+   |log ω − log ω_prev|, within ``band``.
+
+No energy test, no warm start of a search, no uncertainty (``std`` NaN): the naive tracker the others must beat.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.optimize
+import scipy.signal
+
+import methods
+from methods.estimate import flat_record, make_options
+from methods.tracking._track import Track, check_window, window_ends
+from methods.tracking._windowed import DEFAULT_HOP_SAMPLES, DEFAULT_WINDOW_SAMPLES
+
+
+@dataclass
+class Options:
+    """Options of ``next_era``: window W and hop H in samples, the correlation lags L = lags_fraction·W,
+    the ERA order 2m + 1 + extra_order, and the matching band and damping limit."""
+
+    window_samples: int = DEFAULT_WINDOW_SAMPLES
+    hop_samples: int = DEFAULT_HOP_SAMPLES
+    lags_fraction: float = 0.5
+    extra_order: int = 3
+    band: float = 0.3
+    max_damping: float = 0.2
+
+
+def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
+    methods.require("era")          # python-control, the optional extra .[peers]
+    opts = make_options(Options, options, name)
+    check_window(opts.window_samples, opts.hop_samples, name, n_samples)
+    if not 0 < opts.lags_fraction <= 1:
+        raise ValueError(f"{name}: lags_fraction = {opts.lags_fraction} must be in (0, 1]")
+    if isinstance(opts.extra_order, bool) or not isinstance(opts.extra_order, int) or opts.extra_order < 0:
+        raise ValueError(f"{name}: extra_order = {opts.extra_order!r} must be an integer ≥ 0")
+    if not opts.band > 0:
+        raise ValueError(f"{name}: band = {opts.band} must be positive")
+    if not opts.max_damping > 0:
+        raise ValueError(f"{name}: max_damping = {opts.max_damping} must be positive")
+    lags = int(opts.lags_fraction * opts.window_samples)
+    if lags - 1 < 2 * (2 * np.size(prior) + 1 + opts.extra_order):
+        raise ValueError(f"{name}: {lags} correlation lags (window_samples × lags_fraction) are too few for "
+                         f"the ERA order {2 * np.size(prior) + 1 + opts.extra_order}")
+    return opts
+
+
+def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
+    import control  # optional extra .[peers]
+
+    opts = make_options(Options, options, name)
+    W, H = opts.window_samples, opts.hop_samples
+    ends = window_ends(y.size, W, H)
+    m = prior.size
+    lags = int(opts.lags_fraction * W)
+    usable = lags - 1                        # control.era drops the first Markov parameter (feedthrough)
+    rows = usable // 2
+    order = 2 * m + 1 + opts.extra_order
+    freq = np.full((ends.size, m), np.nan)
+    found = np.zeros((ends.size, m), dtype=bool)
+    ref = np.log(prior)
+    limit = np.log1p(opts.band)
+    for j, e in enumerate(ends.tolist()):
+        seg = y[e - W + 1: e + 1]
+        if flat_record(seg):
+            continue
+        seg = seg - seg.mean()
+        r = scipy.signal.correlate(seg, seg, mode="full", method="fft")[W - 1: W - 1 + lags] / W
+        sysd, _ = control.era(r, order, m=rows, n=usable - rows, dt=dt)
+        z = np.linalg.eigvals(sysd.A)
+        z = z[np.abs(z) > 0]
+        s = np.log(z) / dt
+        w = np.abs(s)
+        keep = (s.imag > 0) & (w < np.pi / dt) & (-s.real <= opts.max_damping * w) & (s.real <= 0)
+        cand = np.sort(np.log(w[keep]))
+        if cand.size == 0:
+            continue
+        dist = np.abs(cand[:, None] - ref[None, :])
+        cost = np.where(dist <= limit, dist, 1e6)
+        rr, cc = scipy.optimize.linear_sum_assignment(cost)
+        hit = cost[rr, cc] < 1e6
+        rr, cc = rr[hit], cc[hit]
+        freq[j, cc] = np.exp(cand[rr])
+        found[j, cc] = True
+        ref = ref.copy()
+        ref[cc] = cand[rr]
+    return Track(ends * dt, freq, np.nan, found,
+                 message=f"NExT-ERA (order {order}, {lags} lags) on {ends.size} windows of {W} samples every {H}",
+                 extra={"window_end_sample": ends, "order": order})

@@ -1,0 +1,113 @@
+"""Any batch method of the registry as a tracker: ``identify`` on a sliding window.
+
+Window j holds the W samples y[e_j − W + 1 … e_j], e_j = W − 1 + jH, and its estimate is stamped at its last
+sample, t = e_j Δt: it uses no later sample (causal by construction).
+
+Warm start (``warm_start=True``). The prior of window j is the last estimate of each mode that a window
+determined (``converged_per_mode``), the caller's prior for a mode never determined yet (a mix that is not a
+valid prior — crossing, above Nyquist — falls back to the caller's prior). Every method reads its prior as
+the centre of its search (pem: the start and the band ``frequency_band`` around it; the peers and fft: the
+band in which a pole or peak is assigned to a mode), so the search follows a drifting mode. When the previous
+window determined at least one mode, a method with a cheaper warm setting (:data:`WARM_OPTIONS`) takes it:
+pem runs one Gauss–Newton search from that prior (``n_starts=1``, no matrix-pencil start) instead of its cold
+multi-start (its repair restarts still re-seed a mode the search leaves undetermined, from the prior's
+ratios); after a window that determined no mode it pays the cold fit again. The other methods have no
+iterative search to seed: their cost is the same warm or cold.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+
+import methods
+from methods.estimate import make_options
+from methods.tracking._track import Track, check_window, usable_prior, window_ends
+
+DEFAULT_WINDOW_SAMPLES = 512      # 10.24 s at Δt = 0.02 s: 5 periods of the slowest mode (3.2 rad/s)
+DEFAULT_HOP_SAMPLES = 50          # 1 s at Δt = 0.02 s
+WINDOW_FIELDS = ("window_samples", "hop_samples", "warm_start")
+
+# A method's options on a window whose prior is the previous window's determined estimate.
+WARM_OPTIONS: dict[str, dict] = {
+    "pem": {"n_starts": 1, "data_driven_start": False},
+}
+
+
+@functools.cache
+def options_class(name: str):
+    """The tracking options of batch method ``name``: its own ``Options`` plus ``window_samples`` (W),
+    ``hop_samples`` (H) and ``warm_start``."""
+    base = methods.options_class(name)
+    return dataclasses.make_dataclass(
+        f"{base.__name__}Windowed",
+        [("window_samples", int, DEFAULT_WINDOW_SAMPLES), ("hop_samples", int, DEFAULT_HOP_SAMPLES),
+         ("warm_start", bool, True)],
+        bases=(base,))
+
+
+def split(options: dict) -> tuple[dict, dict]:
+    """(window options, the method's own options)."""
+    return ({k: v for k, v in options.items() if k in WINDOW_FIELDS},
+            {k: v for k, v in options.items() if k not in WINDOW_FIELDS})
+
+
+def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None):
+    """Check the window options and, through :func:`methods.check_options`, the method's; return the
+    tracking options dataclass."""
+    methods.require(name)
+    window, own = split(options)
+    opts = make_options(options_class(name), options, name)
+    check_window(opts.window_samples, opts.hop_samples, name, n_samples)
+    if not isinstance(opts.warm_start, bool):
+        raise ValueError(f"{name}: warm_start = {opts.warm_start!r} must be true or false")
+    methods.check_options(name, prior, dt, own)
+    if opts.warm_start and name in WARM_OPTIONS:
+        methods.check_options(name, prior, dt, own | WARM_OPTIONS[name])
+    return opts
+
+
+def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
+    """Track with method ``name`` on sliding windows (module docstring). ``options``: the checked keywords."""
+    window, own = split(options)
+    opts = make_options(options_class(name), options, name)
+    identify = methods.get(name)
+    W, H = opts.window_samples, opts.hop_samples
+    ends = window_ends(y.size, W, H)
+    m = prior.size
+    freq = np.full((ends.size, m), np.nan)
+    std = np.full((ends.size, m), np.nan)
+    conv = np.zeros((ends.size, m), dtype=bool)
+    warm_used = np.zeros(ends.size, dtype=bool)
+    last_good = np.full(m, np.nan)
+    any_determined = False
+    failures: list[str] = []
+    nyquist = np.pi / dt
+    for j, e in enumerate(ends.tolist()):
+        seg = y[e - W + 1: e + 1]
+        kw = own
+        p = prior
+        if opts.warm_start:
+            p = usable_prior(last_good, prior, nyquist)
+            if any_determined and name in WARM_OPTIONS:
+                kw = own | WARM_OPTIONS[name]
+                warm_used[j] = True
+        try:
+            est = identify(seg, dt, p, **kw)
+        except Exception as exc:        # a library failing on one window loses that window, not the track
+            failures.append(f"window ending at sample {e}: {type(exc).__name__}: {exc}")
+            any_determined = False
+            continue
+        freq[j] = est.frequencies
+        std[j] = est.std
+        conv[j] = est.converged_per_mode & np.isfinite(est.frequencies)
+        last_good = np.where(conv[j], est.frequencies, last_good)
+        any_determined = bool(conv[j].any())
+    message = (f"{ends.size} windows of {W} samples every {H}; {int(conv.all(axis=1).sum())} determined "
+               f"every mode; {int(warm_used.sum())} warm-started")
+    if failures:
+        message += f"; {len(failures)} windows failed (first: {failures[0]})"
+    return Track(ends * dt, freq, std, conv, message=message,
+                 extra={"window_end_sample": ends, "warm_started": warm_used, "window_failures": len(failures)})

@@ -1,0 +1,179 @@
+"""pem's residual check, robust std and drift test (methods/pem/_residual.py, _drift.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.signal
+
+from methods import pem
+from methods.pem import _residual
+
+DT = 0.02
+
+
+def _ar1(rng, n, phi, sigma=1.0):
+    w = sigma * rng.standard_normal(n + 200)
+    return scipy.signal.lfilter([np.sqrt(1 - phi * phi)], [1.0, -phi], w)[200:]
+
+
+def test_whiteness_check_passes_white_noise_at_its_false_alarm_rate():
+    rng = np.random.default_rng(1)
+    checks = [_residual.residual_check(rng.standard_normal(512), DT, alpha=0.01) for _ in range(300)]
+    flagged = np.mean([not c["white"] for c in checks])
+    # two tests at 1 % each: about 2 % flagged; 4.5 % is 3 binomial std above
+    assert flagged <= 0.045
+    # the floor from the periodogram's median is the white variance: ratio 1 on average
+    assert np.mean([c["variance_ratio"] for c in checks]) == pytest.approx(1.0, abs=0.05)
+
+
+@pytest.mark.parametrize("phi", [0.5, 0.9])
+def test_whiteness_check_flags_coloured_residuals(phi):
+    rng = np.random.default_rng(2)
+    checks = [_residual.residual_check(_ar1(rng, 512, phi), DT) for _ in range(50)]
+    assert np.mean([not c["white"] for c in checks]) >= 0.95
+    # AR(1): most power at low frequency, so the median periodogram is below the mean
+    assert np.median([c["variance_ratio"] for c in checks]) > 1.2
+
+
+def test_whiteness_check_finds_a_line_and_its_frequency():
+    rng = np.random.default_rng(3)
+    t = DT * np.arange(1024)
+    e = rng.standard_normal(t.size) + 0.3 * np.cos(111.0 * t)
+    check = _residual.residual_check(e, DT)
+    assert not check["white"]
+    assert check["peak_rad_s"] == pytest.approx(111.0, abs=2 * np.pi / (t.size * DT))
+
+
+def test_robust_std_matches_monte_carlo_in_a_linear_toy_problem():
+    """Least squares on narrow-band columns (a sinusoid's, like pem's Jacobian) in AR(1) noise: the
+    sandwich std against the spread of 2000 simulated estimates; the white-noise std is far off there."""
+    rng = np.random.default_rng(4)
+    n, phi = 512, 0.8
+    k = np.arange(n)
+    X = np.column_stack([np.cos(0.3 * k), np.sin(0.3 * k), np.exp(-k / 200.0) * np.cos(0.05 * k)])
+    beta, hac, spectral, white = [], [], [], []
+    for _ in range(2000):
+        y = X @ [1.0, -0.5, 2.0] + _ar1(rng, n, phi)
+        b, *_ = np.linalg.lstsq(X, y, rcond=None)
+        e = y - X @ b
+        beta.append(b)
+        hac.append(_residual.sandwich_std(X, e, 3)[0])
+        spectral.append(_residual.spectral_sandwich_std(X, e, 3))
+        white.append(np.sqrt(e @ e / (n - 3) * np.diag(np.linalg.inv(X.T @ X))))
+    mc = np.std(beta, axis=0)
+    np.testing.assert_allclose(np.median(spectral, axis=0), mc, rtol=0.15)
+    np.testing.assert_allclose(np.median(hac, axis=0), mc, rtol=0.25)
+    assert np.all(np.median(white, axis=0) < mc / 1.5)       # what the robust std is there for
+
+
+def test_robust_std_equals_white_std_for_white_noise_on_average():
+    rng = np.random.default_rng(5)
+    n = 512
+    k = np.arange(n)
+    X = np.column_stack([np.cos(0.7 * k), np.sin(0.7 * k)])
+    ratio = []
+    for _ in range(200):
+        e = rng.standard_normal(n)
+        e -= X @ np.linalg.lstsq(X, e, rcond=None)[0]
+        white = np.sqrt(e @ e / (n - 2) * np.diag(np.linalg.inv(X.T @ X)))
+        ratio.append(_residual.spectral_sandwich_std(X, e, 2) / white)
+    assert np.median(ratio) == pytest.approx(1.0, abs=0.1)
+
+
+def test_sandwich_refuses_a_residual_of_the_wrong_length():
+    with pytest.raises(ValueError, match="residual"):
+        _residual.sandwich_std(np.ones((10, 2)), np.ones(9))
+
+
+def _record(rng, n, noise):
+    t = DT * np.arange(n)
+    y = np.exp(-0.05 * t) * np.cos(20.3 * t) + 0.5 * np.exp(-0.1 * t) * np.cos(56.7 * t + 1.0)
+    return y + noise(rng, n)
+
+
+def test_identify_keeps_the_white_noise_std_on_a_white_record():
+    rng = np.random.default_rng(6)
+    y = _record(rng, 512, lambda r, n: 0.01 * r.standard_normal(n))
+    est = pem.identify(y, DT, [18.0, 52.0])
+    check = est.extra["residual_check"]
+    assert check["white"] and "white_noise_std" not in est.extra
+    assert "robust" not in est.message
+    # a white residual's std is honest as it is: no sandwich computed (their agreement on white noise is
+    # test_robust_std_equals_white_std_for_white_noise_on_average)
+    assert "robust_std_rad_s" not in check
+
+
+def test_identify_reports_the_robust_std_when_the_residual_is_coloured():
+    rng = np.random.default_rng(7)
+    y = _record(rng, 512, lambda r, n: 0.01 * _ar1(r, n, 0.9))
+    est = pem.identify(y, DT, [18.0, 52.0])
+    assert not est.extra["residual_check"]["white"]
+    assert "robust" in est.message
+    np.testing.assert_array_equal(np.fmax(est.std, est.extra["residual_check"]["robust_std_rad_s"]), est.std)
+    assert not np.array_equal(est.std, est.extra["white_noise_std"])
+
+
+def _duffing(delta, n=2048, w=20.0, zeta=0.002, noise=1e-3, seed=8):
+    """One Duffing mode from rest at amplitude 1: ẍ + 2ζωẋ + ω²x + εx³ = 0, ε = 8ω²δ/3, backbone
+    ω(A) = ω√(1 + 2δA²) (experiments.simulate.mismatch)."""
+    from experiments.simulate.mismatch import duffing_modes
+
+    t = DT * np.arange(n)
+    y = duffing_modes(t, [w], [zeta], [1.0], [0.0], delta)
+    return y + noise * np.random.default_rng(seed).standard_normal(n)
+
+
+def test_drift_is_detected_on_a_duffing_record_with_its_backbone():
+    w, delta = 20.0, -0.01
+    report = pem.segment_drift(_duffing(delta, w=w), DT, [18.0], n_segments=4)
+    assert report.drifting[0]
+    # the amplitude line ω = ω₀ + β a² of the backbone ω√(1 + 2δa²) ≈ ω(1 + δa²): ω₀ = ω, β = ωδ
+    assert abs(report.small_amplitude_rad_s[0] - w) <= max(3 * report.small_amplitude_std[0], 1e-3 * w)
+    assert report.slope_per_amp2[0] == pytest.approx(w * delta, rel=0.2)
+    # the segments' frequencies lie on the backbone at their amplitudes (to 5e-4 of ω: the first-order
+    # backbone and the within-segment averaging)
+    expected = w * np.sqrt(1 + 2 * delta * report.amplitude_m_s2[:, 0] ** 2)
+    np.testing.assert_allclose(report.frequencies[:, 0], expected, rtol=5e-4)
+    assert np.isfinite(report.reference_amplitude_m_s2[0])
+    assert any("drifts" in note for note in report.summary())
+
+
+def test_no_drift_on_a_linear_record():
+    report = pem.segment_drift(_duffing(0.0), DT, [18.0], n_segments=4)
+    assert not report.drifting[0]
+
+
+def test_identify_says_which_amplitude_a_drifting_frequency_refers_to():
+    est = pem.identify(_duffing(-0.01), DT, [18.0])
+    assert est.extra["drift"]["drifting"][0]
+    assert "amplitude of about" in est.message
+    assert est.std[0] > est.extra["white_noise_std"][0]
+
+
+def test_segment_drift_refuses_too_many_segments():
+    with pytest.raises(ValueError, match="n_segments"):
+        pem.segment_drift(np.zeros(100), DT, [18.0], n_segments=4)
+    with pytest.raises(ValueError, match="drift_segments"):
+        pem.identify(np.ones(100), DT, [18.0], drift_segments=1)
+
+
+def _with_line(seed=10, n=512, noise=1e-4):
+    rng = np.random.default_rng(seed)
+    t = DT * np.arange(n)
+    clean = np.exp(-0.05 * t) * np.cos(20.3 * t) + 0.5 * np.exp(-0.1 * t) * np.cos(56.7 * t + 1.0)
+    line = 1.0 * np.exp(-0.05 * t) * np.cos(90.0 * t)                   # above 56.7's band (52·1.5 = 78)
+    return clean + line + noise * rng.standard_normal(n)
+
+
+def test_an_unmodelled_line_above_the_band_is_fitted_and_set_aside():
+    truth = np.hypot([20.3, 56.7], [0.05, 0.1])        # natural frequency √(ω_d² + σ²) of e^{−σt}cos ω_d t
+    plain = pem.identify(_with_line(), DT, [18.0, 52.0], absorb_lines=False)
+    est = pem.identify(_with_line(), DT, [18.0, 52.0])
+    assert est.extra["absorbed_line_rad_s"] == pytest.approx(np.hypot(90.0, 0.05), abs=1e-3)
+    assert est.frequencies.size == 2 and est.extra["residual_check"]["white"]
+    # with the line fitted the errors are noise-sized; without, the line biases the two modes by many of
+    # those std, and the (robust) std of the two-mode fit has to swell to cover it
+    assert np.all(np.abs(est.frequencies - truth) <= 3 * est.std)
+    assert np.max(np.abs(plain.frequencies - truth) / est.std) > 5
+    assert np.all(plain.std > 5 * est.std)
