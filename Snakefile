@@ -4,11 +4,13 @@
 #   snakemake --cores 2            # the default target: the paper grid (configs/grid/paper.yaml)
 #   snakemake --cores 2 smoke      # the CI grid;  `full` for R = 100 and records up to 2048 samples
 #   snakemake --cores 2 results/<name>/README.md   # any grid in configs/grid/<name>.yaml
+#   snakemake --cores 2 tracking   # the tracking grid (configs/grid/tracking.yaml, docs/tracking.md)
 
 include: "experiments/rules/common.smk"
 include: "experiments/rules/datasets.smk"
 include: "experiments/rules/identify.smk"
 include: "experiments/rules/report.smk"
+include: "experiments/rules/tracking.smk"
 
 
 localrules:

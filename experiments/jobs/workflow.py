@@ -110,8 +110,10 @@ class Workflow:
 
     def grid_names(self) -> list[str]:
         """Grid names are the file names; a grid is read only when a target asks for it, so one malformed
-        file never breaks the other grids."""
-        return sorted(p.stem for p in self.grid_dir.glob("*.yaml") if p.name != "schema.yaml")
+        file never breaks the other grids. The tracking grids (``tracking*.yaml``) have their own schema and
+        rules (experiments/rules/tracking.smk, experiments/jobs/tracking_targets.py)."""
+        return sorted(p.stem for p in self.grid_dir.glob("*.yaml")
+                      if not p.name.startswith(("schema", "tracking")))
 
     @functools.cache  # noqa: B019 - one Workflow per Snakemake process; the cache is its lifetime
     def load_grid(self, name: str) -> dict:

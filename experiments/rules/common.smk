@@ -9,6 +9,7 @@ import sys
 from snakemake.exceptions import WorkflowError
 from snakemake.settings.types import DeploymentMethod
 
+from experiments.jobs.tracking_targets import TRACKING_GRIDS
 from experiments.jobs.workflow import GridError, Workflow, requested_grids
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
@@ -32,8 +33,9 @@ GRID_NAMES = WF.grid_names()
 # A requested grid is checked before the DAG is built, so a bad file or target is reported as one line (an
 # error inside an input function would come wrapped in Snakemake's context); other grids' files are not read.
 try:
-    for _name in requested_grids(sys.argv[1:], GRID_NAMES):
-        WF.load_grid(_name)
+    for _name in requested_grids(sys.argv[1:], GRID_NAMES + TRACKING_GRIDS):
+        if _name in GRID_NAMES:       # the tracking grids are checked by experiments/rules/tracking.smk
+            WF.load_grid(_name)
 except GridError as _exc:
     print(str(_exc), file=sys.stderr)
     sys.exit(2)

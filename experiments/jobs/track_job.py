@@ -1,0 +1,231 @@
+"""The tracking grid's jobs: simulate its records, run one tracker on all of them, score each track.
+
+    python -m experiments.jobs.track_job data tracking --out results/tracking/data
+    python -m experiments.jobs.track_job run tracking --tracker akf --data results/tracking/data \
+        --out results/tracking/track/akf
+    python -m experiments.jobs.track_job score tracking --tracker akf --data results/tracking/data \
+        --out results/tracking/track/akf      # score the stored tracks again (after a change of the metrics)
+
+``tracking`` is a grid name (``configs/grid/tracking.yaml``) or a path to a grid file. ``data`` writes one
+``<cell>.npz`` per cell (``experiments.simulate.tracking_data``). ``run`` calls
+``methods.track(tracker, y, dt, prior, **options)`` on every replicate of every cell (the prior is the
+cell's, never the truth; the options are the grid's ``tracker_options``) and writes, per cell,
+``<cell>.npz`` (the tracks: ``t_s`` (K,), ``frequencies``/``std``/``converged`` (R, K, m), ``runtime_s``
+(R,)), ``<cell>.csv`` (the scores of every replicate, ``experiments.report.tracking_metrics``) and
+``<cell>.json`` (what the result depends on, for the MLflow step).
+
+Everything is checked before the first record is simulated or tracked: the grid and every cell, the
+tracker's name and its options against every cell's prior, sample interval and length. Bad input gets one
+line ``error: ...`` on stderr, exit status 2, nothing written. A tracker that raises on one record is
+recorded for that record (NaN estimates, the message) and the run goes on.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from experiments.io import read_npz, write_json, write_npz
+from experiments.jobs.app import fail
+from experiments.report.tracking_metrics import score_track
+from experiments.simulate.tracking_data import make_cell
+from experiments.simulate.tracking_grid import load_grid
+from experiments.tracking.provenance import digest, git_state
+
+
+def tracker_names() -> list[str]:
+    import methods
+
+    face = getattr(methods, "track_names", None)
+    if face is None:
+        raise ValueError("this installation has no trackers (methods.track_names is missing)")
+    return list(face())
+
+
+def grid_trackers(grid: dict) -> list[str]:
+    """The grid's trackers: ``[all]`` is every registered tracker; an unknown name is refused."""
+    known = tracker_names()
+    wanted = known if grid["trackers"] == ["all"] else list(grid["trackers"])
+    for name in wanted:
+        if name not in known:
+            raise ValueError(f"grid {grid['name']}: unknown tracker '{name}'; known: {', '.join(known)}")
+    for name in grid.get("tracker_options") or {}:
+        if name not in wanted:
+            raise ValueError(f"grid {grid['name']}: tracker_options.{name}: '{name}' is not one of the grid's "
+                             f"trackers ({', '.join(wanted)})")
+    return wanted
+
+
+def check_tracker(grid: dict, tracker: str) -> dict:
+    """The tracker's options from the grid, checked against every cell (prior, Δt and record length)."""
+    import methods
+
+    options = dict((grid.get("tracker_options") or {}).get(tracker, {}))
+    check = methods.check_track_options
+    takes_length = "n_samples" in inspect.signature(check).parameters
+    for name, cell in grid["cells"].items():
+        cfg = cell["config"]
+        nominal = np.asarray(cfg.plant.target_freq_rad_s, dtype=float)
+        try:
+            if takes_length:
+                check(tracker, nominal, cfg.dt_s, options, n_samples=cfg.n_samples)
+            else:
+                check(tracker, nominal, cfg.dt_s, options)
+        except ValueError as exc:
+            raise ValueError(f"tracker {tracker}, cell {name}: {exc}") from None
+    return options
+
+
+def run_data(grid: dict, out: Path) -> None:
+    for i, (name, cell) in enumerate(grid["cells"].items()):
+        t0 = time.process_time()
+        write_npz(out / f"{name}.npz", make_cell(cell["config"]))
+        print(f"cell {i + 1} of {len(grid['cells'])} ({name}) in {time.process_time() - t0:.3g} s CPU", flush=True)
+
+
+def track_record(tracker: str, y: np.ndarray, dt_s: float, prior: np.ndarray, options: dict):
+    """One record through ``methods.track``; a tracker's exception becomes a failed track (None, message)."""
+    import methods
+
+    try:
+        return methods.track(tracker, y, dt_s, prior, **options), ""
+    except Exception as exc:  # noqa: BLE001 - one failed record is a result, not the end of the grid
+        return None, f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+
+
+def run_cell(tracker: str, options: dict, data: dict, cell_meta: dict) -> tuple[dict, pd.DataFrame]:
+    """Every replicate of a cell through the tracker; the tracks (arrays) and their scores (a table)."""
+    y_all, prior_all = data["accel_m_s2"], data["prior_rad_s"]
+    dt = float(data["dt_s"])
+    n, m = data["truth_freq_rad_s"].shape
+    tracks = [track_record(tracker, y_all[r], dt, prior_all[r], options) for r in range(y_all.shape[0])]
+    t_ref = next((tr.t_s for tr, _ in tracks if tr is not None), np.arange(n) * dt)
+    freq = np.full((len(tracks), t_ref.size, m), np.nan)
+    std = np.full_like(freq, np.nan)
+    conv = np.zeros(freq.shape, bool)
+    runtime = np.zeros(len(tracks))
+    messages = []
+    for r, (tr, message) in enumerate(tracks):
+        if tr is not None and (tr.t_s.shape != t_ref.shape or not np.allclose(tr.t_s, t_ref)):
+            tr, message = None, "the track's times differ from the other replicates'"
+        if tr is not None:
+            freq[r], std[r], conv[r], runtime[r] = tr.frequencies, tr.std, tr.converged, tr.runtime_s
+            message = tr.message
+        messages.append(message)
+    arrays = {"t_s": t_ref, "frequencies": freq, "std": std, "converged": conv, "runtime_s": runtime}
+    return arrays, score_cell(tracker, arrays, data, cell_meta, messages)
+
+
+def score_cell(tracker: str, tracks: dict, data: dict, cell_meta: dict, messages: list[str]) -> pd.DataFrame:
+    """The scores of every replicate's track (``experiments.report.tracking_metrics.score_track``)."""
+    step = float(data["step_time_s"])
+    span = data["drift_span_s"]
+    rows = []
+    for r in range(tracks["frequencies"].shape[0]):
+        s = score_track(tracks["t_s"], tracks["frequencies"][r], tracks["converged"][r], tracks["runtime_s"][r],
+                        data["truth_freq_rad_s"], float(data["dt_s"]), bound=data["pcrb_std_rad_s"][r],
+                        step_time_s=step if np.isfinite(step) else None,
+                        drift_span_s=span if np.all(np.isfinite(span)) else None)
+        rows.append({"tracker": tracker, **cell_meta, "replicate": r, **s, "message": str(messages[r])[:300]})
+    return pd.DataFrame(rows)
+
+
+WARM_UP_SAMPLES = 1000
+
+
+def warm_up(tracker: str, options: dict, data: dict) -> None:
+    """One untimed run on the start of the first record, so that the first cell's CPU time does not carry
+    the tracker's one-off costs (lazy imports, caches): on the smoke grid the first cell of a tracker took up
+    to 2.6x the CPU per sample of the second.
+    A tracker that refuses so short a record (its window is longer) is simply not warmed up."""
+    y = data["accel_m_s2"][0]
+    track_record(tracker, y[: min(y.size, WARM_UP_SAMPLES)], float(data["dt_s"]), data["prior_rad_s"][0], options)
+
+
+def rescore_tracker(grid: dict, tracker: str, data_dir: Path, out: Path) -> None:
+    """Score the tracks a run step wrote again (after a change of the metrics), without running the tracker."""
+    for name, cell in grid["cells"].items():
+        data, tracks = read_npz(data_dir / f"{name}.npz"), read_npz(out / f"{name}.npz")
+        old = pd.read_csv(out / f"{name}.csv")
+        table = score_cell(tracker, tracks, data, _meta(name, cell), list(old["message"].fillna("")))
+        table.to_csv(out / f"{name}.csv", index=False)
+    print(f"{tracker}: {len(grid['cells'])} cells scored again", flush=True)
+
+
+def _meta(name: str, cell: dict) -> dict:
+    return {"cell": name, "schedule": cell["schedule"], "excitation": cell["excitation"],
+            "noise_ug": cell["noise_ug"], "duration_s": cell["duration_s"]}
+
+
+def run_tracker(grid: dict, tracker: str, options: dict, data_dir: Path, out: Path) -> None:
+    code = git_state()
+    warm_up(tracker, options, read_npz(data_dir / f"{next(iter(grid['cells']))}.npz"))
+    for i, (name, cell) in enumerate(grid["cells"].items()):
+        data = read_npz(data_dir / f"{name}.npz")
+        meta = _meta(name, cell)
+        t0 = time.process_time()
+        arrays, table = run_cell(tracker, options, data, meta)
+        write_npz(out / f"{name}.npz", arrays)
+        table.to_csv(out / f"{name}.csv", index=False)
+        write_json(out / f"{name}.json", {
+            "grid": grid["name"], "tracker": tracker, "options": options, "cell": meta,
+            "dataset": {"name": name, "digest": str(data["checksum_sha256"])},
+            "code": code, "run_key_digest": digest(json.dumps(
+                {"tracker": tracker, "options": options, "data": str(data["checksum_sha256"]), "code": code},
+                sort_keys=True, default=str))})
+        print(f"{tracker}: cell {i + 1} of {len(grid['cells'])} ({name}) in {time.process_time() - t0:.3g} s CPU",
+              flush=True)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m experiments.jobs.track_job", description=__doc__.split("\n")[0])
+    parser.add_argument("step", choices=("data", "run", "score"))
+    parser.add_argument("grid", help="a grid name (configs/grid/<name>.yaml) or a grid file")
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--tracker")
+    parser.add_argument("--data")
+    args = parser.parse_args(argv)
+    try:
+        grid = load_grid(args.grid)
+        if args.step == "score":
+            if not args.tracker or not args.data:
+                raise ValueError("score needs --tracker NAME and --data DIR")
+            missing = [c for c in grid["cells"] if not (Path(args.out) / f"{c}.npz").is_file()]
+            if missing:
+                raise ValueError(f"{args.out}: no tracks of cell {missing[0]} (run the run step first)")
+        if args.step == "run":
+            if not args.tracker or not args.data:
+                raise ValueError("run needs --tracker NAME and --data DIR")
+            if args.tracker not in grid_trackers(grid):
+                raise ValueError(f"tracker '{args.tracker}' is not one of grid {grid['name']}'s trackers")
+            options = check_tracker(grid, args.tracker)
+            missing = [c for c in grid["cells"] if not (Path(args.data) / f"{c}.npz").is_file()]
+            if missing:
+                raise ValueError(f"{args.data}: no record of cell {missing[0]} (run the data step first)")
+    except ValueError as exc:
+        fail(" ".join(str(exc).split()))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    from threadpoolctl import threadpool_limits
+
+    # One BLAS thread, as under Snakemake (experiments/rules/common.smk) and as on board: with several, the
+    # CPU time per sample counts threads that wait on tiny matrices (measured: era 3.5 ms instead of 0.24 ms
+    # per sample on a loaded 2-core machine).
+    with threadpool_limits(limits=1):
+        if args.step == "data":
+            run_data(grid, out)
+        elif args.step == "score":
+            rescore_tracker(grid, args.tracker, Path(args.data), out)
+        else:
+            run_tracker(grid, args.tracker, options, Path(args.data), out)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

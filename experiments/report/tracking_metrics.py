@@ -1,0 +1,168 @@
+"""Scores of a frequency tracker on one record, and of a tracker on one cell (its replicates).
+
+A track is the tracker's estimate ω̂ᵢ(t_j) at its own times t_j (each a sample time, causal); the truth is
+ωᵢ(t_k) at every sample. Every score compares ω̂ᵢ(t_j) with ωᵢ at the same sample. Definitions (``tol`` = 1 %,
+``hold_s`` = 2 s by default):
+
+* **converged at t**: every mode within ``tol`` of the truth, |ω̂ᵢ − ωᵢ| ≤ tol·ωᵢ, from t on for at least
+  ``hold_s`` (judged against the truth, not the tracker's own flag). **Time to converge**: the first such
+  t, from the record's start. **Re-convergence**: the first such t at or after a step, minus the step's
+  instant. NaN when it never happens (reported as such, and counted).
+* **tracking error**: eᵢ(t) = |ω̂ᵢ − ωᵢ| after the first convergence, relative to ωᵢ and to the bound
+  (the PCRB std at that sample); its median and 90th percentile over time and modes (empirical quantiles,
+  no interpolation: a missing estimate counts as an infinite error).
+* **late error**: the same error over the second half of the record whether or not the tracker converged
+  (``err_rel_median_late``, ``err_rel_p90_late``): it ranks trackers that never hold all four modes.
+* **share within 1 %**: the fraction of the track's times at which every mode is within ``tol``.
+* **lag under a drift**: the delay τ ≥ 0 that best explains the estimate as a late copy of the truth,
+  argmin_τ median_t |ω̂ᵢ(t) − ωᵢ(t − τ)| over the drifting span after convergence, per mode; the median
+  over modes is reported.
+* **diverged**: over the last 10 % of the record the median error of some mode exceeds 10 % (a missing
+  estimate counts as an infinite error, so a mode lost most of that time counts; one window without it
+  does not). **False lock**: not diverged, but over the last 10 % the tracker flags a mode
+  converged (most of the time) while its median error exceeds ``tol``.
+* **CPU per sample**: ``runtime_s`` / samples; **on board**: a processor 100× slower keeps up at
+  20 ms per sample (``cpu_per_sample_s`` × 100 ≤ 0.020 s).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+TOL = 0.01
+HOLD_S = 2.0
+ONBOARD_SLOWDOWN = 100.0
+ONBOARD_BUDGET_S = 0.020
+TAIL = 0.10
+DIVERGED_REL = 0.10
+
+
+def sample_index(t_s, dt_s: float, n_samples: int) -> np.ndarray:
+    """The sample index k = t/Δt of each estimate time; ``ValueError`` if one is not a sample of the record."""
+    t_s = np.asarray(t_s, dtype=float)
+    k = np.round(t_s / dt_s).astype(int)
+    if t_s.size == 0:
+        raise ValueError("the track has no estimates")
+    if np.any(np.abs(k * dt_s - t_s) > 1e-6 * dt_s) or k.min() < 0 or k.max() >= n_samples:
+        raise ValueError(f"track times must be sample times within the record (0 … {(n_samples - 1) * dt_s:g} s); "
+                         f"got {t_s.min():g} … {t_s.max():g} s")
+    return k
+
+
+def converged_from(t_s: np.ndarray, ok: np.ndarray, start_s: float, hold_s: float = HOLD_S) -> float:
+    """The first time t ≥ ``start_s`` from which ``ok`` holds for at least ``hold_s`` (or to the record's
+    end, if that is at least ``hold_s`` later); NaN if none."""
+    t_s = np.asarray(t_s, dtype=float)
+    ok = np.asarray(ok, dtype=bool)
+    n = t_s.size
+    # next_bad[j]: index of the first not-ok at or after j (n if none)
+    idx = np.where(~ok, np.arange(n), n)
+    next_bad = np.minimum.accumulate(idx[::-1])[::-1]
+    end_t = np.append(t_s, np.inf)[next_bad]
+    end_t = np.where(next_bad == n, t_s[-1] + (t_s[-1] - t_s[-2] if n > 1 else 0.0), end_t)
+    good = ok & (t_s >= start_s) & (end_t - t_s >= hold_s)
+    j = np.flatnonzero(good)
+    return float(t_s[j[0]]) if j.size else math.nan
+
+
+def lag_s(t_s: np.ndarray, est: np.ndarray, truth_t_s: np.ndarray, truth: np.ndarray, span_s, *,
+          max_lag_s: float = 30.0, step_s: float | None = None) -> float:
+    """Median over modes of argmin_τ median_t |ω̂ᵢ(t) − ωᵢ(t − τ)|, t in ``span_s`` (module docstring)."""
+    lo, hi = span_s
+    sel = (t_s >= lo) & (t_s <= hi) & np.all(np.isfinite(est), axis=1)
+    if sel.sum() < 3:
+        return math.nan
+    step = step_s or float(truth_t_s[1] - truth_t_s[0]) * 5
+    taus = np.arange(0.0, max_lag_s + step / 2, step)
+    lags = []
+    for i in range(est.shape[1]):
+        cost = [np.median(np.abs(est[sel, i] - np.interp(t_s[sel] - tau, truth_t_s, truth[:, i]))) for tau in taus]
+        lags.append(taus[int(np.argmin(cost))])
+    return float(np.median(lags))
+
+
+def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray, dt_s: float, *,
+                bound: np.ndarray | None = None, step_time_s: float | None = None, drift_span_s=None,
+                tol: float = TOL, hold_s: float = HOLD_S) -> dict:
+    """The scores of one track against the truth of its record (module docstring).
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (K,)
+    frequencies, converged : ndarray, shape (K, m)
+        The track's estimates (rad/s) and its own flags.
+    truth : ndarray, shape (N, m)
+        ωᵢ at every sample of the record.
+    bound : ndarray, shape (N, m), optional
+        The PCRB std at every sample (rad/s).
+
+    Returns
+    -------
+    dict of float
+    """
+    t_s = np.asarray(t_s, dtype=float)
+    est = np.asarray(frequencies, dtype=float)
+    n, m = truth.shape
+    if est.shape != (t_s.size, m):
+        raise ValueError(f"track frequencies of shape {est.shape}; expected ({t_s.size}, {m})")
+    k = sample_index(t_s, dt_s, n)
+    w = truth[k]
+    err = np.abs(est - w)
+    rel = np.where(np.isfinite(err), err / w, np.inf)
+    ok = np.all(rel <= tol, axis=1)
+    t_conv = converged_from(t_s, ok, float(t_s[0]), hold_s)
+    out = {"t_converge_s": t_conv, "share_within_1pct": float(ok.mean()), "n_samples": n,
+           "cpu_s": float(runtime_s), "cpu_per_sample_s": float(runtime_s) / n}
+    out["onboard_ok"] = bool(out["cpu_per_sample_s"] * ONBOARD_SLOWDOWN <= ONBOARD_BUDGET_S)
+    after = t_s >= t_conv if math.isfinite(t_conv) else np.zeros(t_s.size, bool)
+    for name, q in (("median", 50), ("p90", 90)):
+        out[f"err_rel_{name}"] = (float(np.percentile(rel[after], q, method="inverted_cdf")) if after.any()
+                                  else math.nan)
+        if bound is not None and after.any():
+            ratio = err[after] / np.asarray(bound)[k][after]
+            ratio = np.where(np.isfinite(ratio), ratio, np.inf)     # a missing estimate is no small error
+            out[f"err_bound_{name}"] = float(np.percentile(ratio, q, method="inverted_cdf"))
+        else:
+            out[f"err_bound_{name}"] = math.nan
+    late = t_s >= t_s[0] + 0.5 * (t_s[-1] - t_s[0])
+    out["err_rel_median_late"] = float(np.percentile(rel[late], 50, method="inverted_cdf"))
+    out["err_rel_p90_late"] = float(np.percentile(rel[late], 90, method="inverted_cdf"))
+    for i in range(m):
+        out[f"err_rel_median_mode{i + 1}"] = float(np.median(rel[after, i])) if after.any() else math.nan
+    out["t_reconverge_s"] = math.nan
+    if step_time_s is not None and math.isfinite(step_time_s):
+        t_re = converged_from(t_s, ok, float(step_time_s), hold_s)
+        out["t_reconverge_s"] = t_re - float(step_time_s)
+    out["lag_s"] = math.nan
+    if drift_span_s is not None and np.all(np.isfinite(drift_span_s)) and math.isfinite(t_conv):
+        lo, hi = drift_span_s
+        out["lag_s"] = lag_s(t_s, est, np.arange(n) * dt_s, truth, (max(lo, t_conv), hi))
+    tail = t_s >= t_s[0] + (1 - TAIL) * (t_s[-1] - t_s[0])
+    med = np.median(rel[tail], axis=0) if tail.any() else np.full(m, np.inf)
+    out["diverged"] = bool(np.any(med > DIVERGED_REL))
+    flagged = np.asarray(converged, dtype=bool)[tail].mean(axis=0) > 0.5 if tail.any() else np.zeros(m, bool)
+    out["false_lock"] = bool(not out["diverged"] and np.any(flagged & (med > tol)))
+    return out
+
+
+SUMMARY_MEDIANS = ("t_converge_s", "t_reconverge_s", "err_rel_median", "err_rel_p90", "err_bound_median",
+                   "err_bound_p90", "err_rel_median_late", "err_rel_p90_late", "share_within_1pct", "lag_s",
+                   "cpu_per_sample_s")
+
+
+def summarize_cell(rows: pd.DataFrame, *, has_step: bool = False) -> dict:
+    """One (tracker, cell): medians over replicates of the per-record scores, and the rates (the share of
+    replicates that never converged, never re-converged after the step, diverged, locked falsely)."""
+    out = {"replicates": int(len(rows))}
+    for col in SUMMARY_MEDIANS:
+        values = rows[col].to_numpy(dtype=float)
+        out[col] = float(np.nanmedian(values)) if np.isfinite(values).any() else math.nan
+    out["never_converged_rate"] = float(rows["t_converge_s"].isna().mean())
+    out["never_reconverged_rate"] = float(rows["t_reconverge_s"].isna().mean()) if has_step else math.nan
+    out["diverged_rate"] = float(rows["diverged"].astype(bool).mean())
+    out["false_lock_rate"] = float(rows["false_lock"].astype(bool).mean())
+    out["onboard_ok"] = bool(out["cpu_per_sample_s"] * ONBOARD_SLOWDOWN <= ONBOARD_BUDGET_S)
+    return out

@@ -1,0 +1,130 @@
+"""The tracking grid's figures (matplotlib): estimates against the truth, error against time, re-convergence
+against noise, accuracy against CPU per sample. Each function takes plain arrays/tables and a file stem and
+writes ``<stem>.png`` and ``<stem>.svg`` (experiments.io.save_figure)."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from experiments.report.plots import _save, _style  # noqa: E402
+from experiments.report.tracking_metrics import ONBOARD_BUDGET_S, ONBOARD_SLOWDOWN  # noqa: E402
+
+
+def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarray, title: str,
+                       stem: Path) -> list[Path]:
+    """One row per tracker, one column per mode: the median estimate over replicates with its 10–90 % band,
+    and the truth (black). ``tracks``: tracker -> {"t_s": (K,), "frequencies": (R, K, m)}."""
+    names = list(tracks)
+    m = truth.shape[1]
+    fig, axes = plt.subplots(len(names), m, figsize=(3.2 * m, 1.6 * len(names) + 0.8), sharex=True,
+                             squeeze=False, layout="constrained")
+    for row, name in enumerate(names):
+        tr = tracks[name]
+        f = tr["frequencies"]
+        color = _style(name)[0]
+        with warnings.catch_warnings(action="ignore", category=RuntimeWarning):
+            lo, med, hi = (np.nanpercentile(f, q, axis=0) for q in (10, 50, 90))
+        for i in range(m):
+            ax = axes[row, i]
+            ax.plot(t_s, truth[:, i], color="k", lw=1.0)
+            ax.fill_between(tr["t_s"], lo[:, i], hi[:, i], color=color, alpha=0.3, lw=0)
+            ax.plot(tr["t_s"], med[:, i], color=color, lw=0.9)
+            span = np.ptp(truth[:, i])
+            pad = max(0.05 * truth[:, i].mean(), 0.5 * span)
+            ax.set_ylim(truth[:, i].min() - pad, truth[:, i].max() + pad)
+            ax.tick_params(labelsize=7)
+            if row == 0:
+                ax.set_title(f"mode {i + 1}", fontsize=9)
+            if i == 0:
+                ax.set_ylabel(f"{name}\nrad/s", fontsize=8)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)", fontsize=8)
+    fig.suptitle(f"{title}: estimate (median, 10–90 % band over replicates) against the truth (black)",
+                 fontsize=10)
+    return _save(fig, stem)
+
+
+def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], stem: Path) -> list[Path]:
+    """Relative error against time, one panel per schedule, one line per tracker (median over replicates
+    and modes). ``panels``: title -> tracker -> (t_s, rel_err (R, K, m))."""
+    titles = list(panels)
+    ncols = min(2, len(titles))
+    nrows = -(-len(titles) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(6.2 * ncols, 3.4 * nrows), squeeze=False, layout="constrained")
+    for ax, title in zip(axes.flat, titles, strict=False):
+        for name, (t, rel) in panels[title].items():
+            with warnings.catch_warnings(action="ignore", category=RuntimeWarning):
+                curve = np.nanmedian(np.nanmedian(rel, axis=2), axis=0)
+            color, _ = _style(name)
+            ax.plot(t, np.clip(curve, 1e-6, None), color=color, lw=1.0, label=name)
+        ax.axhline(0.01, color="k", ls="--", lw=0.8)
+        ax.set_yscale("log")
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel(r"$|\hat\omega - \omega| / \omega$")
+        ax.grid(True, which="major", alpha=0.3)
+    for ax in axes.flat[len(titles):]:
+        ax.set_axis_off()
+    axes.flat[0].legend(fontsize=7, ncol=2)
+    fig.suptitle("Tracking error against time (median over replicates and modes; dashed: 1 %)", fontsize=10)
+    return _save(fig, stem)
+
+
+def reconvergence_vs_noise(summary: pd.DataFrame, stem: Path) -> list[Path]:
+    """Median re-convergence time after the step against noise, one panel per excitation; a tracker that
+    never re-converged in most replicates is drawn at the top (open marker)."""
+    steps = summary[summary["never_reconverged_rate"].notna()]
+    excitations = sorted(steps["excitation"].unique())
+    fig, axes = plt.subplots(1, max(1, len(excitations)), figsize=(5.2 * max(1, len(excitations)), 3.6),
+                             squeeze=False, layout="constrained")
+    top = float(np.nanmax(steps["duration_s"])) if len(steps) else 1.0
+    for ax, exc in zip(axes.flat, excitations, strict=False):
+        sub = steps[steps["excitation"] == exc]
+        for name, rows in sub.groupby("tracker"):
+            rows = rows.sort_values("noise_ug")
+            color, marker = _style(name)
+            y = rows["t_reconverge_s"].where(rows["never_reconverged_rate"] <= 0.5)
+            ax.plot(rows["noise_ug"], y, marker=marker if marker != "x" else "o", color=color, label=name)
+            miss = rows[rows["never_reconverged_rate"] > 0.5]
+            ax.plot(miss["noise_ug"], np.full(len(miss), top / 2), marker="o", mfc="none", color=color, ls="none")
+        ax.axhline(20.0, color="k", ls="--", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_xlabel("noise (µg, 1σ)")
+        ax.set_ylabel("re-convergence after the step (s)")
+        ax.set_title(f"excitation: {exc}", fontsize=9)
+        ax.grid(True, alpha=0.3)
+    axes.flat[0].legend(fontsize=7, ncol=2)
+    fig.suptitle("Re-convergence time after the step (median over replicates; dashed: 20 s; open: never in "
+                 "most replicates)", fontsize=10)
+    return _save(fig, stem)
+
+
+def accuracy_vs_cpu(per_tracker: pd.DataFrame, stem: Path) -> list[Path]:
+    """Median relative error after convergence (over every cell) against CPU time per sample, per tracker;
+    the dotted line is the on-board budget (20 ms per sample on a processor 100× slower)."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+    for _, row in per_tracker.iterrows():
+        color, marker = _style(row["tracker"])
+        y = row["err_rel_median"] if np.isfinite(row["err_rel_median"]) else 1.0
+        ax.plot(row["cpu_per_sample_s"] * 1e6, y, marker=marker if marker != "x" else "o", color=color, ms=8,
+                mfc=color if np.isfinite(row["err_rel_median"]) else "none", ls="none")
+        ax.annotate(row["tracker"], (row["cpu_per_sample_s"] * 1e6, y), fontsize=7, xytext=(4, 3),
+                    textcoords="offset points")
+    ax.axvline(ONBOARD_BUDGET_S / ONBOARD_SLOWDOWN * 1e6, color="k", ls=":", lw=1,
+               label="on-board budget (20 ms/sample at 1/100 speed)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("CPU time per sample on this machine (µs)")
+    ax.set_ylabel(r"median $|\hat\omega - \omega| / \omega$ after convergence")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title("Accuracy against cost (open marker at 1: never converged)", fontsize=10)
+    return _save(fig, stem)

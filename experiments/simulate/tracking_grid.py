@@ -1,0 +1,83 @@
+"""A tracking grid (``configs/grid/tracking*.yaml``): its validation and its cells.
+
+A grid names schedules and excitations (each a mapping of settings, see ``schedules.ScheduleConfig`` and
+``tracking_data.ExcitationConfig``) and lists ``noise_ug`` and ``duration_s``; its cells are the product
+schedule × excitation × noise × duration, named ``<schedule>_<excitation>_noise{x}ug_{T}s``. The grid is
+checked whole before any work: the schema (``configs/grid/schema_tracking.yaml``), then every cell
+(``tracking_data.check_cell_config``: a schedule that crosses modes or reaches Nyquist, an empty
+excitation, a record too short), each failure one line naming the file, the cell and the value.
+Which trackers run is the job's business (``experiments.jobs.track_job``); this module knows no method.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import yaml
+
+from experiments.simulate.plant import PlantConfig
+from experiments.simulate.schedules import ScheduleConfig
+from experiments.simulate.tracking_data import ExcitationConfig, TrackingCellConfig, cell_name, check_cell_config
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+SCHEMA = CONFIGS / "grid" / "schema_tracking.yaml"
+
+
+def grid_path(name_or_path: str) -> Path:
+    """``configs/grid/<name>.yaml`` for a name, or the path itself."""
+    p = Path(name_or_path)
+    if p.suffix in (".yaml", ".yml"):
+        return p
+    return CONFIGS / "grid" / f"{name_or_path}.yaml"
+
+
+def paper_plant() -> PlantConfig:
+    """The grids' plant, configs/plant/paper.yaml (read by OmegaConf, whose YAML reads ``70.0e9`` as a number)."""
+    from omegaconf import OmegaConf
+
+    values = OmegaConf.to_container(OmegaConf.load(CONFIGS / "plant" / "paper.yaml"))
+    return PlantConfig(**{k: v for k, v in values.items() if k != "defaults"})
+
+
+def load_grid(name_or_path: str, *, check_cells: bool = True) -> dict:
+    """The grid, validated, with ``cells``: name -> :class:`TrackingCellConfig`. ``ValueError`` (one line,
+    naming the file and the key or the cell) for a bad grid."""
+    import jsonschema
+
+    path = grid_path(name_or_path)
+    if not path.is_file():
+        raise ValueError(f"{path}: no such tracking grid")
+    try:
+        grid = yaml.safe_load(path.read_text())
+        if not isinstance(grid, dict):
+            raise ValueError("the file must be a mapping of keys (name, noise_ug, schedules, ...)")
+        jsonschema.validate(grid, yaml.safe_load(SCHEMA.read_text()))
+    except jsonschema.ValidationError as exc:
+        key = ".".join(map(str, exc.absolute_path)) or "(top level)"
+        raise ValueError(f"{path}: {key}: {' '.join(exc.message.split())}") from None
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{path}: {' '.join(str(exc).split())}") from None
+    if path.stem != grid["name"] and path.parent == CONFIGS / "grid":
+        raise ValueError(f"{path}: name: '{grid['name']}' must match the file name '{path.stem}'")
+    grid.setdefault("dt_s", 0.02)
+    grid.setdefault("prior_spread", 0.05)
+    grid.setdefault("tracker_options", {})
+    plant = paper_plant()
+    cells = {}
+    for (sname, sched), (ename, exc_), noise, duration in itertools.product(
+            grid["schedules"].items(), grid["excitations"].items(), grid["noise_ug"], grid["duration_s"]):
+        name = cell_name(sname, ename, noise, duration)
+        cfg = TrackingCellConfig(schedule=ScheduleConfig(**(sched or {})), excitation=ExcitationConfig(**(exc_ or {})),
+                                 noise_ug=float(noise), duration_s=float(duration), dt_s=float(grid["dt_s"]),
+                                 replicates=int(grid["replicates"]), seed=int(grid["seed"]),
+                                 prior_spread=float(grid["prior_spread"]), plant=plant)
+        if check_cells:
+            try:
+                check_cell_config(cfg)
+            except ValueError as exc:
+                raise ValueError(f"{path}: cell {name}: {exc}") from None
+        cells[name] = {"config": cfg, "schedule": sname, "excitation": ename, "noise_ug": float(noise),
+                       "duration_s": float(duration)}
+    grid["cells"] = cells
+    return grid

@@ -1,0 +1,124 @@
+"""The tracking grid's jobs end to end on a tiny grid, with a stand-in tracker, and their refusals."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from experiments.io import read_npz
+from experiments.jobs.track_job import main
+from tests.experiments.jobs import _stand_in_tracker
+
+GRID = {
+    "name": "tracking_test", "noise_ug": [100], "duration_s": [8], "replicates": 2, "seed": 7,
+    "trackers": ["all"],
+    "schedules": {"step": {"step": [0, 0, 0.06, 0], "step_time_s": 4.0}},
+    "excitations": {"thrusters": {"thruster_torque_n_m": 100.0, "thruster_period_s": 1.0}},
+}
+
+
+@pytest.fixture
+def grid_file(tmp_path, monkeypatch):
+    _stand_in_tracker.install(monkeypatch)
+
+    def write(**change):
+        path = tmp_path / "tracking_test.yaml"
+        path.write_text(yaml.safe_dump({**GRID, **change}))
+        return str(path)
+    return write
+
+
+def test_data_then_run_writes_tracks_and_scores(grid_file, tmp_path):
+    grid = grid_file()
+    main(["data", grid, "--out", str(tmp_path / "data")])
+    cell = "step_thrusters_noise100ug_8s"
+    data = read_npz(tmp_path / "data" / f"{cell}.npz")
+    assert data["accel_m_s2"].shape == (2, 400)
+    main(["run", grid, "--tracker", "stand_in", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "t")])
+    tracks = read_npz(tmp_path / "t" / f"{cell}.npz")
+    assert tracks["frequencies"].shape == (2, 16, 4)
+    table = pd.read_csv(tmp_path / "t" / f"{cell}.csv")
+    assert list(table["replicate"]) == [0, 1] and set(table["tracker"]) == {"stand_in"}
+    assert {"err_rel_median", "t_reconverge_s", "cpu_per_sample_s", "onboard_ok", "diverged"} <= set(table.columns)
+    # the stand-in's 2 s periodogram cannot resolve modes 2 and 3 (1.76 rad/s apart): never within 1 %
+    assert table["share_within_1pct"].max() < 0.5
+    record = json.loads((tmp_path / "t" / f"{cell}.json").read_text())
+    assert record["tracker"] == "stand_in" and record["dataset"]["digest"] == str(data["checksum_sha256"])
+
+
+def test_a_tracker_that_raises_is_recorded_per_record(grid_file, tmp_path):
+    grid = grid_file()
+    main(["data", grid, "--out", str(tmp_path / "data")])
+    main(["run", grid, "--tracker", "broken", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "b")])
+    table = pd.read_csv(tmp_path / "b" / "step_thrusters_noise100ug_8s.csv")
+    assert table["diverged"].all() and table["message"].str.contains("on purpose").all()
+    assert np.isnan(read_npz(tmp_path / "b" / "step_thrusters_noise100ug_8s.npz")["frequencies"]).all()
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"schedules": {"bad": {"drift": [0, 0.2, 0, 0]}}}, "crosses modes 2 and 3"),
+    ({"schedules": {"bad": {"drift": [0, 0, 0, 2.0]}}}, "Nyquist"),
+    ({"excitations": {"none": {}}}, "excitation is empty"),
+    ({"noise_ug": [-1]}, "noise_ug"),
+    ({"trackers": ["nope"]}, "unknown tracker 'nope'"),
+    ({"tracker_options": {"stand_in": {"window_samples": 9}}}, "unknown option 'window_samples'"),
+    ({"trackers": ["stand_in"], "tracker_options": {"hdmd": {"hop_samples": 9}}}, "tracker_options.hdmd"),
+])
+def test_bad_input_is_one_error_line_exit_2_nothing_written(grid_file, tmp_path, capsys, change, words):
+    grid = grid_file(**change)
+    step = ["run", grid, "--tracker", "stand_in", "--data", str(tmp_path)] if "tracker" in json.dumps(change) else \
+        ["data", grid]
+    with pytest.raises(SystemExit) as exit_:
+        main([*step, "--out", str(tmp_path / "out")])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and words in err and "\n" not in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_report_and_mlflow_steps_write_tables_figures_page_and_runs_once(grid_file, tmp_path, monkeypatch):
+    import mlflow
+
+    from experiments.report.tracking_report import main as report
+    from experiments.tracking.tracking_runs import main as log
+
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path / 'mlflow.db'}")
+    grid = grid_file(noise_ug=[100, 1000])
+    main(["data", grid, "--out", str(tmp_path / "data")])
+    folders = []
+    for tracker in ("stand_in", "broken"):
+        folders.append(str(tmp_path / "track" / tracker))
+        main(["run", grid, "--tracker", tracker, "--data", str(tmp_path / "data"), "--out", folders[-1]])
+    out = tmp_path / "res"
+    report(["--grid", grid, "--data", str(tmp_path / "data"), "--out", str(out), "--page", str(out / "summary.md"),
+            "--", *folders])
+    table = pd.read_csv(out / "tables" / "tracking_table.csv")
+    assert len(table) == 2 * 2 and set(table["tracker"]) == {"stand_in", "broken"}
+    assert (table.loc[table["tracker"] == "broken", "diverged_rate"] == 1.0).all()
+    for fig in ("tracking_estimates_step", "tracking_error_vs_time", "tracking_reconvergence",
+                "tracking_accuracy_vs_cpu"):
+        assert (out / "figures" / f"{fig}.png").stat().st_size > 10_000
+        assert "category" not in (out / "figures" / f"{fig}.rst").read_text()     # the caption body only
+    assert "## Verdict per cell" in (out / "summary.md").read_text()
+    args = ["--grid", "tracking_test", "--out", str(out / "mlflow_runs.json"), "--summary", str(out / "summary.md"),
+            "--page", str(out / "README.md"), "--aggregate", str(out / "tables"), "--", *folders]
+    log(args)
+    log(args)                                                    # again: nothing new
+    client = mlflow.MlflowClient(f"sqlite:///{tmp_path / 'mlflow.db'}")
+    exp = client.get_experiment_by_name("grid-tracking_test")
+    runs = client.search_runs([exp.experiment_id])
+    assert len(runs) == 1 + 2 * 2
+    assert "## Tracking" in (out / "README.md").read_text()
+
+
+def test_score_step_scores_stored_tracks_again_identically(grid_file, tmp_path):
+    grid = grid_file()
+    main(["data", grid, "--out", str(tmp_path / "data")])
+    args = ["--tracker", "stand_in", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "t")]
+    main(["run", grid, *args])
+    first = pd.read_csv(tmp_path / "t" / "step_thrusters_noise100ug_8s.csv")
+    main(["score", grid, *args])
+    again = pd.read_csv(tmp_path / "t" / "step_thrusters_noise100ug_8s.csv")
+    pd.testing.assert_frame_equal(first, again)

@@ -1,0 +1,34 @@
+"""The tracking page's verdict against the naive baseline, on a hand-made summary."""
+
+import math
+
+import pandas as pd
+
+from experiments.report.tracking_report import verdict
+
+
+def row(tracker, err, late, reconv, never_re=0.0):
+    return {"tracker": tracker, "schedule": "step", "excitation": "thrusters", "noise_ug": 1000.0,
+            "err_rel_median": err, "err_rel_median_late": late, "t_reconverge_s": reconv,
+            "never_reconverged_rate": never_re}
+
+
+def test_best_tracker_beats_the_baseline_at_half_its_error_and_20_s():
+    lines = verdict(pd.DataFrame([row("pem", 0.002, 0.002, 8.0), row("next_era", 0.005, 0.005, 6.0)]))
+    assert "**pem**" in lines[0] and "0.4× the error of the naive next_era (beats it:" in lines[0]
+
+
+def test_slow_reconvergence_does_not_beat_it():
+    lines = verdict(pd.DataFrame([row("pem", 0.002, 0.002, 25.0), row("next_era", 0.005, 0.005, 6.0)]))
+    assert "does not beat it" in lines[0]
+
+
+def test_baseline_that_never_converged_is_compared_by_late_error():
+    lines = verdict(pd.DataFrame([row("fft", 0.004, 0.003, 5.0), row("next_era", math.nan, 0.03, math.nan, 1.0)]))
+    assert "0.1× the late (it never held every mode) error" in lines[0] and "beats it" in lines[0]
+
+
+def test_no_tracker_converged_names_the_smallest_late_error():
+    lines = verdict(pd.DataFrame([row("fft", math.nan, 0.04, math.nan, 1.0),
+                                  row("pll", math.nan, 0.09, math.nan, 1.0)]))
+    assert "no tracker held every mode within 1 %; the smallest late error: fft, 4 %" in lines[0]

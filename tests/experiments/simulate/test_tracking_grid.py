@@ -1,0 +1,30 @@
+"""The shipped tracking grids validate, and their cells are the product of their axes."""
+
+import pytest
+import yaml
+
+from experiments.simulate.tracking_grid import CONFIGS, load_grid
+
+
+@pytest.mark.parametrize("name, cells", [("tracking", 4 * 2 * 2), ("tracking_smoke", 2), ("tracking_full", 4 * 3 * 2)])
+def test_shipped_grids_validate(name, cells):
+    grid = load_grid(name, check_cells=(name != "tracking_full"))
+    assert len(grid["cells"]) == cells
+    assert all(c["config"].replicates == grid["replicates"] for c in grid["cells"].values())
+
+
+def test_the_default_grid_has_every_schedule_kind_and_the_paper_plant():
+    grid = load_grid("tracking", check_cells=False)
+    kinds = {k for s in grid["schedules"].values() for k in s}
+    assert {"drift", "propellant_kg", "step", "slosh"} <= kinds
+    cell = next(iter(grid["cells"].values()))["config"]
+    assert cell.plant.target_freq_rad_s == [3.23, 20.24, 22.0, 56.67] and cell.plant.beam.youngs_modulus_pa == 70e9
+
+
+def test_a_typo_in_a_schedule_key_names_the_key(tmp_path):
+    grid = yaml.safe_load((CONFIGS / "grid" / "tracking_smoke.yaml").read_text())
+    grid["schedules"]["step"]["step_tme_s"] = 3.0
+    path = tmp_path / "g.yaml"
+    path.write_text(yaml.safe_dump(grid))
+    with pytest.raises(ValueError, match="schedules.step: Additional properties are not allowed .'step_tme_s'"):
+        load_grid(str(path))
