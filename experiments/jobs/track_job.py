@@ -39,6 +39,9 @@ from experiments.simulate.tracking_data import make_cell
 from experiments.simulate.tracking_grid import load_grid
 from experiments.tracking.provenance import digest, git_state
 
+__all__ = ["WARM_UP_SAMPLES", "check_tracker", "grid_trackers", "main", "rescore_tracker", "run_cell", "run_data",
+           "run_tracker", "score_cell", "track_record", "tracker_names", "warm_up"]
+
 
 def tracker_names() -> list[str]:
     import methods

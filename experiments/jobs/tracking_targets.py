@@ -12,6 +12,9 @@ import sys
 from experiments.jobs.track_job import check_tracker, grid_trackers
 from experiments.simulate.tracking_grid import CONFIGS, load_grid
 
+__all__ = ["CPU_S_PER_SAMPLE", "TRACKING_GRIDS", "check_requested_tracking_grids", "requested", "tracker_dirs",
+           "tracking_grid", "tracking_runtime"]
+
 TRACKING_GRIDS = sorted(f[: -len(".yaml")] for f in os.listdir(CONFIGS / "grid")
                         if f.startswith("tracking") and f.endswith(".yaml"))
 # A cluster's request per tracker job: 4x a pessimistic 2 ms of CPU per sample, at least 5 minutes (a local

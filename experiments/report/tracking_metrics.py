@@ -32,6 +32,9 @@ import math
 import numpy as np
 import pandas as pd
 
+__all__ = ["DIVERGED_REL", "HOLD_S", "ONBOARD_BUDGET_S", "ONBOARD_SLOWDOWN", "SUMMARY_MEDIANS", "TAIL", "TOL",
+           "converged_from", "lag_s", "sample_index", "score_track", "summarize_cell"]
+
 TOL = 0.01
 HOLD_S = 2.0
 ONBOARD_SLOWDOWN = 100.0

@@ -17,6 +17,8 @@ import pandas as pd  # noqa: E402
 from experiments.report.plots import _save, _style  # noqa: E402
 from experiments.report.tracking_metrics import ONBOARD_BUDGET_S, ONBOARD_SLOWDOWN  # noqa: E402
 
+__all__ = ["accuracy_vs_cpu", "error_vs_time", "estimates_vs_truth", "reconvergence_vs_noise"]
+
 
 def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarray, title: str,
                        stem: Path) -> list[Path]:

@@ -28,6 +28,9 @@ from experiments.report.aggregate import write_captions
 from experiments.report.tracking_metrics import summarize_cell
 from experiments.simulate.tracking_grid import load_grid
 
+__all__ = ["BASELINE", "RECONVERGE_S", "TABLE_COLUMNS", "main", "page", "per_tracker", "read_records",
+           "summary_table", "verdict", "write_figures"]
+
 BASELINE = "next_era"
 RECONVERGE_S = 20.0
 TABLE_COLUMNS = ["tracker", "schedule", "excitation", "noise_ug", "duration_s", "replicates", "err_rel_median",

@@ -8,6 +8,9 @@ from experiments.jobs.tracking_targets import (TRACKING_GRIDS, check_requested_t
                                                tracking_runtime)
 
 check_requested_tracking_grids(sys.argv[1:])
+# The tracking grids' names as a wildcard constraint; with no tracking grid at all it matches nothing (an
+# empty constraint would match every grid, and tracking_data would then compete with datasets).
+TRACKING_GRID_RE = "|".join(TRACKING_GRIDS) or "(?!)"
 
 
 localrules:
@@ -26,7 +29,7 @@ rule tracking_data:
     output:
         directory("results/{tgrid}/data"),
     wildcard_constraints:
-        tgrid="|".join(TRACKING_GRIDS),
+        tgrid=TRACKING_GRID_RE,
     threads: 1
     resources:
         mem_mb=MEM_MB_JOB,
@@ -47,7 +50,7 @@ rule tracking_run:
     output:
         directory("results/{tgrid}/track/{tracker}"),
     wildcard_constraints:
-        tgrid="|".join(TRACKING_GRIDS),
+        tgrid=TRACKING_GRID_RE,
     threads: 1
     resources:
         mem_mb=MEM_MB_JOB,
@@ -84,7 +87,7 @@ rule tracking_report:
             labels=lambda wc: {"result": f"{catalog.title_of(wc.name)} ({wc.name}.html)"},
         ),
     wildcard_constraints:
-        tgrid="|".join(TRACKING_GRIDS),
+        tgrid=TRACKING_GRID_RE,
     conda:
         CONDA_ENV
     log:
@@ -104,7 +107,7 @@ rule tracking_mlflow:
         record="results/{tgrid}/mlflow_runs.json",
         page="results/{tgrid}/README.md",
     wildcard_constraints:
-        tgrid="|".join(TRACKING_GRIDS),
+        tgrid=TRACKING_GRID_RE,
     conda:
         CONDA_ENV
     log:

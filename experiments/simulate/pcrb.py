@@ -38,6 +38,9 @@ import numpy as np
 
 from experiments.simulate.timevarying import ModalModel, oscillator_transition
 
+__all__ = ["COMPLEX_STEP", "RW_FLOOR_REL", "cell_pcrb", "cell_window_bound", "jacobians", "pcrb_covariance",
+           "random_walk_q", "tichavsky_recursion", "transition_derivatives", "window_bound", "window_information"]
+
 COMPLEX_STEP = 1e-30
 RW_FLOOR_REL = 1e-4          # the random walk of a constant schedule: 1e-4·ω over the record
 

@@ -33,6 +33,9 @@ import numpy as np
 
 from experiments.simulate.plant import Plant, PlantConfig, build_plant
 
+__all__ = ["MASS_GRID_POINTS", "ScheduleConfig", "body_mass_kg", "check_frequencies", "events", "frequencies",
+           "mass_frequencies", "per_mode", "step_time"]
+
 MASS_GRID_POINTS = 33      # eigenfrequencies of the plant at this many body masses, interpolated between
 
 

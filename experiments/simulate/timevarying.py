@@ -29,6 +29,8 @@ import scipy.linalg
 
 from experiments.simulate.plant import N_RIGID, Plant
 
+__all__ = ["INPUTS", "ModalModel", "modal_model", "oscillator_transition", "simulate"]
+
 INPUTS = ("torque_z", "force_tip", "force_body_y")
 
 

@@ -20,6 +20,8 @@ from experiments.simulate.plant import PlantConfig
 from experiments.simulate.schedules import ScheduleConfig
 from experiments.simulate.tracking_data import ExcitationConfig, TrackingCellConfig, cell_name, check_cell_config
 
+__all__ = ["CONFIGS", "SCHEMA", "grid_path", "load_grid", "paper_plant"]
+
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 SCHEMA = CONFIGS / "grid" / "schema_tracking.yaml"
 

@@ -27,6 +27,8 @@ from experiments.tracking.provenance import canonical_json, digest, git_state
 from experiments.tracking.store import dataset_entity, log_run, source_tags
 from experiments.tracking.track import aggregate_files
 
+__all__ = ["SOURCE", "log_cell", "main", "run_key"]
+
 SOURCE = "experiments/jobs/track_job.py"
 
 
