@@ -25,8 +25,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.integrate
-import scipy.signal
 
 __all__ = ["UNMODELLED_RAD_S", "UNMODELLED_DAMPING", "AXES", "ar1_noise", "duffing_modes", "backbone_rad_s",
            "RANGES", "check_axes", "present", "mismatched_signal", "noise", "sensor"]
@@ -38,6 +36,8 @@ AXES = ("ar1", "unmodelled_mode", "duffing", "saturation", "quantisation")
 
 def ar1_noise(rng: np.random.Generator, n: int, sigma: float, phi: float) -> np.ndarray:
     """Stationary AR(1) noise of std σ: nₖ = φnₖ₋₁ + √(1 − φ²)σwₖ, n₀ ~ N(0, σ²) (scipy.signal.lfilter)."""
+    import scipy.signal  # only a mismatch cell needs it; at module level every job paid its ~0.7 s import
+
     if not -1 < phi < 1:
         raise ValueError(f"ar1 = {phi} must be inside (-1, 1)")
     w = sigma * rng.standard_normal(n)
@@ -51,6 +51,8 @@ def duffing_modes(t: np.ndarray, freq_rad_s, damping, amplitude, phase, delta: f
     """Σᵢ aᵢxᵢ(t), each xᵢ a Duffing oscillator ẍ + 2ζωẋ + ω²x + εx³ = 0, ε = 8ω²δ/3 (so the backbone is
     ω(A) = ω√(1 + 3εA²/(4ω²)) = ω√(1 + 2δA²)), started where the linear mode aᵢe^{−ζωt}cos(ω_d t + φᵢ)
     starts (x(0) = cos φ, ẋ(0) = −ω_d sin φ − ζω cos φ). scipy.integrate.solve_ivp (DOP853, rtol 1e-10)."""
+    import scipy.integrate  # only a Duffing cell needs it (start-up time of every other job)
+
     out = np.zeros(t.size)
     for w, z, a, ph in zip(freq_rad_s, damping, amplitude, phase, strict=True):
         eps = 8.0 * w * w * delta / 3.0
