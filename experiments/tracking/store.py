@@ -74,7 +74,21 @@ def check_store(uri: str | None = None) -> None:
         _check_sqlite(path)
 
 
+# (path, size, mtime) of store files this process found sound: a job checks before any work and again when
+# it opens the client, and PRAGMA quick_check reads the whole file; an unchanged file is not read twice.
+_SOUND: set[tuple[str, int, int]] = set()
+
+
 def _check_sqlite(path: Path) -> None:
+    stat = path.stat()
+    state = (str(path.resolve()), stat.st_size, stat.st_mtime_ns)
+    if state in _SOUND:
+        return
+    _check_sqlite_file(path)
+    _SOUND.add(state)
+
+
+def _check_sqlite_file(path: Path) -> None:
     way_out = (f"move it aside (mv {path} {path}.broken) to start a fresh store, point MLFLOW_TRACKING_URI to "
                f"another store, or run with tracking.enabled=false")
     size = path.stat().st_size
