@@ -24,7 +24,9 @@ METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab
                 # the peers (methods/peers/README.md)
                 "era": ("tab:orange", "P"), "n4sid": ("tab:purple", "X"), "ssi_cov": ("tab:brown", "<"),
                 "ssi_data": ("tab:pink", ">"), "lsce": ("tab:olive", "h"), "hdmd": ("gold", "*"),
-                "bopdmd": ("navy", "p")}
+                "bopdmd": ("navy", "p"),
+                # the trackers that are not also identifiers (methods/tracking/README.md)
+                "rls_ar": ("maroon", "H"), "next_era": ("teal", "d")}
 # Any other method (a plugin) gets a colour from this list by a hash of its name, and the marker x.
 EXTRA_COLOURS = ["darkgreen", "teal", "maroon", "indigo", "darkorange", "slategray", "crimson", "olive"]
 MAX_FAILURE_RATE = 0.5   # a (method, cell) that failed more often than this is not drawn as a point
