@@ -1,7 +1,7 @@
 """A softening beam in coloured noise: is the drift reported, and do two disjoint windows agree within 3σ?
 
     python -m experiments.benchmarks.drift [--delta -0.002] [--ar1 0.5] [--samples 1024] [--records 20]
-                                           [--out results/benchmarks/mismatch]
+                                           [--out results/bench/mismatch]
 
 The records are the truth plant with every mode a softening Duffing oscillator (``duffing`` = δ), in AR(1)
 noise (``ar1``) at 1000 µg, made by ``experiments.simulate.datasets.make_cell``. pem fits each record's two
@@ -80,7 +80,7 @@ def main(argv=None) -> None:
     parser.add_argument("--ar1", type=float, default=0.5)
     parser.add_argument("--samples", type=int, default=1024)
     parser.add_argument("--records", type=int, default=20)
-    parser.add_argument("--out", default="results/benchmarks/mismatch")
+    parser.add_argument("--out", default="results/bench/mismatch")
     args = parser.parse_args(argv)
     try:
         mismatch.check_axes({"duffing": args.delta, "ar1": args.ar1})

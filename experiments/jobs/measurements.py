@@ -96,7 +96,10 @@ def report(name: str, prior, est, data: dict, run_dir: Path, diagram=None) -> li
     damping_from = "the method"
     if np.isnan(damping).all() and diagram is not None:
         damping, damping_from = diagram.modes_damping.copy(), "the stabilisation diagram (no 1σ)"
-    fit = fit_modes(seg.y, seg.dt, est.frequencies, damping)
+    # a mode that drifts with amplitude reports its small-amplitude frequency (pem's drift_frequency); the
+    # model drawn against the record is the one fitted at the record's own (whole-record) frequencies
+    drift = est.extra.get("drift") or {}
+    fit = fit_modes(seg.y, seg.dt, np.asarray(drift.get("whole_record", est.frequencies), float), damping)
     how = (diagram.how + f"; refined by {name}" if diagram is not None else f"{name} from the prior given")
     modes = []
     for i in range(m):

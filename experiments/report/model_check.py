@@ -26,6 +26,12 @@ def check_lines(extra: dict) -> list[str]:
     drift = extra.get("drift")
     if drift is not None:
         lines += [f"drift: {note}" for note in drift["notes"]]
+        reported = extra.get("drift_reported") or []
+        small = [i + 1 for i, kind in enumerate(reported) if kind == "small_amplitude"]
+        if small:
+            lines.append("drift: the frequency given for mode" + ("s " if len(small) > 1 else " ")
+                         + ", ".join(map(str, small)) + " is its small-amplitude one (a → 0, the linear "
+                         "structure's); the record's own average and the amplitude it refers to are above")
     return lines
 
 
@@ -33,4 +39,5 @@ def check_json(extra: dict) -> dict:
     """The ``estimate.json`` entries: ``residual_check`` and ``drift`` (present when the method gives them)."""
     if not isinstance(extra, dict):
         return {}
-    return {key: extra[key] for key in ("residual_check", "drift", "white_noise_std") if extra.get(key) is not None}
+    return {key: extra[key] for key in ("residual_check", "drift", "drift_reported",
+                                                       "white_noise_std") if extra.get(key) is not None}

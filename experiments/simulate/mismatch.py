@@ -75,6 +75,17 @@ def backbone_rad_s(freq_rad_s: float, amplitude, delta: float) -> np.ndarray:
     return freq_rad_s * np.sqrt(1.0 + 2.0 * delta * np.asarray(amplitude, float) ** 2)
 
 
+def record_frequency_rad_s(freq_rad_s, damping, delta: float, n_samples: int, dt: float) -> np.ndarray:
+    """The frequency a Duffing record holds, per mode: the instantaneous backbone frequency ω(A(t)) averaged
+    over the record with the weight A(t)² (a constant-frequency fit weighs each sample by its amplitude
+    squared), A(t) = e^{−ζωt} the normalised envelope. The truth for an answer that refers to the record's
+    own amplitude (a mode whose frequency the record shows as constant); the small-amplitude one is ω."""
+    w, z = np.asarray(freq_rad_s, float), np.asarray(damping, float)
+    t = np.arange(int(n_samples)) * float(dt)
+    a = np.exp(-np.outer(z * w, t))
+    return np.sum(a ** 2 * backbone_rad_s(w[:, None], a, delta), axis=1) / np.sum(a ** 2, axis=1)
+
+
 RANGES = {"ar1": (-1.0, 1.0, "inside (-1, 1)"), "unmodelled_mode": (0.0, math.inf, "at least 0"),
           "duffing": (-0.25, 1.0, "inside (-0.25, 1)"), "saturation": (0.0, 1.0, "in (0, 1]"),
           "quantisation": (0.0, math.inf, "positive")}

@@ -32,6 +32,7 @@ import scipy.special
 from methods.pem.predictor import modal_basis
 
 MIN_SEGMENT_SAMPLES = 64
+REPORTS = ("small_amplitude", "record")   # what a drifting mode reports (Options.drift_frequency)
 DRIFT_ALPHA = 0.05       # level of the per-mode drift test (a false alarm widens one std by τ)
 
 
@@ -51,7 +52,8 @@ class DriftReport:
     slope_per_amp2: np.ndarray          # (m,) β_a, rad/s per (m/s²)²
     slope_per_amp2_std: np.ndarray
     small_amplitude_rad_s: np.ndarray   # (m,) ω₀ of the amplitude line: the frequency as a → 0
-    small_amplitude_std: np.ndarray
+    small_amplitude_std: np.ndarray     # the line's std, times √(χ²_line/(K − 2)) when the line is
+                                        # rejected at 5 % (Birge's ratio; never narrowed)
     tau_rad_s: np.ndarray               # (m,) between-segment spread τ (0 when the segments agree)
     whole_record: np.ndarray            # (m,) the whole record's frequencies
     reference_amplitude_m_s2: np.ndarray  # (m,) where the whole-record frequency sits on the amplitude line
@@ -138,9 +140,17 @@ def _envelope(part: np.ndarray, dt: float, w: np.ndarray, z: np.ndarray) -> np.n
 
 
 def _line(x: np.ndarray, f: np.ndarray, s: np.ndarray) -> tuple[float, float, float, float]:
-    """(slope, its std, intercept, its std) of the weighted line f = intercept + slope·x (weights 1/s)."""
+    """(slope, its std, intercept, its std) of the weighted line f = intercept + slope·x (weights 1/s),
+    the std from the sₖ alone, times Birge's ratio √(χ²/(K − 2)) when the K points scatter about the line
+    more than their sₖ allow (χ² beyond its 95 % point on K − 2 dof: a backbone that is not linear in x, a
+    drift in time rather than amplitude). Below that point the sₖ are kept: inflating by every χ² > K − 2
+    on one dof widened the small-amplitude std of Duffing records to 75 % within 1σ."""
     coef, cov = np.polyfit(x, f, 1, w=1.0 / s, cov="unscaled")
-    return float(coef[0]), float(np.sqrt(cov[0, 0])), float(coef[1]), float(np.sqrt(cov[1, 1]))
+    dof = x.size - 2
+    chi2 = float(np.sum(((f - np.polyval(coef, x)) / s) ** 2))
+    birge = np.sqrt(chi2 / dof) if dof > 0 and chi2 > scipy.special.chdtri(dof, 0.05) else 1.0
+    return (float(coef[0]), float(birge * np.sqrt(cov[0, 0])), float(coef[1]),
+            float(birge * np.sqrt(cov[1, 1])))
 
 
 def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
@@ -192,10 +202,17 @@ def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
 
 def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
     """The estimate with the drift test when its residual is not white (``extra["residual_check"]``):
-    :func:`segment_drift` with ``opts.drift_segments`` segments, its report in ``extra["drift"]``, for
-    for a drifting mode σ = √(σ² + τ²) and which amplitude the frequency refers
-    to (in the message). A white residual, ``drift_segments = 0`` or a record too
-    short for the segments: the estimate unchanged."""
+    :func:`segment_drift` with ``opts.drift_segments`` segments, its report in ``extra["drift"]``. A mode
+    whose segments disagree reports, by ``opts.drift_frequency``:
+
+    - ``"small_amplitude"`` (when its amplitude line is determined): ω₀ ± its std, the frequency of the
+      linear structure (a → 0), which is what a model or a prior describes; the whole record's average stays
+      in ``extra["drift"]["whole_record"]``, with the amplitude it refers to;
+    - ``"record"``, or a line that is not determined: the whole record's average, σ = √(σ² + τ²).
+
+    ``extra["drift_reported"]`` says which, per mode ("" for a mode whose segments agree: the frequency at
+    the amplitude the record holds), and so does the message. A white residual, ``drift_segments = 0`` or a
+    record too short for the segments: the estimate unchanged."""
     import dataclasses
 
     check = est.extra.get("residual_check")
@@ -205,14 +222,25 @@ def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
     options = {**dataclasses.asdict(opts), "drift_segments": 0}
     report = segment_drift(y, dt, prior, k, whole=est, **options)
     extra = {**est.extra, "drift": dataclasses.asdict(report)}
-    # τ for the modes whose segments disagree at level DRIFT_ALPHA (a stationary record keeps its std in
-    # 19 modes of 20; τ for every mode made the std of coloured-noise records 15 points too conservative)
-    tau = np.where(report.drifting & np.isfinite(report.tau_rad_s), report.tau_rad_s, 0.0)
-    moved = (tau > 0) & np.isfinite(est.std)
-    if not moved.any():
+    # Only the modes whose segments disagree at level DRIFT_ALPHA change (a stationary record keeps its
+    # answer in 19 modes of 20; τ for every mode made the std of coloured-noise records 15 points too wide).
+    drifting = report.drifting & est.converged_per_mode & np.isfinite(est.std)
+    if not drifting.any():
         return dataclasses.replace(est, extra=extra)
-    std = np.where(moved, np.hypot(est.std, tau), est.std)
-    notes = [report.notes[i] for i in np.flatnonzero(report.drifting)]
-    message = "; ".join([est.message, *notes, "the std includes the spread between segments (modes "
-                         + ", ".join(str(i + 1) for i in np.flatnonzero(moved)) + ")"])
-    return dataclasses.replace(est, std=std, extra=extra, message=message)
+    line = (np.isfinite(report.small_amplitude_rad_s) & np.isfinite(report.small_amplitude_std)
+            & (report.small_amplitude_std > 0))
+    small = drifting & line & (opts.drift_frequency == "small_amplitude")
+    tau = np.where(np.isfinite(report.tau_rad_s), report.tau_rad_s, 0.0)
+    widened = drifting & ~small & (tau > 0)
+    freq = np.where(small, report.small_amplitude_rad_s, est.frequencies)
+    std = np.where(small, report.small_amplitude_std, np.where(widened, np.hypot(est.std, tau), est.std))
+    notes = [report.notes[i] for i in np.flatnonzero(drifting)]
+    if small.any():
+        notes.append("reported at small amplitude (a → 0: the amplitude line's ω₀ ± its std) for modes "
+                     + ", ".join(str(i + 1) for i in np.flatnonzero(small)))
+    if widened.any():
+        notes.append("the std includes the spread between segments (modes "
+                     + ", ".join(str(i + 1) for i in np.flatnonzero(widened)) + ")")
+    extra["drift_reported"] = np.where(small, "small_amplitude", np.where(drifting, "record", "")).tolist()
+    return dataclasses.replace(est, frequencies=freq, std=std, extra=extra,
+                               message="; ".join([est.message, *notes]))

@@ -80,6 +80,11 @@ class Options:
     prior_std_rad_s: Any = None
     damping_prior_std: float | None = None   # with prior_std_rad_s: ζ ~ N(damping_ratio, this²); None: ζ free
     drift_segments: int = 3              # segments of the drift test when the residual is not white; 0: off
+    # what a mode whose frequency drifts reports: "record" (the whole record's average, its std widened by the
+    # spread between segments) or "small_amplitude" (ω₀ of the line ω = ω₀ + βa², the linear structure's
+    # frequency, ± the line's std: 72 % / 95 % on Duffing records, but it extrapolates a clipped record's
+    # apparent drift too); the other is kept in extra["drift"] (methods/pem/_drift.py, docs/uncertainty.md)
+    drift_frequency: str = "record"
     absorb_lines: bool = True            # refit with a residual line outside every band as an extra mode
 
 
@@ -352,6 +357,9 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError("start_spread, tol_loss and tol_step must be non-negative")
     if opts.drift_segments != 0 and opts.drift_segments < 2:
         raise ValueError(f"drift_segments = {opts.drift_segments} must be 0 (off) or at least 2")
+    if opts.drift_frequency not in _drift.REPORTS:
+        raise ValueError(f"drift_frequency = {opts.drift_frequency!r} must be one of "
+                         + ", ".join(repr(r) for r in _drift.REPORTS))
     if opts.pencil_extra_order < 0:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
     if opts.prior_std_rad_s is not None:

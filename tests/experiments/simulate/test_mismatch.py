@@ -34,6 +34,18 @@ def test_hardening_duffing_oscillates_at_its_backbone_frequency():
     assert 2 * np.pi / period > w * (1 + 0.8 * delta)           # and it did harden
 
 
+def test_record_frequency_is_the_backbone_averaged_over_the_envelope():
+    w, z, n, dt = np.array([3.0, 20.0]), np.array([0.0, 0.01]), 500, 0.02
+    # linear structure: the eigenfrequency; undamped: the backbone at the starting amplitude
+    np.testing.assert_allclose(mismatch.record_frequency_rad_s(w, z, 0.0, n, dt), w, rtol=1e-15)
+    assert mismatch.record_frequency_rad_s(w, z, 0.01, n, dt)[0] == pytest.approx(
+        mismatch.backbone_rad_s(3.0, 1.0, 0.01), rel=1e-12)
+    # small δ: ω(1 + δ Σq²ᵏ/Σqᵏ), q = e^{−2ζωΔt} (geometric sums; the backbone to first order in δ)
+    delta, q = 1e-4, np.exp(-2 * 0.01 * 20.0 * dt)
+    first_order = 20.0 * (1 + delta * (1 - q ** (2 * n)) / (1 - q ** 2) * (1 - q) / (1 - q ** n))
+    assert mismatch.record_frequency_rad_s(w, z, delta, n, dt)[1] == pytest.approx(first_order, rel=1e-8)
+
+
 def _cell(**axes):
     return make_cell(DatasetConfig(noise_ug=1000, n_samples=256, replicates=3, seed=4,
                                    scenario=ScenarioConfig(**axes)))

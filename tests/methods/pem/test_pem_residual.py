@@ -151,6 +151,29 @@ def test_identify_says_which_amplitude_a_drifting_frequency_refers_to():
     assert est.std[0] > est.extra["white_noise_std"][0]
 
 
+def test_a_drifting_mode_can_report_its_small_amplitude_frequency():
+    w, y = 20.0, _duffing(-0.01)
+    record = pem.identify(y, DT, [18.0])
+    small = pem.identify(y, DT, [18.0], drift_frequency="small_amplitude")
+    drift = small.extra["drift"]
+    assert small.extra["drift_reported"] == ["small_amplitude"]
+    assert record.extra["drift_reported"] == ["record"]
+    assert small.frequencies[0] == drift["small_amplitude_rad_s"][0]
+    assert small.std[0] == drift["small_amplitude_std"][0]
+    assert record.frequencies[0] == drift["whole_record"][0]
+    # the backbone ω√(1 + 2δa²) lies below ω at every amplitude, and so does the record's average; the
+    # small-amplitude frequency covers ω, several times closer
+    assert w - record.frequencies[0] > record.std[0]
+    assert abs(small.frequencies[0] - w) <= max(3 * small.std[0], 1e-3 * w)
+    assert abs(small.frequencies[0] - w) < 0.2 * (w - record.frequencies[0])
+    assert "small amplitude" in small.message
+
+
+def test_drift_frequency_is_checked():
+    with pytest.raises(ValueError, match="drift_frequency = 'linear' must be one of"):
+        pem.identify(np.ones(100), DT, [18.0], drift_frequency="linear")
+
+
 def test_segment_drift_refuses_too_many_segments():
     with pytest.raises(ValueError, match="n_segments"):
         pem.segment_drift(np.zeros(100), DT, [18.0], n_segments=4)
