@@ -49,9 +49,6 @@ MAX_LM_ITERATIONS = 60
 TOL_STEP = 1e-2              # stop when every step is below this many posterior std
 TOL_COST = 1e-6              # … or Φ (a −2 log posterior) improves by less than this
 PENCIL_MIN_SAMPLES = 48      # below, the pencil's poles are no better than the prior
-PAIR_GAP = 3.0               # adjacent prior entries closer than this many (summed) prior std are a close pair
-PAIR_SHIFT = 1.5             # … and get two extra starts: moved apart by this many std each,
-PAIR_SQUEEZE = 0.3           # … and moved together to this share of their gap
 PROPOSAL_DOF = 5             # the importance sampler's proposal: a multivariate t with these degrees of freedom,
 PROPOSAL_SCALE = 1.5         # … the Laplace covariance scaled by this squared
 
@@ -78,19 +75,6 @@ def map_fit(y, dt, prior, prior_std, opts, bounds, free) -> dict:
     dof = n - (2 * m + with_offset)
     if dof < 1:
         return {"failed": f"{n} samples leave no degree of freedom for the noise after {n - dof} amplitudes"}
-    # the prior's variants for a close pair (its entries less than PAIR_GAP summed prior std apart): the
-    # pair pulled apart by PAIR_SHIFT std each, and pushed together to PAIR_SQUEEZE of its gap about its
-    # midpoint — a record of two modes farther apart, or closer, than the prior says has its own maximum
-    for i in range(m - 1):
-        gap = prior[i + 1] - prior[i]
-        if gap < PAIR_GAP * (prior_std[i] + prior_std[i + 1]):
-            mid = 0.5 * (prior[i] + prior[i + 1])
-            for name, pair in (("apart", (prior[i] - PAIR_SHIFT * prior_std[i],
-                                          prior[i + 1] + PAIR_SHIFT * prior_std[i + 1])),
-                               ("together", (mid - 0.5 * PAIR_SQUEEZE * gap, mid + 0.5 * PAIR_SQUEEZE * gap))):
-                w0 = prior.copy()
-                w0[i], w0[i + 1] = pair
-                starts.append((f"pair {i + 1}-{i + 2} {name}", w0, z_prior))
     zeta_prior = None if opts.damping_prior_std is None else (opts.damping_ratio, opts.damping_prior_std)
     fits = []
     for label, w0, z0 in starts:
