@@ -194,6 +194,7 @@ def yardstick(args) -> str:
     mu, s = TRUE_RAD_S, args.rel_std * TRUE_RAD_S
     z_std = method_options("pem_map")["damping_prior_std"]
     names = ("SMC", "SMC seed 2", "SMC 4×", "IS")
+    t0 = time.perf_counter()
     lines = ["# Is the attainable limit converged? (experiments.benchmarks.prior --part yardstick)", "",
              f"`{' '.join(['python -m experiments.benchmarks.prior', *sys.argv[1:]])}`", "",
              f"Truths drawn from N(μ, s²) (ordered), μ = Table 3, s = {args.rel_std:g} μ, ζ ~ N(0.005, "
@@ -232,6 +233,8 @@ def yardstick(args) -> str:
                              + " | " + " | ".join(f"{diff[k][i]:.2f}" for k in ("SMC", "SMC seed 2", "IS"))
                              + f" | {np.median(ess):.0f} |")
             print(f"yardstick noise {noise:g} µg, N = {n}", file=sys.stderr)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    lines.insert(3, f"{time.perf_counter() - t0:.0f} s, load average {load:.1f} on {os.cpu_count()} cores.")
     return "\n".join(lines) + "\n"
 
 
