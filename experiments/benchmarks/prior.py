@@ -3,6 +3,7 @@
     python -m experiments.benchmarks.prior                          # writes results/bench/prior.md
     python -m experiments.benchmarks.prior --records 40 --n-samples 20 32 --noise-ug 1000
     python -m experiments.benchmarks.prior --part filters --n-samples 256 1500 --records 40
+    python -m experiments.benchmarks.prior --part yardstick --records 30 --n-samples 32 64 --noise-ug 1000
 
 Setting: the paper's four modes (Table 3, ζ = 0.005, tip amplitudes 1.04, 4.10, 4.84, 6.42 m/s² with signs
 +, −, −, +: PHYSICS.md §4), Δt = 0.02 s. The prior is ω ~ N(μ, diag(s²)) with μ = Table 3 and s =
@@ -43,7 +44,7 @@ from experiments.simulate import bayes  # noqa: E402
 from experiments.simulate.crlb import crlb_std  # noqa: E402
 
 __all__ = ["TRUE_RAD_S", "AMPLITUDE_M_S2", "PHASE_RAD", "ZETA", "DT_S", "UG", "SCORING_SEED", "STREAM", "cell",
-           "report", "filters", "main"]
+           "report", "filters", "yardstick", "main"]
 
 TRUE_RAD_S = np.array([3.23, 20.24, 22.00, 56.67])        # Table 3
 AMPLITUDE_M_S2 = np.array([1.04, 4.10, 4.84, 6.42])       # PHYSICS.md §3
@@ -184,6 +185,59 @@ def filters(args) -> str:
     return "\n".join(lines) + "\n"
 
 
+def yardstick(args) -> str:
+    """Is the attainable limit converged? Per record, the posterior mean by SMC with ``--draws`` particles
+    (two seeds), with 4 × as many, and by plain importance sampling (experiments.simulate.bayes.
+    importance_posterior_mean, 20 000 draws, its kernel proposal on the particles of the second SMC run plus
+    the prior): the RMSE each gives, and the RMS difference of each from the 4× run, as a share of that
+    run's RMSE (the Monte-Carlo error of the yardstick itself)."""
+    mu, s = TRUE_RAD_S, args.rel_std * TRUE_RAD_S
+    z_std = method_options("pem_map")["damping_prior_std"]
+    names = ("SMC", "SMC seed 2", "SMC 4×", "IS")
+    t0 = time.perf_counter()
+    lines = ["# Is the attainable limit converged? (experiments.benchmarks.prior --part yardstick)", "",
+             f"`{' '.join(['python -m experiments.benchmarks.prior', *sys.argv[1:]])}`", "",
+             f"Truths drawn from N(μ, s²) (ordered), μ = Table 3, s = {args.rel_std:g} μ, ζ ~ N(0.005, "
+             f"{z_std:g}²) as pem:map's prior; {args.records} records per cell; SMC with {args.draws} particles "
+             f"(two seeds) and {4 * args.draws}; IS: 20 000 importance draws. RMSE of each posterior-mean "
+             "estimate in rad/s; 'diff.': RMS difference from the SMC 4× estimate over the records, as a share "
+             "of its RMSE.", "",
+             "| noise µg | N | mode | SMC | SMC seed 2 | SMC 4× | IS | diff. SMC | diff. seed 2 | diff. IS | "
+             "IS ESS (median) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for noise in args.noise_ug:
+        for n in args.n_samples:
+            rng = np.random.default_rng([args.seed, *STREAM, 0x5953, int(round(noise * 1000)), n])
+            t = np.arange(n) * DT_S
+            sigma = noise * UG
+            truths = bayes.draw_prior(rng, mu, s, args.records, ordered=True)
+            est = {k: np.zeros((args.records, 4)) for k in names}
+            ess = np.zeros(args.records)
+            for r, w in enumerate(truths):
+                y = bayes.signal(w, ZETA, AMPLITUDE_M_S2, PHASE_RAD, t) + sigma * rng.standard_normal(n)
+                kw = {"damping_std": z_std}
+                est["SMC"][r] = bayes.smc_posterior_mean(y, t, mu, s, ZETA, sigma, rng, particles=args.draws, **kw)[0]
+                two = bayes.smc_posterior_mean(y, t, mu, s, ZETA, sigma, rng, particles=args.draws,
+                                               particles_out=True, **kw)
+                est["SMC seed 2"][r] = two[0]
+                est["SMC 4×"][r] = bayes.smc_posterior_mean(y, t, mu, s, ZETA, sigma, rng, particles=4 * args.draws,
+                                                            **kw)[0]
+                est["IS"][r], ess[r] = bayes.importance_posterior_mean(y, t, mu, s, ZETA, sigma, rng, two[3],
+                                                                       centre_weights=two[4], **kw)
+                for k in names:
+                    est[k][r] -= w
+            rmse = {k: np.sqrt(np.mean(v**2, axis=0)) for k, v in est.items()}
+            ref = est["SMC 4×"]
+            diff = {k: np.sqrt(np.mean((est[k] - ref) ** 2, axis=0)) / rmse["SMC 4×"] for k in names}
+            for i in range(4):
+                lines.append(f"| {noise:g} | {n} | {i + 1} | " + " | ".join(f"{rmse[k][i]:.3g}" for k in names)
+                             + " | " + " | ".join(f"{diff[k][i]:.2f}" for k in ("SMC", "SMC seed 2", "IS"))
+                             + f" | {np.median(ess):.0f} |")
+            print(f"yardstick noise {noise:g} µg, N = {n}", file=sys.stderr)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    lines.insert(3, f"{time.perf_counter() - t0:.0f} s, load average {load:.1f} on {os.cpu_count()} cores.")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--records", type=int, default=100)
@@ -196,11 +250,13 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--out", type=Path, default=None,
                     help="default results/bench/prior.md (prior_filters.md with --part filters)")
-    ap.add_argument("--part", choices=("map", "filters"), default="map",
-                    help="map: pem's MAP fit and the yardstick; filters: akf/wkf coverage under their P0")
+    ap.add_argument("--part", choices=("map", "filters", "yardstick"), default="map",
+                    help="map: pem's MAP fit and the yardstick; filters: akf/wkf coverage under their P0; "
+                         "yardstick: is the SMC limit converged (seeds, particles, importance sampling)")
     args = ap.parse_args(argv)
     if args.out is None:
-        args.out = Path("results/bench/prior.md" if args.part == "map" else "results/bench/prior_filters.md")
+        args.out = Path({"map": "results/bench/prior.md", "filters": "results/bench/prior_filters.md",
+                         "yardstick": "results/bench/prior_yardstick.md"}[args.part])
     if args.seed == SCORING_SEED:
         print(f"error: --seed {args.seed} is the grids' scoring seed; use another", file=sys.stderr)
         return 2
@@ -208,8 +264,8 @@ def main(argv=None) -> int:
         print("error: --records ≥ 2, --draws ≥ 10, 0 < --rel-std < 0.5 and --n-samples ≥ 20 are required",
               file=sys.stderr)
         return 2
-    if args.part == "filters":
-        text = filters(args)
+    if args.part in ("filters", "yardstick"):
+        text = filters(args) if args.part == "filters" else yardstick(args)
         args.out.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_text(args.out, text)
         print(text)

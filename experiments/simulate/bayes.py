@@ -39,7 +39,8 @@ import scipy.special
 from experiments.simulate.crlb import signal_jacobian
 
 __all__ = ["fisher_information", "van_trees_std", "basis", "posterior_mean", "projected_log_likelihood",
-           "orthonormal_bases", "MOVES", "ESS_TARGET", "smc_posterior_mean", "mmse_rmse", "draw_prior", "signal"]
+           "orthonormal_bases", "MOVES", "ESS_TARGET", "smc_posterior_mean", "importance_posterior_mean",
+           "mmse_rmse", "draw_prior", "signal"]
 
 
 def fisher_information(freq_rad_s, damping, amplitude, phase, n_samples: int, dt_s: float, noise_std: float,
@@ -144,7 +145,8 @@ ESS_TARGET = 0.5       # each stage keeps this share of the particles' effective
 
 
 def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles: int = 1000,
-                       ordered: bool = True, offset: bool = True, max_stages: int = 200, damping_std=None):
+                       ordered: bool = True, offset: bool = True, max_stages: int = 200, damping_std=None,
+                       particles_out: bool = False):
     """E[ω | y] by sequential Monte Carlo with likelihood tempering (Del Moral, Doucet & Jasra 2006).
 
     Particles start as prior draws and move through π_β ∝ prior(ω)·p(y | ω)^β, β: 0 → 1. Each stage picks
@@ -158,7 +160,8 @@ def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles
     ``damping_std``: the damping ratios unknown too, with the Gaussian prior N(``damping``, damping_std²)
     (|ζ| < 0.9); the particles then carry (ω, ζ) and the mean returned is that of ω. None: ζ known.
 
-    Returns (E[ω | y] as the weighted particle mean at β = 1, the ESS of that last weighting, stages).
+    Returns (E[ω | y] as the weighted particle mean at β = 1, the ESS of that last weighting, stages);
+    ``particles_out``: also the last particles (K, d) and their weights (K,), a sample of the posterior.
     """
     mu, s = np.asarray(mu, float), np.asarray(s, float)
     m = mu.size
@@ -209,7 +212,8 @@ def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles
         lw = (nxt - beta) * ll
         w = np.exp(lw - scipy.special.logsumexp(lw))
         if nxt >= 1.0:
-            return w @ x[:, :m], float(1.0 / np.sum(w**2)), stage
+            out = (w @ x[:, :m], float(1.0 / np.sum(w**2)), stage)
+            return (*out, x, w) if particles_out else out
         beta = nxt
         # systematic resampling
         idx = np.searchsorted(np.cumsum(w), (rng.random() + np.arange(particles)) / particles)
@@ -227,6 +231,56 @@ def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles
             accept = np.log(rng.random(particles)) < (lp_new + beta * ll_new) - (lp + beta * ll)
             x[accept], ll[accept], lp[accept] = prop[accept], ll_new[accept], lp_new[accept]
     raise AssertionError("unreachable: the last stage sets β = 1")
+
+
+def importance_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, centres, *, draws: int = 20000,
+                              centre_weights=None, defensive: float = 0.1, offset: bool = True,
+                              ordered: bool = True, damping_std=None):
+    """E[ω | y] by plain importance sampling, an estimate independent of the SMC's moves: the proposal q is
+    a Gaussian kernel mixture on ``centres`` (K, d) — (ω [, ζ]) points, e.g. another run's posterior
+    particles — with bandwidth Silverman's factor × their covariance, mixed with the prior itself (share
+    ``defensive``, so that a posterior mode the centres miss is still proposed). Weights are exact,
+    prior·likelihood/q, so the estimate is consistent whatever the centres. Returns (E[ω | y], ESS)."""
+    mu, s = np.asarray(mu, float), np.asarray(s, float)
+    m = mu.size
+    z0 = np.broadcast_to(np.asarray(damping, float), (m,))
+    centre, spread = mu, s
+    if damping_std is not None:
+        centre, spread = np.r_[mu, z0], np.r_[s, np.broadcast_to(np.asarray(damping_std, float), (m,))]
+    c = np.asarray(centres, float)
+    k, d = c.shape
+    cw = np.full(k, 1.0 / k) if centre_weights is None else np.asarray(centre_weights, float) / np.sum(centre_weights)
+    cov = np.atleast_2d(np.cov(c, rowvar=False, aweights=cw)) * (4.0 / ((d + 2) * k)) ** (2.0 / (d + 4))
+    cov += 1e-12 * np.diag(spread**2)
+    chol = np.linalg.cholesky(cov)
+    n_kernel = rng.binomial(draws, 1.0 - defensive)
+    pick = rng.choice(k, size=n_kernel, p=cw)
+    x = np.vstack([c[pick] + rng.standard_normal((n_kernel, d)) @ chol.T,
+                   centre + spread * rng.standard_normal((draws - n_kernel, d))])
+    # log q: the kernel mixture and the (untruncated) prior density
+    inv = np.linalg.inv(chol)
+    xc, cc = x @ inv.T, c @ inv.T
+    log_kernel = np.empty(draws)
+    for i in range(0, draws, 1000):                                      # (1000, K) distances at a time
+        d2 = np.sum(xc[i:i + 1000] ** 2, axis=1)[:, None] - 2 * xc[i:i + 1000] @ cc.T + np.sum(cc**2, axis=1)
+        log_kernel[i:i + 1000] = scipy.special.logsumexp(-0.5 * d2, axis=1, b=cw)
+    log_kernel += -np.sum(np.log(np.diag(chol))) - 0.5 * d * np.log(2 * np.pi)
+    log_prior_density = (-0.5 * np.sum(((x - centre) / spread) ** 2, axis=1) - np.sum(np.log(spread))
+                         - 0.5 * d * np.log(2 * np.pi))
+    log_q = np.logaddexp(np.log1p(-defensive) + log_kernel, np.log(defensive) + log_prior_density)
+    w_, z = x[:, :m], (x[:, m:] if damping_std is not None else np.broadcast_to(z0, (draws, m)))
+    ok = (np.all(w_ > 0, axis=1) & np.all(np.abs(z) < 0.9, axis=1)
+          & np.all(w_ * np.sqrt(1 - np.minimum(z**2, 0.81)) * (t[1] - t[0]) < np.pi, axis=1))
+    if ordered:
+        ok &= np.all(np.diff(w_, axis=1) > 0, axis=1)
+    lw = np.full(draws, -np.inf)
+    idx = np.flatnonzero(ok)
+    for i in range(0, idx.size, 4000):
+        j = idx[i:i + 4000]
+        ll = projected_log_likelihood(y, orthonormal_bases(w_[j], z[j], t, offset), noise_std)
+        lw[j] = ll + log_prior_density[j] - log_q[j]
+    mean, ess = posterior_mean(lw, x[:, :m])
+    return mean, ess
 
 
 def mmse_rmse(prior_mean, prior_std, damping, amplitude, phase, n_samples: int, dt_s: float, noise_std: float,

@@ -79,6 +79,8 @@ class Options:
     # OmegaConf's structured configs take no union of a list and a number; _check_prior_std checks it.
     prior_std_rad_s: Any = None
     damping_prior_std: float | None = None   # with prior_std_rad_s: ζ ~ N(damping_ratio, this²); None: ζ free
+    posterior_summary: str = "mean"      # with prior_std_rad_s: "mean" (posterior mean, MMSE) or "mode" (MAP)
+    posterior_draws: int = 0             # with "mean": importance draws per round around the MAP; 0: Laplace mixture
     drift_segments: int = 3              # segments of the drift test when the residual is not white; 0: off
     # what a mode whose frequency drifts reports: "record" (the whole record's average, its std widened by the
     # spread between segments) or "small_amplitude" (ω₀ of the line ω = ω₀ + βa², the linear structure's
@@ -202,8 +204,10 @@ def _identify_map(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) ->
                 & (std <= prior_std(opts, prior) / np.sqrt(2.0)) & (lo < freq) & (freq < hi))
     extra = {"damping": z, "damping_std": z_std, "offset_m_s2": float(fit["theta"][-1]), "loss": fit["loss"],
              "posterior_cost": fit["cost"], "noise_std_m_s2": float(np.sqrt(fit["sigma2"])),
-             "data_dof": fit["edf"], "best_start": fit["start"], "total_iterations": fit["iterations"]}
-    message = f"MAP: {fit['message']} (start '{fit['start']}', {fit['iterations']} iterations)"
+             "data_dof": fit["edf"], "best_start": fit["start"], "total_iterations": fit["iterations"],
+             "posterior_summary": fit["summary"], "posterior_maxima": fit["maxima"], "posterior_ess": fit["ess"]}
+    message = (f"MAP: {fit['message']} (start '{fit['start']}', {fit['iterations']} iterations); "
+               f"{fit['summary']} of {fit['maxima']} posterior maxima")
     return Estimate(freq, std, converged=bool(per_mode.any()), iterations=int(fit["iterations"]),
                     message=message, extra=extra, converged_per_mode=per_mode)
 
@@ -364,6 +368,10 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
     if opts.prior_std_rad_s is not None:
         _check_prior_std(opts, prior)
+    if opts.posterior_summary not in ("mean", "mode"):
+        raise ValueError(f"posterior_summary = {opts.posterior_summary!r} must be 'mean' or 'mode'")
+    if not (isinstance(opts.posterior_draws, int) and 0 <= opts.posterior_draws <= 100_000):
+        raise ValueError(f"posterior_draws = {opts.posterior_draws!r} must be an integer in 0…100000")
     if opts.damping_prior_std is not None and not (np.isfinite(opts.damping_prior_std)
                                                    and opts.damping_prior_std > 0):
         raise ValueError(f"damping_prior_std = {opts.damping_prior_std} must be positive (None: no prior on ζ)")

@@ -70,3 +70,21 @@ def test_yardstick_orders_van_trees_mmse_and_prior_on_a_short_record():
     assert vt[0] <= 1.1 * lim["rmse"][0]
     assert lim["rmse"][0] < 0.9 * lim["prior_rmse"][0]
     assert lim["ess_median"] > 50
+
+
+def test_importance_posterior_mean_agrees_with_a_grid_integral_in_one_mode():
+    # the independent check of the SMC limit: a one-mode posterior (σ known, ζ known) integrated on a grid
+    rng = np.random.default_rng(5)
+    n, dt, mu, s, sigma = 24, 0.02, np.array([10.0]), np.array([0.4]), 0.5
+    t = np.arange(n) * dt
+    y = bayes.signal([10.3], [0.005], [1.0], [0.3], t) + sigma * rng.standard_normal(n)
+    grid = np.linspace(mu[0] - 6 * s[0], mu[0] + 6 * s[0], 4001)
+    ll = bayes.projected_log_likelihood(y, bayes.orthonormal_bases(grid[:, None], [0.005], t, True), sigma)
+    lp = ll - 0.5 * ((grid - mu[0]) / s[0]) ** 2
+    p = np.exp(lp - lp.max())
+    p /= p.sum()
+    exact, sd = p @ grid, np.sqrt(p @ (grid - p @ grid) ** 2)
+    centres = (mu + s * rng.standard_normal((300, 1)))             # deliberately poor centres: the prior's
+    est, ess = bayes.importance_posterior_mean(y, t, mu, s, [0.005], sigma, rng, centres, draws=20000)
+    assert ess > 500
+    assert abs(est[0] - exact) < 0.05 * sd

@@ -98,3 +98,47 @@ def test_damping_prior_holds_the_damping_near_its_assumed_value_on_a_short_recor
 def test_prior_std_needs_the_output_error_model():
     with pytest.raises(ValueError, match="output_error"):
         methods.check_options("pem", TRUE_W, DT, {"prior_std_rad_s": 1.0, "predictor": "kalman"})
+
+
+def test_posterior_mean_by_importance_sampling_matches_a_brute_force_integral():
+    # one mode, ζ held, a record short and noisy enough that the posterior is skewed (its mean is not its
+    # mode): exp(−Φ/2) integrated on a fine grid (numpy lstsq for the RSS) gives the posterior mean and std
+    n, mu, s, zeta = 24, 10.0, 0.4, 0.005
+    y = _record(n, 0.1, 2, w=[10.3], amp=[1.0], offset=0.2)
+    t = np.arange(n) * DT
+    grid = np.linspace(mu - 6 * s, mu + 6 * s, 6001)
+
+    def cost(w):
+        env = np.exp(-zeta * w * t)
+        V = np.column_stack([env * np.cos(w * np.sqrt(1 - zeta**2) * t), env * np.sin(w * np.sqrt(1 - zeta**2) * t),
+                             np.ones(n)])
+        rss = np.sum((y - V @ np.linalg.lstsq(V, y, rcond=None)[0]) ** 2)
+        return (n - 3) * np.log(rss) + ((w - mu) / s) ** 2
+
+    c = np.array([cost(w) for w in grid])
+    p = np.exp(-0.5 * (c - c.min()))
+    p /= p.sum()
+    mean, std = p @ grid, np.sqrt(p @ (grid - p @ grid) ** 2)
+    common = {"prior_std_rad_s": s, "estimate_damping": False, "damping_ratio": zeta}
+    mode = pem.identify(y, DT, [mu], posterior_summary="mode", **common)
+    sampled = pem.identify(y, DT, [mu], posterior_draws=20000, **common)
+    assert sampled.extra["posterior_summary"] == "importance-sampled mean"
+    assert abs(sampled.frequencies[0] - mean) <= 0.03 * std        # Monte-Carlo error ~0.01 std
+    assert sampled.std[0] == pytest.approx(std, rel=0.05)
+    assert abs(mode.frequencies[0] - grid[np.argmin(c)]) <= 2 * (grid[1] - grid[0])
+    assert abs(mode.frequencies[0] - mean) > 0.08 * std            # the case tells mode from mean
+
+
+def test_laplace_mixture_weights_maxima_by_their_evidence():
+    # two hand-made maxima: equal heights, the second twice as wide in every direction → 2^d times the mass
+    from methods.pem import _map
+
+    d = 2
+    a = {"x": np.array([1.0, 5.0]), "cost": 10.0, "cov": np.diag([0.01, 0.01])}
+    b = {"x": np.array([2.0, 5.0]), "cost": 10.0, "cov": np.diag([0.04, 0.04])}
+    mix = _map.laplace_mixture([a, b, dict(a)], m=2)
+    assert mix["count"] == 2                                      # the duplicate of a is merged
+    np.testing.assert_allclose(mix["weights"], [1 / (1 + 2**d), 2**d / (1 + 2**d)])
+    np.testing.assert_allclose(mix["mean"], [1 + 0.8, 5.0])
+    var = 0.2 * (0.01 + 1.0) + 0.8 * (0.04 + 4.0) - 1.8**2
+    np.testing.assert_allclose(mix["std"], [np.sqrt(var), np.sqrt(0.2 * 0.01 + 0.8 * 0.04)])
