@@ -144,10 +144,15 @@ def _digits(value: float, std: float) -> str:
     return f"{value:.{max(0, 1 - int(np.floor(np.log10(std))))}f}"
 
 
-def log(record: dict, est, paths: list[Path]) -> None:
-    """Log a run on a user's measurement in the MLflow experiment ``measurements`` (keyed like a cell's job)."""
-    from experiments.tracking.store import dataset_entity, log_run, source_tags
-    from experiments.tracking.track import IDENTIFY_SOURCE, config_yaml, job_params, run_key
+def log(record: dict, est, paths: list[Path], run_dir: Path, background: bool = True) -> None:
+    """Log a run on a user's measurement in the MLflow experiment ``measurements`` (keyed like a cell's job).
+
+    The run is written into the run folder first (``mlflow_pending.json``, :mod:`experiments.tracking.pending`)
+    and queued; with ``background`` a detached process logs it (and any run left over) while the job ends,
+    otherwise the job logs it here. Neither imports MLflow into the job until it logs."""
+    from experiments.tracking import pending
+    from experiments.tracking.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
+    from experiments.tracking.store import source_tags
 
     record = {**record, "grid": "measurement"}
     key = run_key(record)
@@ -162,9 +167,16 @@ def log(record: dict, est, paths: list[Path]) -> None:
         metrics[f"damping_std.mode{i + 1}"] = float(damping_std[i])
     metrics["converged"] = float(bool(est.converged))
     ds = record["dataset"]
-    _, created = log_run(
-        MEASUREMENTS_EXPERIMENT, key, params=job_params(record), metrics=metrics, artifacts=paths,
+    pending.enqueue(
+        run_dir, MEASUREMENTS_EXPERIMENT, key, params=job_params(record), metrics=metrics, artifacts=paths,
         texts={"config.yaml": config_yaml(record)},
-        dataset=dataset_entity(ds["name"], ds["digest"], ds["path"], kind="measurement"),
+        dataset={"name": ds["name"], "digest_": ds["digest"], "source": ds["path"], "kind": "measurement"},
         tags={**source_tags(IDENTIFY_SOURCE, record["code"]), "kind": "measurement", "method": record["method"]})
+    if background:
+        pending.start_logger(run_dir)
+        print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} is being logged by a background process "
+              f"(its output: {Path(run_dir) / pending.LOG}; `python -m experiments.tracking.pending` logs any run "
+              f"left waiting)")
+        return
+    _, _, created = pending.log_folder(run_dir)
     print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} ({'logged' if created else 'already there'})")

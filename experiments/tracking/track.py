@@ -21,45 +21,14 @@ import sys
 from pathlib import Path
 
 import pandas as pd
-from omegaconf import OmegaConf
 
 from experiments.io import atomic_write_text, write_json
 from experiments.report.summary import job_metrics, summarize
 from experiments.tracking.provenance import canonical_json, digest, git_state
+from experiments.tracking.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
 from experiments.tracking.store import check_store, dataset_entity, log_run, source_tags
 
 __all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job", "grid_run", "aggregate_files", "main"]
-
-IDENTIFY_SOURCE = "experiments/jobs/identify.py"
-
-
-def run_key(record: dict) -> str:
-    """``<grid>/<method>/<cell>/<digest>`` over what determines the result: the dataset's content, the
-    resolved method config, prior and replicates, the code version (commit, dirty diff, method files) and
-    the package versions; never a path or a time."""
-    cfg = record["config"]
-    keyed = {"method": cfg["method"], "prior": cfg.get("prior"), "replicates": cfg["data"].get("replicates"),
-             "dataset": record["dataset"]["digest"], "code": record["code"], "versions": record["versions"]}
-    return f"{record['grid']}/{record['method']}/{record['dataset']['name']}/{digest(canonical_json(keyed))}"
-
-
-def job_params(record: dict, table: pd.DataFrame | None = None) -> dict:
-    """Flat MLflow parameters of a job: the method's resolved options, the prior, the cell's settings."""
-    cfg = record["config"]
-    params = {"method": record["method"], "method_config": record["method_config"],
-              "prior_rad_s": cfg.get("prior") or cfg["method"].get("prior_rad_s"),
-              "dataset": record["dataset"]["name"], "dataset_digest": record["dataset"]["digest"],
-              "git_commit": record["code"]["commit"], "git_dirty": record["code"]["dirty"]}
-    params.update(record["dataset"].get("settings", {}))
-    if table is not None:
-        params["replicates"] = int(table["replicate"].nunique())
-    params.update({f"option.{k}": v for k, v in (cfg["method"].get("options") or {}).items()})
-    return params
-
-
-def config_yaml(record: dict) -> str:
-    return OmegaConf.to_yaml(OmegaConf.create(record["config"]))
-
 
 def log_job(experiment: str, record: dict, table_path: Path, record_path: Path | None = None,
             parent_run_id: str | None = None) -> tuple[str, str, bool]:
