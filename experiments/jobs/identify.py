@@ -251,6 +251,7 @@ def _run_measurement(cfg, data: dict, run_dir: Path, config_name: str | None, op
     else:
         prior = prior_of(cfg)
         methods.check_inputs(data["y"][0], data["dt"], prior)
+    options = measurements.method_options(options, data)
     est = run_records(cfg.method.name, data["y"], data["dt"], prior, options, cfg.progress)[0][0]
     paths = measurements.report(cfg.method.name, prior, est, data, run_dir, diagram)
     if cfg.tracking.enabled:

@@ -21,8 +21,8 @@ import numpy as np
 from experiments.io import write_json
 from experiments.report import model_check
 
-__all__ = ["G_M_S2", "MEASUREMENTS_EXPERIMENT", "INSTALL_HINT", "load", "load_csv", "find_modes", "print_notes",
-           "report", "log"]
+__all__ = ["G_M_S2", "MEASUREMENTS_EXPERIMENT", "INSTALL_HINT", "load", "load_csv", "find_modes", "method_options",
+           "print_notes", "report", "log"]
 
 G_M_S2 = 9.80665
 MEASUREMENTS_EXPERIMENT = "measurements"
@@ -77,6 +77,18 @@ def find_modes(data: dict, n_modes: int | None):
         raise ValueError(f"{data['source']}: no mode stands out of the noise between {lo:.4g} and {hi:.4g} Hz "
                          f"({diagram.n_clusters} stable clusters on the stabilisation diagram); give a prior")
     return diagram.modes_rad_s, diagram
+
+
+def method_options(options: dict, data: dict) -> dict:
+    """The method's options for the segment: a method with a residual check (``whiteness_band_rad_s``, pem)
+    judges a decimated segment's residual in the anti-alias filter's flat pass band only
+    (:func:`experiments.recordings.spectral.flat_band`), unless the option was set."""
+    from experiments.recordings.spectral import flat_band
+
+    q = data["segment"].decimation
+    if q > 1 and "whiteness_band_rad_s" in options and options["whiteness_band_rad_s"] is None:
+        return {**options, "whiteness_band_rad_s": flat_band(q) * np.pi / data["dt"]}
+    return options
 
 
 def print_notes(data: dict) -> None:
