@@ -10,7 +10,8 @@ page; each (method, cell) job is a child run: parameters and provenance from the
 versions), metrics from its table, the dataset as an MLflow dataset input, the resolved config and the table
 as artifacts. Run keys cover the dataset's content, the resolved options and the code version, so a changed
 result is a new run and running this again (or after a kill, or from another process at the same time)
-logs nothing twice. Only the files named on the command line are read.
+logs nothing twice. Only the files named on the command line are read, and first any measurement run a
+job left waiting for the store (:mod:`experiments.tracking.pending`) is logged.
 """
 
 from __future__ import annotations
@@ -117,6 +118,9 @@ def main(argv=None) -> int:
     except ValueError as exc:              # checked before anything is logged: one line, nothing written
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    from experiments.tracking.pending import log_all
+
+    log_all()       # measurement runs a job left waiting (experiments/tracking/pending.py), if any
     child_keys = [run_key(rec) for _, _, rec in jobs]
     files = aggregate_files(args.aggregate) + ([args.summary] if args.summary else [])
     parent_key, parent_id, created = grid_run(args.grid, child_keys, files)
