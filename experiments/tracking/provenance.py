@@ -111,7 +111,11 @@ def _import_statements(path: str, _mtime_ns: int, _size: int) -> tuple:
     except SyntaxError:
         return ()               # the job itself will report it; the file is an input all the same
     out = []
-    for node in ast.walk(tree):
+    todo = [tree]
+    while todo:                 # statements only (an import is one): ast.walk's every expression cost 2×
+        node = todo.pop()
+        for field in ("body", "orelse", "finalbody", "handlers", "cases"):
+            todo += [child for child in getattr(node, field, ()) if isinstance(child, ast.AST)]
         if isinstance(node, ast.Import):
             out.append((None, None, tuple(a.name for a in node.names)))
         elif isinstance(node, ast.ImportFrom):
