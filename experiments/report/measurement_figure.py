@@ -80,7 +80,7 @@ def measurement_figure(stem, *, y, dt: float, t0: float, model, residual, freq_r
     ax_psd.set_ylabel("PSD (g²/Hz)")
     # plain tick labels: the default 10^k mathtext is parsed by pyparsing, 0.8 s of CPU per figure (measured)
     ax_psd.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:.0e}"))
-    ax_psd.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax_psd.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())   # 60 unlabelled marks: 0.1 s of drawing
     for i, (w, s, ok) in enumerate(zip(freq_rad_s, std_rad_s, determined, strict=True)):
         if not np.isfinite(w):
             continue
