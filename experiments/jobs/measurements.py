@@ -190,5 +190,6 @@ def log(record: dict, est, paths: list[Path], run_dir: Path, background: bool = 
               f"(its output: {Path(run_dir) / pending.LOG}; `python -m experiments.tracking.pending` logs any run "
               f"left waiting)")
         return
-    _, _, created = pending.log_folder(run_dir)
+    out = pending.log_folder(run_dir)            # None: a logger of another job logged it meanwhile
+    created = out is not None and out[2]
     print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} ({'logged' if created else 'already there'})")
