@@ -55,7 +55,8 @@ PHASES = [
     ("pem refines the modes (run_records)", "jobs/identify.py", "run_records"),
     ("figure, PNG and SVG (measurement_figure)", "report/measurement_figure.py", "measurement_figure"),
     ("the job's record: provenance of the code and packages (job_record)", "jobs/identify.py", "job_record"),
-    ("MLflow run written to the run folder, its logger started (measurements.log)", "jobs/measurements.py", "log"),
+    ("MLflow: the run logged (previous) or queued, its logger started (measurements.log)", "jobs/measurements.py",
+     "log"),
     ("Hydra's run (output dir, logging) around the task", "hydra/core/utils.py", "run_job"),
     ("the whole job after start-up (identify.main)", "jobs/identify.py", "main"),
 ]
@@ -103,10 +104,11 @@ def timed(label: str, args: list[str], cwd: Path, pythonpath: Path, repeats: int
             "wall_min": float(min(walls)), "cpu_min": float(min(cpus)), "stdout": runs[-1][2]}
 
 
-def profile_phases(args: list[str], cwd: Path, env: dict | None = None) -> tuple[list[tuple[str, float]], float]:
+def profile_phases(args: list[str], cwd: Path, env: dict | None = None,
+                   pythonpath: Path = ROOT) -> tuple[list[tuple[str, float]], float]:
     out = cwd / "job.prof"
     subprocess.run([sys.executable, "-m", "cProfile", "-o", str(out), *args], cwd=cwd, check=True,
-                   capture_output=True, env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})})
+                   capture_output=True, env={**os.environ, "PYTHONPATH": str(pythonpath), **(env or {})})
     stats = pstats.Stats(str(out)).stats
     total = max(v[3] for v in stats.values())
     rows = []
@@ -177,8 +179,12 @@ def main(argv=None) -> None:
                            d, a.before, a.repeats),
                      timed("before (--before), 512 samples, prior given, MLflow tracking on", args, d, a.before,
                            a.repeats, {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})]
-        phases, total = profile_phases([*new, "hydra.run.dir=run_prof"], d, store)
+        profiles = {"this release": profile_phases([*new, "hydra.run.dir=run_prof"], d, store)}
         wait_for_logging(d, ROOT, store)
+        if a.previous is not None:
+            profiles["previous (--previous)"] = profile_phases(
+                [*new, "hydra.run.dir=run_prof_prev"], d, {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_prev.db'}"},
+                a.previous)
         os.environ.update(store)
         imports = {"this release, tracking off": import_times([*new, "hydra.run.dir=run_imp",
                                                                "tracking.enabled=false"], d),
@@ -194,10 +200,10 @@ def main(argv=None) -> None:
                 [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_imp3"], d, a.before,
                 {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})
         answer = rows[0]["stdout"]
-    print(report(a, rows, phases, total, imports, answer))
+    print(report(a, rows, profiles, imports, answer))
 
 
-def report(a, rows, phases, total, imports, answer) -> str:
+def report(a, rows, profiles, imports, answer) -> str:
     lines = [f"The identify job on a {a.samples}-sample logger CSV and on 512 samples, each a fresh process "
              f"(median and min of {a.repeats}; wall times on a shared machine are noisy, CPU time is the "
              "child's user + system; the default command's MLflow run is logged by a detached process, "
@@ -205,10 +211,11 @@ def report(a, rows, phases, total, imports, answer) -> str:
              "| job | wall (median) | CPU (median) | wall (min) | CPU (min) |", "|---|---|---|---|---|"]
     lines += [f"| {r['label']} | {r['wall']:.2f} s | {r['cpu']:.2f} s | {r['wall_min']:.2f} s | {r['cpu_min']:.2f} s |"
               for r in rows]
-    lines += ["", f"## Where the time goes (one run of the default command under cProfile, {total:.2f} s "
-              "profiled; its MLflow run is logged by another process)", "",
-              "| phase | cumulative |", "|---|---|"]
-    lines += [f"| {label} | {cum:.2f} s |" for label, cum in phases]
+    for who, (phases, total) in profiles.items():
+        lines += ["", f"## Where the time goes, {who} (one run of the default command under cProfile, "
+                  f"{total:.2f} s profiled; this release logs its MLflow run in another process)", "",
+                  "| phase | cumulative |", "|---|---|"]
+        lines += [f"| {label} | {cum:.2f} s |" for label, cum in phases]
     for label, table in imports.items():
         lines += ["", f"Imports, {label} (`python -X importtime`, each module's own time summed per package; "
                   "scipy per subpackage):", "", "| package | import |", "|---|---|"]
