@@ -46,6 +46,8 @@ class DataConfig:
 class TrackingConfig:
     enabled: bool = True             # log this job to MLflow
     experiment: str = "identify"     # MLflow experiment name
+    background: bool = True          # a measurement's run: logged by a detached process after the answer
+    #                                  (experiments/tracking/pending.py); false: by the job itself
 
 
 @dataclass

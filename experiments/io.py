@@ -158,11 +158,13 @@ def markdown_table(df, floatfmt: str = ".4g") -> str:
     return "\n".join([head, rule, *rows])
 
 
-def save_figure(fig, path) -> Path:
+def save_figure(fig, path, tight: bool = True, png_compression: int = 6) -> Path:
     """Save a matplotlib figure atomically; the format follows the suffix (.png at 150 dpi, .svg, .pdf).
 
     Identical figures give identical bytes: no date or software version in the metadata, and SVG element
-    ids from a fixed hash salt (matplotlib's ``svg.hashsalt``) instead of random ones.
+    ids from a fixed hash salt (matplotlib's ``svg.hashsalt``) instead of random ones. ``tight``: crop to
+    what is drawn (``bbox_inches="tight"``, an extra layout pass per file; a figure with fixed margins can do
+    without); ``png_compression``: zlib's level for a PNG (6, PIL's default; 1 is faster, a larger file).
     """
     import matplotlib  # ~0.5 s: not paid by the jobs that never draw
 
@@ -171,7 +173,8 @@ def save_figure(fig, path) -> Path:
     metadata = {"svg": {"Date": None, "Creator": None}, "pdf": {"CreationDate": None, "Producer": None,
                 "Creator": None}, "png": {"Software": None}}.get(fmt)
     with atomic_path(path) as tmp, matplotlib.rc_context({"svg.hashsalt": "spacecraft-modal-id"}):
-        fig.savefig(tmp, format=fmt, dpi=150, bbox_inches="tight", metadata=metadata)
+        fig.savefig(tmp, format=fmt, dpi=150, bbox_inches="tight" if tight else None, metadata=metadata,
+                    **({"pil_kwargs": {"compress_level": png_compression}} if fmt == "png" else {}))
     return path
 
 

@@ -1,12 +1,18 @@
 """Speed of the identify job on a user's measurement file, start-up included, and where the time goes.
 
     python -m experiments.benchmarks.measurement [--samples 100000] [--repeats 3] [--before /path/to/old/repo]
+        [--previous /path/to/another/checkout]
 
 The record is the simulated steel-cantilever impact (:mod:`experiments.simulate.impact`, seed 1) written as
 a logger's CSV (time stamps rounded to 1 µs, the signal in g). Rows, each the median of ``--repeats``
 runs of the job as a user types it (``python -m experiments.jobs.identify ...``, a fresh process):
 
-- no prior (stabilisation diagram, then pem), MLflow tracking off and on (a fresh SQLite store);
+- no prior (stabilisation diagram, then pem): MLflow tracking off; the default command, whose MLflow run is
+  logged by a detached process after the job (:mod:`experiments.tracking.pending`; before the next run
+  the benchmark waits for it, untimed, so no run pays for the last one's logging); and the run logged in
+  the job (``tracking.background=false``), all on one SQLite store (a fresh one for the first run);
+- with ``--previous``: the same no-prior rows and the 512-sample rows run by another checkout of this line
+  (e.g. the one before a change);
 - with ``--before``: the same jobs run by another checkout (``PYTHONPATH``), e.g. the release before
   this one, on the same record as a plain ``t,accel`` CSV in m/s² with the prior given (what it reads);
   and both checkouts on the first 512 samples of that CSV with the prior (the first user's record size).
@@ -48,7 +54,9 @@ PHASES = [
     ("stabilisation diagram (pyOMA2 SSI-cov, clusters, detection)", "peers/stabilisation.py", "stabilisation_diagram"),
     ("pem refines the modes (run_records)", "jobs/identify.py", "run_records"),
     ("figure, PNG and SVG (measurement_figure)", "report/measurement_figure.py", "measurement_figure"),
-    ("MLflow run logged (measurements.log)", "jobs/measurements.py", "log"),
+    ("the job's record: provenance of the code and packages (job_record)", "jobs/identify.py", "job_record"),
+    ("MLflow: the run logged (previous) or queued, its logger started (measurements.log)", "jobs/measurements.py",
+     "log"),
     ("Hydra's run (output dir, logging) around the task", "hydra/core/utils.py", "run_job"),
     ("the whole job after start-up (identify.main)", "jobs/identify.py", "main"),
 ]
@@ -63,8 +71,17 @@ def write_records(d: Path, n: int) -> dict[str, Path]:
     return {"logger": logger, "plain": plain, "prior": rec.freq_rad_s}
 
 
+def wait_for_logging(cwd: Path, pythonpath: Path, env: dict | None) -> None:
+    """Wait (untimed) until no MLflow run of a job is left to log: the queue's logger takes the store's lock
+    after the detached one (a checkout without :mod:`experiments.tracking.pending` has nothing to wait for)."""
+    if not (Path(pythonpath) / "experiments" / "tracking" / "pending.py").is_file():
+        return
+    subprocess.run([sys.executable, "-m", "experiments.tracking.pending"], cwd=cwd, capture_output=True,
+                   env={**os.environ, "PYTHONPATH": str(pythonpath), **(env or {})})
+
+
 def run_job(args: list[str], cwd: Path, pythonpath: Path, env: dict | None = None) -> tuple[float, float, str]:
-    """Wall and CPU seconds (user + system of the child) of one job, and its stderr's last line."""
+    """Wall and CPU seconds (user + system of the child) of one job, and its stdout."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, *args], cwd=cwd, capture_output=True, text=True,
@@ -74,6 +91,8 @@ def run_job(args: list[str], cwd: Path, pythonpath: Path, env: dict | None = Non
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     if proc.returncode != 0:
         raise RuntimeError(f"job failed ({proc.returncode}): {proc.stderr.strip()[-400:]}")
+    if "tracking.enabled=false" not in args:
+        wait_for_logging(cwd, pythonpath, env)
     return wall, cpu, proc.stdout
 
 
@@ -85,10 +104,11 @@ def timed(label: str, args: list[str], cwd: Path, pythonpath: Path, repeats: int
             "wall_min": float(min(walls)), "cpu_min": float(min(cpus)), "stdout": runs[-1][2]}
 
 
-def profile_phases(args: list[str], cwd: Path) -> tuple[list[tuple[str, float]], float]:
+def profile_phases(args: list[str], cwd: Path, env: dict | None = None,
+                   pythonpath: Path = ROOT) -> tuple[list[tuple[str, float]], float]:
     out = cwd / "job.prof"
     subprocess.run([sys.executable, "-m", "cProfile", "-o", str(out), *args], cwd=cwd, check=True,
-                   capture_output=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+                   capture_output=True, env={**os.environ, "PYTHONPATH": str(pythonpath), **(env or {})})
     stats = pstats.Stats(str(out)).stats
     total = max(v[3] for v in stats.values())
     rows = []
@@ -120,6 +140,8 @@ def main(argv=None) -> None:
     parser.add_argument("--samples", type=int, default=100_000)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--before", type=Path, default=None, help="another checkout to time on the same record")
+    parser.add_argument("--previous", type=Path, default=None,
+                        help="a checkout of this line (e.g. before a change): the same commands as this release")
     a = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -129,43 +151,71 @@ def main(argv=None) -> None:
         prior = "[" + ",".join(f"{w:.1f}" for w in files["prior"] * 0.98) + "]"
         store = {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow.db'}"}
         new = [*JOB, f"data.path={files['logger']}", "hydra.run.dir=run"]
-        rows = [timed("this release, no prior, tracking off", [*new, "tracking.enabled=false"], d, ROOT, a.repeats),
-                timed("this release, no prior, MLflow tracking on", new, d, ROOT, a.repeats, store)]
+        small_new = [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_small"]
+        rows = []
+        for label, path in (("this release", ROOT), ("previous (--previous)", a.previous)):
+            if path is None:
+                continue
+            db = {"MLFLOW_TRACKING_URI": f"sqlite:///{d / ('mlflow.db' if path == ROOT else 'mlflow_prev.db')}"}
+            rows += [timed(f"{label}, no prior, tracking off", [*new, "tracking.enabled=false"], d, path, a.repeats),
+                     timed(f"{label}, no prior, the default command (MLflow tracking on)", new, d, path,
+                           a.repeats, db)]
+            if path == ROOT:        # the checkout before may have no tracking.background: its run is in the job
+                rows.append(timed(f"{label}, no prior, MLflow run logged in the job (tracking.background=false)",
+                                  [*new, "tracking.background=false"], d, path, a.repeats, db))
+            rows += [timed(f"{label}, 512 samples, prior given, tracking off", [*small_new, "tracking.enabled=false"],
+                           d, path, a.repeats),
+                     timed(f"{label}, 512 samples, prior given, the default command (MLflow tracking on)", small_new,
+                           d, path, a.repeats, db)]
         if a.before is not None:
             old = [*JOB, f"data.path={files['plain']}", f"prior={prior}", "hydra.run.dir=run_before"]
             rows += [timed("before (--before), prior given, tracking off", [*old, "tracking.enabled=false"], d,
                            a.before, a.repeats),
                      timed("before (--before), prior given, MLflow tracking on", old, d, a.before, a.repeats,
                            {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_before.db'}"})]
-            for label, path in (("before (--before)", a.before), ("this release", ROOT)):
-                args = [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_small"]
-                rows += [timed(f"{label}, 512 samples, prior given, tracking off", [*args, "tracking.enabled=false"],
-                               d, path, a.repeats),
-                         timed(f"{label}, 512 samples, prior given, MLflow tracking on", args, d, path, a.repeats,
-                               {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})]
-        phases, total = profile_phases([*new, "hydra.run.dir=run_prof"], d)
+            args = [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_small_before"]
+            rows += [timed("before (--before), 512 samples, prior given, tracking off",
+                           [*args, "tracking.enabled=false"],
+                           d, a.before, a.repeats),
+                     timed("before (--before), 512 samples, prior given, MLflow tracking on", args, d, a.before,
+                           a.repeats, {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})]
+        profiles = {"this release": profile_phases([*new, "hydra.run.dir=run_prof"], d, store)}
+        wait_for_logging(d, ROOT, store)
+        if a.previous is not None:
+            profiles["previous (--previous)"] = profile_phases(
+                [*new, "hydra.run.dir=run_prof_prev"], d, {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_prev.db'}"},
+                a.previous)
         os.environ.update(store)
         imports = {"this release, tracking off": import_times([*new, "hydra.run.dir=run_imp",
                                                                "tracking.enabled=false"], d),
-                   "this release, tracking on": import_times([*new, "hydra.run.dir=run_imp2"], d)}
+                   "this release, the default command (MLflow tracking on)": import_times(
+                       [*new, "hydra.run.dir=run_imp2"], d)}
+        wait_for_logging(d, ROOT, store)
+        if a.previous is not None:
+            imports["previous (--previous), the default command (MLflow tracking on)"] = import_times(
+                [*new, "hydra.run.dir=run_imp4"], d, a.previous,
+                {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_prev.db'}"})
         if a.before is not None:
             imports["before, 512 samples, tracking on"] = import_times(
                 [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_imp3"], d, a.before,
                 {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})
         answer = rows[0]["stdout"]
-    print(report(a, rows, phases, total, imports, answer))
+    print(report(a, rows, profiles, imports, answer))
 
 
-def report(a, rows, phases, total, imports, answer) -> str:
+def report(a, rows, profiles, imports, answer) -> str:
     lines = [f"The identify job on a {a.samples}-sample logger CSV and on 512 samples, each a fresh process "
              f"(median and min of {a.repeats}; wall times on a shared machine are noisy, CPU time is the "
-             "child's user + system):", "",
+             "child's user + system; the default command's MLflow run is logged by a detached process, "
+             "not timed, and waited for before the next run):", "",
              "| job | wall (median) | CPU (median) | wall (min) | CPU (min) |", "|---|---|---|---|---|"]
     lines += [f"| {r['label']} | {r['wall']:.2f} s | {r['cpu']:.2f} s | {r['wall_min']:.2f} s | {r['cpu_min']:.2f} s |"
               for r in rows]
-    lines += ["", f"## Where the time goes (one run under cProfile, {total:.2f} s profiled, tracking on)", "",
-              "| phase | cumulative |", "|---|---|"]
-    lines += [f"| {label} | {cum:.2f} s |" for label, cum in phases]
+    for who, (phases, total) in profiles.items():
+        lines += ["", f"## Where the time goes, {who} (one run of the default command under cProfile, "
+                  f"{total:.2f} s profiled; this release logs its MLflow run in another process)", "",
+                  "| phase | cumulative |", "|---|---|"]
+        lines += [f"| {label} | {cum:.2f} s |" for label, cum in phases]
     for label, table in imports.items():
         lines += ["", f"Imports, {label} (`python -X importtime`, each module's own time summed per package; "
                   "scipy per subpackage):", "", "| package | import |", "|---|---|"]

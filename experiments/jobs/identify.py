@@ -95,6 +95,8 @@ def check(cfg) -> None:
         mid = np.pi * sum(data["segment"].band_hz) or np.pi / (2 * data["dt"])
         methods.check_options(cfg.method.name, [min(mid, 0.9 * np.pi / data["dt"])], data["dt"],
                               OmegaConf.to_container(cfg.method.options, resolve=True))
+        if cfg.tracking.enabled:
+            check_store()      # here too: the run is logged by a background process, which no one watches
         return
     priors = priors_of(cfg, data)
     for prior in np.unique(priors, axis=0):
@@ -249,10 +251,11 @@ def _run_measurement(cfg, data: dict, run_dir: Path, config_name: str | None, op
     else:
         prior = prior_of(cfg)
         methods.check_inputs(data["y"][0], data["dt"], prior)
+    options = measurements.method_options(options, data)
     est = run_records(cfg.method.name, data["y"], data["dt"], prior, options, cfg.progress)[0][0]
     paths = measurements.report(cfg.method.name, prior, est, data, run_dir, diagram)
     if cfg.tracking.enabled:
-        measurements.log(job_record(cfg, data, config_name), est, paths)
+        measurements.log(job_record(cfg, data, config_name), est, paths, run_dir, cfg.tracking.background)
 
 
 def job_record(cfg, data, config_name: str | None) -> dict:

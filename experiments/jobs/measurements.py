@@ -21,8 +21,8 @@ import numpy as np
 from experiments.io import write_json
 from experiments.report import model_check
 
-__all__ = ["G_M_S2", "MEASUREMENTS_EXPERIMENT", "INSTALL_HINT", "load", "load_csv", "find_modes", "print_notes",
-           "report", "log"]
+__all__ = ["G_M_S2", "MEASUREMENTS_EXPERIMENT", "INSTALL_HINT", "load", "load_csv", "find_modes", "method_options",
+           "print_notes", "report", "log"]
 
 G_M_S2 = 9.80665
 MEASUREMENTS_EXPERIMENT = "measurements"
@@ -77,6 +77,18 @@ def find_modes(data: dict, n_modes: int | None):
         raise ValueError(f"{data['source']}: no mode stands out of the noise between {lo:.4g} and {hi:.4g} Hz "
                          f"({diagram.n_clusters} stable clusters on the stabilisation diagram); give a prior")
     return diagram.modes_rad_s, diagram
+
+
+def method_options(options: dict, data: dict) -> dict:
+    """The method's options for the segment: a method with a residual check (``whiteness_band_rad_s``, pem)
+    judges a decimated segment's residual in the anti-alias filter's flat pass band only
+    (:func:`experiments.recordings.spectral.flat_band`), unless the option was set."""
+    from experiments.recordings.spectral import flat_band
+
+    q = data["segment"].decimation
+    if q > 1 and "whiteness_band_rad_s" in options and options["whiteness_band_rad_s"] is None:
+        return {**options, "whiteness_band_rad_s": flat_band(q) * np.pi / data["dt"]}
+    return options
 
 
 def print_notes(data: dict) -> None:
@@ -147,10 +159,15 @@ def _digits(value: float, std: float) -> str:
     return f"{value:.{max(0, 1 - int(np.floor(np.log10(std))))}f}"
 
 
-def log(record: dict, est, paths: list[Path]) -> None:
-    """Log a run on a user's measurement in the MLflow experiment ``measurements`` (keyed like a cell's job)."""
-    from experiments.tracking.store import dataset_entity, log_run, source_tags
-    from experiments.tracking.track import IDENTIFY_SOURCE, config_yaml, job_params, run_key
+def log(record: dict, est, paths: list[Path], run_dir: Path, background: bool = True) -> None:
+    """Log a run on a user's measurement in the MLflow experiment ``measurements`` (keyed like a cell's job).
+
+    The run is written into the run folder first (``mlflow_pending.json``, :mod:`experiments.tracking.pending`)
+    and queued; with ``background`` a detached process logs it (and any run left over) while the job ends,
+    otherwise the job logs it here. Neither imports MLflow into the job until it logs."""
+    from experiments.tracking import pending
+    from experiments.tracking.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
+    from experiments.tracking.store import source_tags
 
     record = {**record, "grid": "measurement"}
     key = run_key(record)
@@ -165,9 +182,17 @@ def log(record: dict, est, paths: list[Path]) -> None:
         metrics[f"damping_std.mode{i + 1}"] = float(damping_std[i])
     metrics["converged"] = float(bool(est.converged))
     ds = record["dataset"]
-    _, created = log_run(
-        MEASUREMENTS_EXPERIMENT, key, params=job_params(record), metrics=metrics, artifacts=paths,
+    pending.enqueue(
+        run_dir, MEASUREMENTS_EXPERIMENT, key, params=job_params(record), metrics=metrics, artifacts=paths,
         texts={"config.yaml": config_yaml(record)},
-        dataset=dataset_entity(ds["name"], ds["digest"], ds["path"], kind="measurement"),
+        dataset={"name": ds["name"], "digest_": ds["digest"], "source": ds["path"], "kind": "measurement"},
         tags={**source_tags(IDENTIFY_SOURCE, record["code"]), "kind": "measurement", "method": record["method"]})
+    if background:
+        pending.start_logger(run_dir)
+        print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} is being logged by a background process "
+              f"(its output: {Path(run_dir) / pending.LOG}; `python -m experiments.tracking.pending` logs any run "
+              f"left waiting)")
+        return
+    out = pending.log_folder(run_dir)            # None: a logger of another job logged it meanwhile
+    created = out is not None and out[2]
     print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} ({'logged' if created else 'already there'})")

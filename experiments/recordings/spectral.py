@@ -8,12 +8,15 @@ rounding (tests/experiments/recordings/test_spectral.py compares them with scipy
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
-__all__ = ["KAISER_BETA", "HALF_LENGTH", "antialias_taps", "decimate", "welch"]
+__all__ = ["KAISER_BETA", "HALF_LENGTH", "FLAT_TOLERANCE", "antialias_taps", "decimate", "flat_band", "welch"]
 
 KAISER_BETA = 5.0          # resample_poly's default window ('kaiser', 5.0)
 HALF_LENGTH = 10           # resample_poly's half-length of the filter, in output samples (10 × q input)
+FLAT_TOLERANCE = 0.01      # flat_band: the decimated noise's power within 1 % of its level at 0 Hz
 
 
 def antialias_taps(q: int) -> np.ndarray:
@@ -26,6 +29,27 @@ def antialias_taps(q: int) -> np.ndarray:
     m = np.arange(n) - (n - 1) / 2
     h = np.sinc(m / q) / q * np.kaiser(n, KAISER_BETA)
     return h / h.sum()
+
+
+@functools.lru_cache(maxsize=16)
+def flat_band(q: int, tolerance: float = FLAT_TOLERANCE) -> float:
+    """The top of the band, as a fraction of the new Nyquist frequency, in which white noise decimated by
+    :func:`decimate` (q) is still white: its power density there,
+
+        S(ν) ∝ Σₖ |H((ν + k)/q)|²   (ν in cycles per output sample, H the filter's response, k over the aliases),
+
+    stays within ``tolerance`` of S(0). Above it the filter's roll-off halves the noise power by the new
+    Nyquist frequency (0.84 for q ≥ 2 at 1 %: the residual check of such a record judges below it)."""
+    if q <= 1:
+        return 1.0
+    h = antialias_taps(q)
+    nfft = 1 << max(14, int(np.ceil(np.log2(64 * h.size))))
+    power = np.abs(np.fft.rfft(h, nfft)) ** 2                   # at f = i/nfft cycles per input sample
+    nu = np.linspace(0.0, 0.5, 2001)
+    f = np.abs(nu[:, None] + np.arange(-q, q + 1)[None, :]) / q
+    s = np.interp(f, np.arange(power.size) / nfft, power, right=0.0).sum(axis=1)
+    off = np.abs(s / s[0] - 1.0) > tolerance
+    return float(nu[np.argmax(off) - 1] / 0.5) if off.any() else 1.0
 
 
 def decimate(x: np.ndarray, q: int) -> np.ndarray:

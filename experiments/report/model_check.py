@@ -19,7 +19,9 @@ def check_lines(extra: dict) -> list[str]:
     lines = [f"residual: {verdict} (Ljung-Box p = {check['ljung_box_p']:.2g} on {check['ljung_box_lags']} lags; "
              f"largest line {check['peak_over_floor']:.3g}x the noise floor {check['noise_floor_m_s2']:.3g} m/s² "
              f"at {check['peak_rad_s']:.4g} rad/s, threshold {check['peak_threshold']:.3g}; residual variance "
-             f"{check['variance_ratio']:.3g}x the floor)"]
+             f"{check['variance_ratio']:.3g}x the floor"
+             + (f"; judged below {check['band_rad_s']:.4g} rad/s, the decimated record's pass band"
+                if check.get("band_rad_s") is not None else "") + ")"]
     if "robust_std_rad_s" in check:
         robust = np.asarray(check["robust_std_rad_s"])
         lines.append("robust std (rad/s): " + ", ".join(f"{s:.3g}" for s in robust))

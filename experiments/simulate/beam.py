@@ -9,7 +9,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 __all__ = ["BeamGeometry", "cantilever_beta_l", "sigma", "mode_shape", "ModalCoefficients", "modal_coefficients"]
 
@@ -55,6 +54,8 @@ def cantilever_beta_l(n: int) -> float:
     avoid overflow of cosh for large x.
     """
     guess = (2 * n - 1) * np.pi / 2
+    from scipy.optimize import brentq  # 0.2 s of import: not paid by a job that only registers configs
+
     return float(brentq(lambda x: np.cos(x) + 1.0 / np.cosh(x), guess - 0.5, guess + 0.5, xtol=1e-15))
 
 

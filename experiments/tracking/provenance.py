@@ -86,23 +86,41 @@ def _module_file(module: str, root: Path) -> Path | None:
 
 def _imports(path: Path, package: str) -> set[str]:
     """Modules imported by the file ``path`` (absolute names; relative imports resolved in ``package``)."""
+    stat = path.stat()
     names = set()
-    try:
-        tree = ast.parse(path.read_text(), filename=str(path))
-    except SyntaxError:
-        return names            # the job itself will report it; the file is an input all the same
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names.update(a.name for a in node.names)
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                parts = package.split(".")[: len(package.split(".")) - node.level + 1]
-                base = ".".join(parts + ([node.module] if node.module else []))
-            else:
-                base = node.module or ""
-            names.add(base)
-            names.update(f"{base}.{a.name}" for a in node.names)   # `from methods import fft` imports a module
+    for level, module, aliases in _import_statements(str(path), stat.st_mtime_ns, stat.st_size):
+        if level is None:                                      # import a, b
+            names.update(aliases)
+            continue
+        if level:
+            parts = package.split(".")[: len(package.split(".")) - level + 1]
+            base = ".".join(parts + ([module] if module else []))
+        else:
+            base = module or ""
+        names.add(base)
+        names.update(f"{base}.{a}" for a in aliases)   # `from methods import fft` imports a module
     return names
+
+
+@functools.lru_cache(maxsize=256)
+def _import_statements(path: str, _mtime_ns: int, _size: int) -> tuple:
+    """The file's import statements as (level or None for ``import``, module, names), parsed once per
+    version of the file (a job's code digest and package versions both read them)."""
+    try:
+        tree = ast.parse(Path(path).read_text(), filename=path)
+    except SyntaxError:
+        return ()               # the job itself will report it; the file is an input all the same
+    out = []
+    todo = [tree]
+    while todo:                 # statements only (an import is one): ast.walk's every expression cost 2×
+        node = todo.pop()
+        for field in ("body", "orelse", "finalbody", "handlers", "cases"):
+            todo += [child for child in getattr(node, field, ()) if isinstance(child, ast.AST)]
+        if isinstance(node, ast.Import):
+            out.append((None, None, tuple(a.name for a in node.names)))
+        elif isinstance(node, ast.ImportFrom):
+            out.append((node.level, node.module, tuple(a.name for a in node.names)))
+    return tuple(out)
 
 
 @functools.cache

@@ -10,7 +10,8 @@ page; each (method, cell) job is a child run: parameters and provenance from the
 versions), metrics from its table, the dataset as an MLflow dataset input, the resolved config and the table
 as artifacts. Run keys cover the dataset's content, the resolved options and the code version, so a changed
 result is a new run and running this again (or after a kill, or from another process at the same time)
-logs nothing twice. Only the files named on the command line are read.
+logs nothing twice. Only the files named on the command line are read, and first any measurement run a
+job left waiting for the store (:mod:`experiments.tracking.pending`) is logged.
 """
 
 from __future__ import annotations
@@ -21,45 +22,14 @@ import sys
 from pathlib import Path
 
 import pandas as pd
-from omegaconf import OmegaConf
 
 from experiments.io import atomic_write_text, write_json
 from experiments.report.summary import job_metrics, summarize
 from experiments.tracking.provenance import canonical_json, digest, git_state
+from experiments.tracking.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
 from experiments.tracking.store import check_store, dataset_entity, log_run, source_tags
 
 __all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job", "grid_run", "aggregate_files", "main"]
-
-IDENTIFY_SOURCE = "experiments/jobs/identify.py"
-
-
-def run_key(record: dict) -> str:
-    """``<grid>/<method>/<cell>/<digest>`` over what determines the result: the dataset's content, the
-    resolved method config, prior and replicates, the code version (commit, dirty diff, method files) and
-    the package versions; never a path or a time."""
-    cfg = record["config"]
-    keyed = {"method": cfg["method"], "prior": cfg.get("prior"), "replicates": cfg["data"].get("replicates"),
-             "dataset": record["dataset"]["digest"], "code": record["code"], "versions": record["versions"]}
-    return f"{record['grid']}/{record['method']}/{record['dataset']['name']}/{digest(canonical_json(keyed))}"
-
-
-def job_params(record: dict, table: pd.DataFrame | None = None) -> dict:
-    """Flat MLflow parameters of a job: the method's resolved options, the prior, the cell's settings."""
-    cfg = record["config"]
-    params = {"method": record["method"], "method_config": record["method_config"],
-              "prior_rad_s": cfg.get("prior") or cfg["method"].get("prior_rad_s"),
-              "dataset": record["dataset"]["name"], "dataset_digest": record["dataset"]["digest"],
-              "git_commit": record["code"]["commit"], "git_dirty": record["code"]["dirty"]}
-    params.update(record["dataset"].get("settings", {}))
-    if table is not None:
-        params["replicates"] = int(table["replicate"].nunique())
-    params.update({f"option.{k}": v for k, v in (cfg["method"].get("options") or {}).items()})
-    return params
-
-
-def config_yaml(record: dict) -> str:
-    return OmegaConf.to_yaml(OmegaConf.create(record["config"]))
-
 
 def log_job(experiment: str, record: dict, table_path: Path, record_path: Path | None = None,
             parent_run_id: str | None = None) -> tuple[str, str, bool]:
@@ -148,6 +118,9 @@ def main(argv=None) -> int:
     except ValueError as exc:              # checked before anything is logged: one line, nothing written
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    from experiments.tracking.pending import log_all
+
+    log_all()       # measurement runs a job left waiting (experiments/tracking/pending.py), if any
     child_keys = [run_key(rec) for _, _, rec in jobs]
     files = aggregate_files(args.aggregate) + ([args.summary] if args.summary else [])
     parent_key, parent_id, created = grid_run(args.grid, child_keys, files)

@@ -88,6 +88,9 @@ class Options:
     # apparent drift too); the other is kept in extra["drift"] (methods/pem/_drift.py, docs/uncertainty.md)
     drift_frequency: str = "record"
     absorb_lines: bool = True            # refit with a residual line outside every band as an extra mode
+    # the residual check judges the residual below this frequency only, rad/s: a decimated record's pass
+    # band, above which the anti-alias filter coloured the noise (the measurement job sets it); None: all
+    whiteness_band_rad_s: float | None = None
 
 
 
@@ -364,6 +367,8 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
     if opts.drift_frequency not in _drift.REPORTS:
         raise ValueError(f"drift_frequency = {opts.drift_frequency!r} must be one of "
                          + ", ".join(repr(r) for r in _drift.REPORTS))
+    if opts.whiteness_band_rad_s is not None and not opts.whiteness_band_rad_s > 0:
+        raise ValueError(f"whiteness_band_rad_s = {opts.whiteness_band_rad_s} must be positive (or None: all)")
     if opts.pencil_extra_order < 0:
         raise ValueError(f"pencil_extra_order = {opts.pencil_extra_order} must be non-negative")
     if opts.prior_std_rad_s is not None:
@@ -504,15 +509,15 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
         "total_iterations": int(sum(f["iterations"] for f in fits)),
     }
     message = f"{best['message']} (start '{best['start']}', {agree}/{len(fits)} starts agree)"
-    std, message = _residual_hook(best, slot, free, dt, std, extra, message)
+    std, message = _residual_hook(best, slot, free, dt, std, extra, message, opts.whiteness_band_rad_s)
     return Estimate(freq, std, converged=converged, iterations=int(best["iterations"]),
                     message=message, extra=extra, converged_per_mode=per_mode)
 
 
-def _residual_hook(best, slot, free, dt, std, extra, message):
+def _residual_hook(best, slot, free, dt, std, extra, message, band_rad_s=None):
     """extra["residual_check"] (:func:`methods.pem._residual.assess_fit`); when the residual is not white,
     the reported std is the Newey–West robust one (the white-noise one kept in extra["white_noise_std"])."""
-    check = _residual.assess_fit(best, slot, int(sum(free)), dt)
+    check = _residual.assess_fit(best, slot, int(sum(free)), dt, band_rad_s=band_rad_s)
     extra["residual_check"] = check
     if check is None or check["white"]:
         return std, message

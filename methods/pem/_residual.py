@@ -18,6 +18,13 @@ Two questions about a fit's residual ε (N samples, p free unknowns):
   bands (coloured noise, an unmodelled mode, a drifting frequency);
 - ``white``: both tests pass at level α each.
 
+**Only a band** (``band_rad_s``). A decimated record's noise is white only in the anti-alias filter's pass
+band: above it the filter's roll-off and the aliases halve the noise power at the new Nyquist frequency, and
+Ljung–Box reads that as colour. Given the band's top ω_b, both tests judge the residual's content below it
+only: the rfft bins j ≤ K = ⌊ω_b N dt/2π⌋ resynthesised as a record of N' = 2K samples (Fourier
+resampling to the rate 2ω_b, :func:`band_limited`), in which noise white in the band is white; the fit's
+basis is resampled alike. A residual coloured inside the band still fails.
+
 Hand-written with ``scipy.special.chdtrc`` (the χ² survival function) rather than statsmodels'
 ``acorr_ljungbox``: the statistic is the one line above, and statsmodels (with patsy) would be a large
 dependency for it.
@@ -72,7 +79,25 @@ def fitted_autocorrelation(basis: np.ndarray, lags: int) -> np.ndarray:
     return -lagged / max(n - p, 1)
 
 
-def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
+def band_limited(x: np.ndarray, dt: float, band_rad_s: float | None) -> tuple[np.ndarray, float]:
+    """(x', dt'): the content of ``x`` (along axis 0) below ``band_rad_s`` as a record sampled at twice that
+    frequency — its rfft bins 0…K, K = ⌊band·N·dt/2π⌋, inverse-transformed to N' = 2K samples, scaled so
+    that each bin's periodogram value |X_j|²/N is kept (the same noise floor in the same units); dt' =
+    dt·N/N', so bin j is the same frequency 2πj/(N dt). ``x`` as it is (and dt) when the band reaches
+    Nyquist or is None, or leaves fewer than 10 samples."""
+    x = np.asarray(x, float)
+    n = x.shape[0]
+    if band_rad_s is None:
+        return x, dt
+    k = int(math.floor(float(band_rad_s) * n * dt / (2 * np.pi)))
+    if 2 * k >= n - 1 or 2 * k < 10:
+        return x, dt
+    spec = np.fft.rfft(x, axis=0)[:k + 1]
+    m = 2 * k
+    return np.fft.irfft(spec, m, axis=0) * math.sqrt(m / n), dt * n / m
+
+
+def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: float | None = None) -> dict:
     """Whiteness of a residual: Ljung–Box, the periodogram's largest peak against the floor, the variance
     ratio and the verdict (see the module docstring for the equations).
 
@@ -87,6 +112,9 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
     basis : array_like, shape (N, p), optional
         Columns spanning the fit's tangent space (its Jacobian): the Ljung–Box statistic is then taken on
         ρ̂ₖ − E[ρ̂ₖ] (:func:`fitted_autocorrelation`).
+    band_rad_s : float, optional
+        Judge only the residual's content below this frequency (:func:`band_limited`): a decimated
+        record's pass band. None: up to Nyquist.
 
     Returns
     -------
@@ -94,7 +122,7 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
         ``white`` (bool), ``ljung_box_q``, ``ljung_box_lags``, ``ljung_box_p``, ``noise_floor_m_s2``
         (σ̂_w), ``variance_ratio``, ``peak_over_floor``, ``peak_over_neighbours`` (the peak against the
         median of its ±max(8, N/64) neighbouring bins: large for a line, not for a broad hump),
-        ``peak_threshold``, ``peak_rad_s``.
+        ``peak_threshold``, ``peak_rad_s``, ``band_rad_s`` (the top of the band judged, None: all).
 
     Notes
     -----
@@ -106,6 +134,14 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
     n = e.size
     if n < 10 or not np.isfinite(e).all():
         raise ValueError(f"a residual of {n} samples (finite: {bool(np.isfinite(e).all())}) cannot be tested")
+    band = None
+    if band_rad_s is not None:
+        e, dt_band = band_limited(e, dt, band_rad_s)
+        if e.size != n:
+            band = float(np.pi / dt_band)              # the top of what is judged: the bins kept
+            if basis is not None:
+                basis = band_limited(np.asarray(basis, float), dt, band_rad_s)[0]
+        dt, n = dt_band, e.size
     h = max(1, min(MAX_LB_LAGS, n // 5))
     rho = autocorrelation(e, h)
     if basis is not None:
@@ -135,7 +171,7 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None) -> dict:
     return {"white": bool(p_lb >= alpha and peak <= threshold), "ljung_box_q": q, "ljung_box_lags": h,
             "ljung_box_p": p_lb, "noise_floor_m_s2": math.sqrt(max(floor, 0.0)), "variance_ratio": var_ratio,
             "peak_over_floor": peak, "peak_over_neighbours": peak_local, "peak_threshold": threshold,
-            "peak_rad_s": float(2 * np.pi * (j + 1) / (n * dt))}
+            "peak_rad_s": float(2 * np.pi * (j + 1) / (n * dt)), "band_rad_s": band}
 
 
 def bartlett_bandwidth(e: np.ndarray) -> int:
@@ -181,14 +217,17 @@ def sandwich_std(J, e, n_params: int | None = None, bandwidth: int | None = None
     return _sandwich(J, S, n_params), L
 
 
-def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: float = ALPHA) -> dict | None:
+def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: float = ALPHA,
+               band_rad_s: float | None = None) -> dict | None:
     """:func:`residual_check` of a pem fit's residual and the robust std of its frequencies in prior order
     (``slot`` as in ``methods.pem._fit._label_modes``); None when the fit kept no residual or Jacobian (a
     failed start). When the residual is not white, ``robust_std_rad_s`` is the larger of
     :func:`sandwich_std` (``hac_std_rad_s``) and :func:`spectral_sandwich_std` (``spectral_std_rad_s``);
     a white residual's check carries no robust std (the white-noise one is honest there, and the two
     sandwiches would double the estimate's cost). The Jacobian is the fast path's reduced one
-    (``fit["Jr"]``) or the reference search's full one (``fit["J"]``); ω is its first m columns either way."""
+    (``fit["Jr"]``) or the reference search's full one (``fit["J"]``); ω is its first m columns either way.
+    ``band_rad_s``: the whiteness is judged below it only (:func:`residual_check`); the robust std uses the
+    whole residual."""
     e = fit.get("e")
     J = fit.get("Jr") if fit.get("Jr") is not None else fit.get("J")
     m = slot.size
@@ -200,7 +239,7 @@ def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: flo
         basis = np.column_stack([modal_basis(th[:m], th[m:2 * m], dt, e.size), J])
     else:
         basis = J
-    check = residual_check(e, dt, alpha, basis)
+    check = residual_check(e, dt, alpha, basis, band_rad_s)
     if check["white"]:          # the white-noise std is the honest one: the sandwich is not needed (cost)
         return check
     std, bandwidth = sandwich_std(J, e, n_params)

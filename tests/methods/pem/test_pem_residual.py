@@ -200,3 +200,59 @@ def test_an_unmodelled_line_above_the_band_is_fitted_and_set_aside():
     assert np.all(np.abs(est.frequencies - truth) <= 3 * est.std)
     assert np.max(np.abs(plain.frequencies - truth) / est.std) > 5
     assert np.all(plain.std > 5 * est.std)
+
+
+def _decimated_white(rng, n, q=2):
+    """White noise at the original rate, decimated by q with scipy's own anti-alias FIR (resample_poly)."""
+    return scipy.signal.resample_poly(rng.standard_normal(q * n), 1, q)
+
+
+def test_band_limited_keeps_each_in_band_bin_of_the_periodogram():
+    rng = np.random.default_rng(21)
+    e, dt = rng.standard_normal(1000), 0.01
+    band = 0.6 * np.pi / dt
+    e2, dt2 = _residual.band_limited(e, dt, band)
+    k = int(np.floor(band * e.size * dt / (2 * np.pi)))
+    assert e2.size == 2 * k and dt2 == pytest.approx(dt * e.size / e2.size)
+    p = np.abs(np.fft.rfft(e)) ** 2 / e.size
+    p2 = np.abs(np.fft.rfft(e2)) ** 2 / e2.size
+    assert p2[1:k] == pytest.approx(p[1:k], rel=1e-6)          # same bins, same frequencies, same units
+    assert np.array_equal(_residual.band_limited(e, dt, None)[0], e)
+
+
+def test_a_decimated_white_residual_is_white_in_its_pass_band_and_not_beyond():
+    """Decimation's anti-alias filter halves the noise power at the new Nyquist frequency: judged over the
+    whole band, white noise decimated by 2 is flagged most of the time (Ljung-Box); judged below the
+    filter's flat pass band (0.8 of Nyquist here, where scipy's Kaiser FIR is flat to 1 %) it is flagged at
+    about the tests' false-alarm rate."""
+    rng = np.random.default_rng(22)
+    dt = 1 / 1024
+    records = [_decimated_white(rng, 4096) for _ in range(150)]
+    whole = np.mean([not _residual.residual_check(x, dt)["white"] for x in records])
+    band = [_residual.residual_check(x, dt, band_rad_s=0.8 * np.pi / dt) for x in records]
+    assert whole > 0.5
+    # two tests at 0.1 % each: 0.2 % expected; 2 of 150 (1.3 %) would already be 3σ above
+    assert np.mean([not c["white"] for c in band]) <= 2 / 150
+    assert all(c["band_rad_s"] == pytest.approx(0.8 * np.pi / dt, rel=0.01) for c in band)
+    assert np.mean([c["variance_ratio"] for c in band]) == pytest.approx(1.0, abs=0.05)
+    assert np.mean([c["noise_floor_m_s2"] for c in band]) == pytest.approx(1 / np.sqrt(2), rel=0.05)  # σ²/q
+
+
+@pytest.mark.parametrize("phi", [0.3, 0.5])
+def test_a_residual_coloured_inside_the_pass_band_still_fails_there(phi):
+    rng = np.random.default_rng(23)
+    dt = 1 / 1024
+    checks = [_residual.residual_check(scipy.signal.resample_poly(_ar1(rng, 8192, phi), 1, 2), dt,
+                                       band_rad_s=0.8 * np.pi / dt) for _ in range(40)]
+    assert np.mean([not c["white"] for c in checks]) >= 0.95
+
+
+def test_pem_option_whiteness_band_reaches_the_residual_check():
+    rng = np.random.default_rng(24)
+    dt = 1 / 1024
+    t = dt * np.arange(4096)
+    y = 2.0 * np.exp(-2.0 * t) * np.sin(300.0 * t) + 0.01 * _decimated_white(rng, t.size)
+    est = pem.identify(y, dt, [310.0], whiteness_band_rad_s=0.8 * np.pi / dt)
+    assert est.extra["residual_check"]["band_rad_s"] == pytest.approx(0.8 * np.pi / dt, rel=0.01)
+    with pytest.raises(ValueError, match="whiteness_band_rad_s"):
+        pem.identify(y, dt, [310.0], whiteness_band_rad_s=-1.0)
