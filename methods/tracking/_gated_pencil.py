@@ -17,8 +17,8 @@ What. On each window of W samples (every H samples):
    Y₁ = c_k[1 … L] satisfy Y₁ = A Y₀ exactly for a free decay, whatever the amplitude and phase of each
    segment. A is estimated in the span of the r = 2m + ``extra_order`` leading left singular vectors of Y₀
    (Hua & Sarkar's matrix pencil / ERA's realisation step, the truncation filtering the noise):
-   Â = U_rᵀ Y₁ V_r Σ_r⁻¹; its eigenvalues z give s = log z / Δt. When fewer than 4L columns survive, all
-   are used.
+   Â = U_rᵀ Y₁ V_r Σ_r⁻¹; its eigenvalues z give s = log z / Δt. When fewer than 2L columns survive, the
+   window determines no mode (the trend stage only predicts).
 3. **Modes**: the poles with ω_d > 0 and damping in [−0.02, ``max_damping``] are assigned to the modes by
    ``linear_sum_assignment`` on |log ω − log ω_ref| within ``band``, ω_ref the last estimate of each mode
    (the prior at first); a mode without a pole in its band is not determined in that window.
@@ -51,9 +51,9 @@ class Options:
 
     window_samples: int = DEFAULT_WINDOW_SAMPLES
     hop_samples: int = DEFAULT_HOP_SAMPLES
-    rows: int = 40
-    extra_order: int = 4
-    ar_order: int = 16
+    rows: int = 60
+    extra_order: int = 8
+    ar_order: int = 24
     outlier_cut: float = 4.0
     band: float = 0.3
     max_damping: float = 0.05
@@ -83,9 +83,9 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     order = 2 * np.size(prior) + opts.extra_order
     if opts.rows < order:
         raise ValueError(f"{name}: rows = {opts.rows} must be at least the pencil's order 2m + extra_order = {order}")
-    if opts.window_samples < 4 * (opts.rows + 1) or opts.window_samples <= 2 * opts.ar_order:
+    if opts.window_samples < 3 * (opts.rows + 1) or opts.window_samples <= 2 * opts.ar_order:
         raise ValueError(f"{name}: window_samples = {opts.window_samples} is too short for rows = {opts.rows} "
-                         f"and ar_order = {opts.ar_order} (needs ≥ 4 (rows + 1) and > 2 ar_order)")
+                         f"and ar_order = {opts.ar_order} (needs ≥ 3 (rows + 1) and > 2 ar_order)")
     _trend.check(opts, name)
     return opts
 
@@ -118,8 +118,8 @@ def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: in
     cum = np.concatenate(([0], np.cumsum(flags)))
     k = np.arange(n - rows)
     keep = (cum[k + rows + 1] - cum[k + 1]) == 0
-    if keep.sum() < 4 * rows:
-        keep[:] = True
+    if keep.sum() < 2 * rows:                      # pulses everywhere: this window determines nothing
+        return np.empty(0, dtype=complex), float(keep.mean())
     y0, y1 = cols[keep, :rows].T, cols[keep, 1:].T
     u, sv, vt = np.linalg.svd(y0, full_matrices=False)
     r = min(order, int(np.sum(sv > sv[0] * 1e-12)))
