@@ -18,7 +18,9 @@ What. On each window of W samples (every H samples):
    segment. A is estimated in the span of the r = 2m + ``extra_order`` leading left singular vectors of Y₀
    (Hua & Sarkar's matrix pencil / ERA's realisation step, the truncation filtering the noise):
    Â = U_rᵀ Y₁ V_r Σ_r⁻¹; its eigenvalues z give s = log z / Δt. When fewer than 2L columns survive, the
-   window determines no mode (the trend stage only predicts).
+   window determines no mode (the trend stage only predicts); so does a window whose largest singular value
+   is under ``detect_ratio`` (3) × their median — a flat spectrum, noise (white noise: 1.2–1.6; the
+   thruster records: 16–19 in the median window).
 3. **Modes**: the poles with ω_d > 0 and damping in [−0.02, ``max_damping``] are assigned to the modes by
    ``linear_sum_assignment`` on |log ω − log ω_ref| within ``band``, ω_ref the last estimate of each mode
    (the prior at first); a mode without a pole in its band is not determined in that window.
@@ -55,6 +57,7 @@ class Options:
     extra_order: int = 8
     ar_order: int = 24
     outlier_cut: float = 4.0
+    detect_ratio: float = 3.0
     band: float = 0.3
     max_damping: float = 0.05
     trend: bool = True
@@ -76,7 +79,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     _int(opts.rows, "rows", 4, name)
     _int(opts.extra_order, "extra_order", 0, name)
     _int(opts.ar_order, "ar_order", 2, name)
-    for key in ("outlier_cut", "band", "max_damping"):
+    for key in ("outlier_cut", "detect_ratio", "band", "max_damping"):
         value = getattr(opts, key)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (np.isfinite(value) and value > 0):
             raise ValueError(f"{name}: {key} = {value!r} must be a finite number > 0")
@@ -109,7 +112,8 @@ def pulse_flags(seg: np.ndarray, ar_order: int, cut: float, iterations: int = 3)
     return flags
 
 
-def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: int, cut: float):
+def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: int, cut: float,
+                 detect_ratio: float):
     """(continuous poles s of the gated pencil, share of Hankel columns kept) for one window."""
     seg = seg - seg.mean()
     n = seg.size
@@ -122,6 +126,8 @@ def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: in
         return np.empty(0, dtype=complex), float(keep.mean())
     y0, y1 = cols[keep, :rows].T, cols[keep, 1:].T
     u, sv, vt = np.linalg.svd(y0, full_matrices=False)
+    if not sv[0] >= detect_ratio * np.median(sv):   # a flat singular spectrum: noise, no mode to find
+        return np.empty(0, dtype=complex), float(keep.mean())
     r = min(order, int(np.sum(sv > sv[0] * 1e-12)))
     a = (u[:, :r].T @ y1 @ vt[:r].T) / sv[None, :r]
     z = np.linalg.eigvals(a)
@@ -145,7 +151,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         seg = y[e - W + 1: e + 1]
         if flat_record(seg):
             continue
-        s, kept[j] = window_poles(seg, dt, order, opts.rows, opts.ar_order, opts.outlier_cut)
+        s, kept[j] = window_poles(seg, dt, order, opts.rows, opts.ar_order, opts.outlier_cut, opts.detect_ratio)
         w = np.abs(s)
         zeta = -s.real / np.maximum(w, 1e-300)
         ok = (s.imag > 0) & (w < nyquist) & (zeta >= MIN_DAMPING) & (zeta <= opts.max_damping)

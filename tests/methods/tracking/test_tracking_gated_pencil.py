@@ -66,3 +66,10 @@ def test_the_trend_stage_is_on_by_default_and_its_options_are_checked():
             assert words in str(err) and "\n" not in str(err), str(err)
         else:
             raise AssertionError(f"{bad} accepted")
+
+
+def test_white_noise_is_never_tracked_as_converged():
+    for seed in range(3):
+        y = 0.01 * np.random.default_rng(seed).standard_normal(3000)
+        tr = methods.track("gated_pencil", y, DT, PRIOR)
+        assert not tr.converged.any(), tr.message
