@@ -10,7 +10,11 @@ Every tracker gets the samples, the sample interval, a prior and its options (ne
   ``ssi_cov``, ``ssi_data``, ``lsce``, ``hdmd``, ``bopdmd``, plugins) under its own name, on a sliding window
   of ``window_samples`` every ``hop_samples``, warm-started from the previous window;
 * ``rls_ar`` — recursive least squares (Ljung's RPEM for an AR model) with forgetting, modes from its poles;
-* ``next_era`` — the naive baseline: NExT autocorrelation of a sliding window through ERA.
+* ``next_era`` — the naive baseline: NExT autocorrelation of a sliding window through ERA;
+* ``gated_pencil`` — a matrix pencil on the Hankel columns no thruster pulse crosses, then the trend stage.
+
+Every windowed tracker takes ``trend=True``: its estimates put at the window's centre and carried to the
+present by a local-linear-trend Kalman filter (:mod:`methods.tracking._trend`).
 
 Each tracker's options are a dataclass (:func:`track_options_class`) whose defaults are the tracker's;
 :func:`check_track_options` checks them without a record (with ``n_samples``: against the record's length too).
@@ -35,6 +39,7 @@ _NATIVE: dict[str, str] = {
     "pll": "methods.tracking._pll",
     "rls_ar": "methods.tracking._rls_ar",
     "next_era": "methods.tracking._next_era",
+    "gated_pencil": "methods.tracking._gated_pencil",
 }
 _WINDOWED = "methods.tracking._windowed"
 

@@ -24,11 +24,12 @@ import numpy as np
 
 import methods
 from methods.estimate import make_options
+from methods.tracking import _trend
 from methods.tracking._track import Track, check_window, usable_prior, window_ends
 
 DEFAULT_WINDOW_SAMPLES = 512      # 10.24 s at Δt = 0.02 s: 5 periods of the slowest mode (3.2 rad/s)
 DEFAULT_HOP_SAMPLES = 50          # 1 s at Δt = 0.02 s
-WINDOW_FIELDS = ("window_samples", "hop_samples", "warm_start")
+WINDOW_FIELDS = ("window_samples", "hop_samples", "warm_start") + _trend.TREND_FIELDS
 
 # A method's options on a window whose prior is the previous window's determined estimate.
 WARM_OPTIONS: dict[str, dict] = {
@@ -39,12 +40,12 @@ WARM_OPTIONS: dict[str, dict] = {
 @functools.cache
 def options_class(name: str):
     """The tracking options of batch method ``name``: its own ``Options`` plus ``window_samples`` (W),
-    ``hop_samples`` (H) and ``warm_start``."""
+    ``hop_samples`` (H), ``warm_start`` and the trend stage's (:mod:`methods.tracking._trend`)."""
     base = methods.options_class(name)
     return dataclasses.make_dataclass(
         f"{base.__name__}Windowed",
         [("window_samples", int, DEFAULT_WINDOW_SAMPLES), ("hop_samples", int, DEFAULT_HOP_SAMPLES),
-         ("warm_start", bool, True)],
+         ("warm_start", bool, True)] + [(k, type(v), v) for k, v in _trend.DEFAULTS.items()],
         bases=(base,))
 
 
@@ -63,6 +64,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     check_window(opts.window_samples, opts.hop_samples, name, n_samples)
     if not isinstance(opts.warm_start, bool):
         raise ValueError(f"{name}: warm_start = {opts.warm_start!r} must be true or false")
+    _trend.check(opts, name)
     methods.check_options(name, prior, dt, own)
     if opts.warm_start and name in WARM_OPTIONS:
         methods.check_options(name, prior, dt, own | WARM_OPTIONS[name])
@@ -109,5 +111,12 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
                f"every mode; {int(warm_used.sum())} warm-started")
     if failures:
         message += f"; {len(failures)} windows failed (first: {failures[0]})"
-    return Track(ends * dt, freq, std, conv, message=message,
-                 extra={"window_end_sample": ends, "warm_started": warm_used, "window_failures": len(failures)})
+    extra = {"window_end_sample": ends, "warm_started": warm_used, "window_failures": len(failures)}
+    if opts.trend:
+        extra |= {"window_frequencies": freq, "window_converged": conv}
+        freq, std, conv, restarts = _trend.smooth(
+            ends * dt, freq, conv, (W - 1) * dt, rate_noise=opts.trend_rate_noise, meas_rel=opts.trend_meas_rel,
+            gate=opts.trend_gate, restart_after=opts.trend_restart_after, rate0=opts.trend_rate0)
+        extra["trend_restarts"] = restarts
+        message += f"; trend stage (centre-stamped, carried to the window's end): {restarts.tolist()} restarts"
+    return Track(ends * dt, freq, std, conv, message=message, extra=extra)

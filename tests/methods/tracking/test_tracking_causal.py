@@ -3,7 +3,7 @@
 Checked on every name of ``methods.track_names()`` (a tracker added later is covered): the record is changed
 after sample K; every estimate stamped at or before K Δt must stay exactly what it was (the trackers are
 deterministic functions of the samples they have seen), and some later estimate must change (the check is
-not vacuous).
+not vacuous). The windowed trackers' trend stage (``trend=True``) is checked on three of them.
 """
 
 import numpy as np
@@ -20,9 +20,14 @@ WINDOWED = {"window_samples": 200, "hop_samples": 125}
 SLOW = {"bopdmd": {"window_samples": 100, "hop_samples": 250}}     # ~1 s per window (pydmd's BOP-DMD)
 
 
+TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every windowed tracker's option
+
+
 def _options(name):
+    name, _, extra = name.partition("+")
     fields = {f for f in methods.track_options_class(name).__dataclass_fields__}
-    return SLOW.get(name) or {k: v for k, v in WINDOWED.items() if k in fields}
+    opts = SLOW.get(name) or {k: v for k, v in WINDOWED.items() if k in fields}
+    return name, opts | ({"trend": True} if extra == "trend" else {})
 
 
 @pytest.fixture(scope="module")
@@ -33,11 +38,12 @@ def records():
     return y, changed
 
 
-@pytest.mark.parametrize("name", methods.track_names())
+@pytest.mark.parametrize("name", methods.track_names() + TREND)
 def test_changing_later_samples_leaves_earlier_estimates_unchanged(name, records):
     y, changed = records
-    a = methods.track(name, y, DT, PRIOR, **_options(name))
-    b = methods.track(name, changed, DT, PRIOR, **_options(name))
+    name, opts = _options(name)
+    a = methods.track(name, y, DT, PRIOR, **opts)
+    b = methods.track(name, changed, DT, PRIOR, **opts)
     assert a.frequencies.shape == (a.t_s.size, len(PRIOR)) and a.converged.dtype == bool
     assert np.all(np.diff(a.t_s) > 0) and a.runtime_s > 0
     np.testing.assert_array_equal(a.t_s, b.t_s)
