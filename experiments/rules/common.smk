@@ -71,9 +71,10 @@ def result_files(grid):
     return _grid(lambda: WF.result_files(grid))
 
 
-def dataset_jobs(wildcards):
-    """The datasets batch: one make_dataset command line per cell (experiments/jobs/batch.py), as JSON."""
-    return shlex.quote(json.dumps(_grid(lambda: WF.dataset_jobs(wildcards.grid))))
+def dataset_files(wildcards):
+    """The datasets an identify batch reads: the files of the cells its method runs on."""
+    cells = _grid(lambda: WF.method_cells(wildcards.grid, wildcards.method))
+    return [f"results/{wildcards.grid}/data/{c}.npz" for c in cells]
 
 
 def identify_jobs(wildcards):
@@ -121,5 +122,6 @@ def identify_runtime(wildcards, attempt):
     return _grid(lambda: WF.identify_runtime(wildcards.grid, wildcards.method, attempt))
 
 
-def dataset_runtime(wildcards, attempt):
-    return _grid(lambda: WF.dataset_runtime(wildcards.grid, attempt))
+def dataset_runtime(grid):
+    """The runtime request of the datasets batch of a grid (experiments/rules/datasets.smk)."""
+    return lambda wildcards, attempt: WF.dataset_runtime(grid, attempt)
