@@ -132,3 +132,29 @@ def test_quoting_leaves_the_users_own_syntax_alone():
     assert quote_unicode_value("data.path=plain.csv") == "data.path=plain.csv"
     assert quote_unicode_value("prior=[1,2]") == "prior=[1,2]"
     assert quote_unicode_value("method.options.x=a,é") == "method.options.x=a,é"     # a sweep stands
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["--nosuch", "method=fft"], ["unknown option --nosuch"]),
+    (["method=pem", "method=fft", "data.dataset=cell.npz"], ["method is given twice", "method=pem", "method=fft"]),
+    (["-m", "method=fft,nosuch", "data.dataset=cell.npz", "tracking.enabled=false"],
+     ["method=nosuch (of the sweep method=fft,nosuch)", "unknown method 'nosuch'"]),
+    (["method=fft", "data.dataset=cell.npz", "out=" + "d/" * 1500 + "x.csv"], ["folders deep (at most 200)"]),
+    (["method=fft", "data.dataset=cell.npz", "out=" + "é" * 200 + ".csv"], ["too long a path"]),
+])
+def test_a_bad_command_line_is_one_line_and_leaves_nothing(workdir, args, fragments):
+    before = set(workdir.rglob("*"))
+    proc = run("experiments.jobs.identify", *args, cwd=workdir)
+    assert_one_line_error(proc, *fragments)
+    assert set(workdir.rglob("*")) == before          # no run folder, no multirun folder
+
+
+@pytest.mark.parametrize("module, args, fragments", [
+    ("experiments.jobs.track_job", [], ["the following arguments are required: step, grid, --out"]),
+    ("experiments.tracking.track", ["--nosuch"], ["the following arguments are required: --grid"]),
+    ("experiments.report.aggregate", [], ["required"]),
+    ("experiments.tuning.compare", ["--methods"], ["--methods"]),
+])
+def test_a_bad_command_line_of_an_argparse_command_is_one_line(workdir, module, args, fragments):
+    proc = run(module, *args, cwd=workdir)
+    assert_one_line_error(proc, *fragments, "--help")
