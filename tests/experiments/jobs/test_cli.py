@@ -76,11 +76,21 @@ def test_identify_rejects_bad_input_with_one_line(workdir, args, fragments):
     (["n_samples=ten"], ["n_samples", "ten"]),
     (["noise_ug=inf"], ["noise_ug = inf must be a finite number"]),
     (["replicates=1000000000"], ["replicates × n_samples = 1000000000 × 256", "GiB"]),
+    (["noise_ug=1e308"], ["noise_ug = 1e+308 is above", "physical"]),
+    (["seed=36893488147419103232"], ["seed = 36893488147419103232 must be an integer from 0 to"]),
 ])
 def test_make_dataset_rejects_bad_input_with_one_line(workdir, args, fragments):
     proc = run("experiments.jobs.make_dataset", *args, "out=new.npz", cwd=workdir)
     assert_one_line_error(proc, *fragments)
     assert not (workdir / "new.npz").exists()
+
+
+@pytest.mark.parametrize("out", ["", "folder/"])
+def test_make_dataset_refuses_an_output_that_names_no_file(workdir, out):
+    before = set(workdir.rglob("*"))
+    proc = run("experiments.jobs.make_dataset", "n_samples=64", "replicates=2", f"out={out}", cwd=workdir)
+    assert_one_line_error(proc, f"out = '{out}' must name a file")
+    assert set(workdir.rglob("*")) == before
 
 
 def test_identify_on_a_users_csv_writes_estimate_json(workdir):

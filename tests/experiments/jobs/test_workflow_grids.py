@@ -68,6 +68,12 @@ def test_a_measurement_cell_runs_only_the_methods_whose_options_have_it(root):
     (("seed: 5", "seed: 5\nmethods_overrides: {}"), "Additional properties are not allowed"),
     (("seed: 5", "seed: 5\nmethod_overrides: {pem: [method.options.n_starts=2]}"), "method_overrides.pem: not a "
                                                                                    "method of the grid"),
+    (("[10, 1000]", "[10, 1.0e+308]"), "noise_ug = 1e+308 is above 1.02e+11 µg"),
+    (("seed: 5", "seed: 36893488147419103232"), "seed = 36893488147419103232 must be an integer from 0"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {fft: ['prior=${oc.env:HOME}']}"),
+     "method_overrides of fft: prior must be a list of frequencies"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {fft: ['prior=[3.5,19,23,500]']}"),
+     "prior[3] = 500.0 rad/s is above the Nyquist frequency"),
 ])
 def test_a_grid_a_job_would_refuse_is_refused_in_one_line(root, change, message):
     text = GRID.format(name="bad").replace(*change)
