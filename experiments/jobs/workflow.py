@@ -197,6 +197,28 @@ class Workflow:
         values = yaml.safe_load((self.root / "configs" / "plant" / "paper.yaml").read_text())
         return PlantConfig(**{k: v for k, v in values.items() if k != "defaults"})
 
+    def check_target(self, target: str) -> None:
+        """A target inside a grid's results names one of its cells or methods (``results/<grid>/data/<cell>.npz``,
+        ``results/<grid>/identify/<method>``): else one line naming what the grid has, where Snakemake would
+        print its "No rule to produce" over several lines."""
+        parts = Path(target).parts
+        if len(parts) < 4 or parts[0] != "results" or parts[1] not in self.grid_names():
+            return
+        grid = parts[1]
+        if parts[2] == "data":
+            cells = self.cells(grid)
+            if Path(parts[3]).stem not in cells or len(parts) > 4 or not parts[3].endswith(".npz"):
+                raise GridError(f"error: {target}: not a dataset of grid {grid}; its datasets are "
+                                f"results/{grid}/data/<cell>.npz, cells: {', '.join(cells)}")
+        elif parts[2] == "identify":
+            configs = [method_config(m) for m in self.load_grid(grid)["methods"]]
+            if parts[3] not in configs:
+                raise GridError(f"error: {target}: no method '{parts[3]}' in grid {grid}; its methods: "
+                                f"{', '.join(configs)}")
+            if len(parts) > 4:              # the batch's folder is its output: a file in it is no target
+                raise GridError(f"error: {target}: one job writes every cell of {parts[3]} on grid {grid}; ask "
+                                f"for the folder results/{grid}/identify/{parts[3]}")
+
     # ---- what a grid runs ---------------------------------------------------------------------------------
 
     def cells(self, grid: str) -> list[str]:

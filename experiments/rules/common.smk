@@ -36,6 +36,8 @@ try:
     for _name in requested_grids(sys.argv[1:], GRID_NAMES + TRACKING_GRIDS):
         if _name in GRID_NAMES:       # the tracking grids are checked by experiments/rules/tracking.smk
             WF.load_grid(_name)
+    for _target in sys.argv[1:]:
+        WF.check_target(_target)
 except GridError as _exc:
     print(str(_exc), file=sys.stderr)
     sys.exit(2)

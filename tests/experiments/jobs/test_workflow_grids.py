@@ -121,3 +121,18 @@ def test_a_target_outside_the_grids_is_refused_in_one_line(target, message):
     with pytest.raises(GridError, match=message) as info:
         requested_grids([target], ["paper", "smoke"])
     assert str(info.value).startswith(f"error: {target}: ")
+
+
+@pytest.mark.parametrize(("target", "message"), [
+    ("results/plain/data/nosuch.npz", "not a dataset of grid plain; .* cells: noise10ug_n64, noise1000ug_n64"),
+    ("results/plain/identify/nosuch", "no method 'nosuch' in grid plain; its methods: fft, akf"),
+    ("results/plain/identify/fft/noise10ug_n64.csv", "ask for the folder results/plain/identify/fft"),
+])
+def test_a_target_inside_a_grid_names_its_cells_or_methods(root, target, message):
+    wf = workflow_with(root, "plain", GRID.format(name="plain"))
+    with pytest.raises(GridError, match=message) as info:
+        wf.check_target(target)
+    assert str(info.value).startswith(f"error: {target}: ")
+    for fine in ("results/plain/data/noise10ug_n64.npz", "results/plain/identify/akf", "results/plain/README.md",
+                 "smoke", "--cores"):
+        wf.check_target(fine)
