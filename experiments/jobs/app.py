@@ -148,6 +148,7 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
         try:
             with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
                 cfg = compose(config_name=config_name, overrides=args, return_hydra_config=True)
+                _check_added_keys(config_name, args)
             _check_outputs_writable(cfg)
             with open_dict(cfg):
                 del cfg["hydra"]
@@ -172,6 +173,25 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
             fail(one_line(exc))
 
     hydra.main(config_path=f"pkg://{CONFIG_MODULE}", config_name=config_name, version_base="1.3")(guarded)()
+
+
+_ABSENT = object()
+
+
+def _check_added_keys(config_name: str, args: list[str]) -> None:
+    """Hydra's ``+key=value`` adds a key the config does not have, and nothing would read it: a typo or a
+    hostile key (``+method._target_=os.system``) would pass without a word. Refused unless the key exists
+    (``++key=value`` on a known key is an override). A config group (``+group=option``) and Hydra's own
+    ``hydra.*`` keys are Hydra's to judge."""
+    added = [a for a in args if a.startswith("+") and "=" in a and "/" not in a.split("=", 1)[0]
+             and not a.lstrip("+").startswith("hydra.")]        # Hydra's own keys (hydra.job.env_set...)
+    if not added:
+        return
+    base = compose(config_name=config_name, overrides=[a for a in args if a not in added], return_hydra_config=True)
+    for arg in added:
+        key = arg.lstrip("+").split("=", 1)[0]
+        if OmegaConf.select(base, key, default=_ABSENT) is _ABSENT:
+            raise ValueError(f"{arg}: the job has no key {key} (+ adds a key nothing reads); see --cfg job")
 
 
 def _check_outputs_writable(cfg: DictConfig) -> None:

@@ -551,7 +551,6 @@ def fault_cases(fix: Path) -> list[Case]:
         def run(case, work):
             base = ref["work"]
             db = base / "results" / "mlflow.db"
-            shutil.copy(db, work / "mlflow.db.orig")
             data = db.read_bytes()
             db.write_bytes(data[: int(len(data) * fraction)])
             try:
@@ -561,7 +560,7 @@ def fault_cases(fix: Path) -> list[Case]:
                 leftover = [p for p in (base / "results" / "runs").glob("*")] if (base / "results" / "runs").exists() \
                     else []
                 ref[f"runs_{fraction}"] = leftover
-                shutil.copy(work / "mlflow.db.orig", db)
+                db.write_bytes(data)
         return run
 
     def truncated_workflow(case, work):

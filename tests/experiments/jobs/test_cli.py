@@ -146,6 +146,8 @@ def test_quoting_leaves_the_users_own_syntax_alone():
 
 @pytest.mark.parametrize("args, fragments", [
     (["--nosuch", "method=fft"], ["unknown option --nosuch"]),
+    (["method=fft", "data.dataset=cell.npz", "+method._target_=os.system"], ["the job has no key method._target_"]),
+    (["method=fft", "data.dataset=cell.npz", "+colour=red"], ["+colour=red: the job has no key colour"]),
     (["method=pem", "method=fft", "data.dataset=cell.npz"], ["method is given twice", "method=pem", "method=fft"]),
     (["-m", "method=fft,nosuch", "data.dataset=cell.npz", "tracking.enabled=false"],
      ["method=nosuch (of the sweep method=fft,nosuch)", "unknown method 'nosuch'"]),
