@@ -51,7 +51,7 @@ case "${1:-}" in
   reproduce|paper) shift; unlock_if_stale; exec snakemake $RERUN --cores "$CORES" paper "$@" ;;
   smoke)           shift; unlock_if_stale; exec snakemake $RERUN --cores "$CORES" smoke "$@" ;;
   full)            shift; unlock_if_stale; exec snakemake $RERUN --cores "$CORES" full "$@" ;;
-  snakemake)       shift; exec snakemake $RERUN "$@" ;;
+  snakemake)       shift; unlock_if_stale; exec snakemake $RERUN "$@" ;;
   tracking-server)
     # mlflow server on a PostgreSQL backend store; artifacts are uploaded through the server into
     # results/mlflow-artifacts (or --artifacts-destination). Later options override: --host, --port, ...

@@ -11,6 +11,7 @@ from snakemake.settings.types import DeploymentMethod
 
 from experiments.jobs.tracking_targets import TRACKING_GRIDS
 from experiments.jobs.workflow import GridError, Workflow, requested_grids
+from experiments.tracking.store import check_store
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
 # filters only makes them fight (wkf measured 4x slower per replicate on 2 busy cores).
@@ -33,7 +34,8 @@ GRID_NAMES = WF.grid_names()
 # A requested grid is checked before the DAG is built, so a bad file or target is reported as one line (an
 # error inside an input function would come wrapped in Snakemake's context); other grids' files are not read.
 try:
-    for _name in requested_grids(sys.argv[1:], GRID_NAMES + TRACKING_GRIDS):
+    _REQUESTED = requested_grids(sys.argv[1:], GRID_NAMES + TRACKING_GRIDS)
+    for _name in _REQUESTED:
         if _name in GRID_NAMES:       # the tracking grids are checked by experiments/rules/tracking.smk
             WF.load_grid(_name)
     for _target in sys.argv[1:]:
@@ -41,6 +43,15 @@ try:
 except GridError as _exc:
     print(str(_exc), file=sys.stderr)
     sys.exit(2)
+
+# The MLflow store a grid's last step writes, checked as the grid is: an empty, truncated or corrupt store is
+# one line now, not "Error in rule track" after every other job (experiments/tracking/store.py).
+if _REQUESTED:
+    try:
+        check_store()
+    except ValueError as _exc:
+        print(f"error: {_exc}", file=sys.stderr)
+        sys.exit(2)
 
 
 wildcard_constraints:
