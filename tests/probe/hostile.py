@@ -248,6 +248,19 @@ def repo_copy(work: Path, grid: str | None = None, name: str = "bad") -> None:
         (work / "configs" / "grid" / f"{name}.yaml").write_text(grid)
 
 
+def run_sh_copy(work: Path, grid: str, name: str) -> None:
+    """A workflow copy that runs through ``./run.sh``, the user's entry point (its lock clearing and its
+    --rerun-incomplete), with this environment seen as run.sh's installed .venv."""
+    repo_copy(work, grid, name)
+    shutil.copy(ROOT / "run.sh", work / "run.sh")
+    shutil.copy(ROOT / "pyproject.toml", work / "pyproject.toml")
+    venv_bin = work / ".venv" / "bin"
+    venv_bin.mkdir(parents=True)
+    for exe in ("python", "snakemake"):
+        (venv_bin / exe).symlink_to(Path(PY).parent / exe)
+    (work / ".venv" / ".installed").touch()
+
+
 TINY = "name: tiny\nnoise_ug: [1000]\nn_samples: [64]\nreplicates: 2\nseed: 7\nmethods: [fft, akf]\n"
 
 
@@ -461,8 +474,8 @@ def cases(fix: Path) -> list[Case]:
 # ---- faults: a tiny grid run for real, then killed, deleted from, truncated, shared ----------------------------
 
 def snakemake_run(work: Path, *args: str, env: dict | None = None, timeout: float = 900):
-    # run.sh's default: --rerun-incomplete (a job Snakemake had not recorded as finished is redone)
-    return subprocess.run([SNAKEMAKE, "--rerun-incomplete", "--cores", "2", *args], cwd=work, capture_output=True,
+    """``./run.sh snakemake --cores 2 ...`` in a copy made by :func:`run_sh_copy`."""
+    return subprocess.run(["./run.sh", "snakemake", "--cores", "2", *args], cwd=work, capture_output=True,
                           text=True, timeout=timeout, env=environment(env))
 
 
@@ -494,7 +507,6 @@ def fault_cases(fix: Path) -> list[Case]:
     ref: dict = {}
 
     def baseline(case, work):
-        repo_copy(work, TINY, "tiny")
         proc = snakemake_run(work, "results/tiny/README.md")
         ref["work"] = work
         ref["table"] = comparison(work)
@@ -512,8 +524,7 @@ def fault_cases(fix: Path) -> list[Case]:
         return as_proc(ok, "the deleted dataset was not regenerated bit for bit, or the table changed")
 
     def killed(case, work):
-        repo_copy(work, TINY, "tiny")
-        p = subprocess.Popen([SNAKEMAKE, "--rerun-incomplete", "--cores", "2", "results/tiny/README.md"], cwd=work,
+        p = subprocess.Popen(["./run.sh", "snakemake", "--cores", "2", "results/tiny/README.md"], cwd=work,
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=environment(),
                              start_new_session=True)
         deadline = time.time() + 300
@@ -536,9 +547,9 @@ def fault_cases(fix: Path) -> list[Case]:
             d = work / f"wf{i}"
             d.mkdir()
             name = f"tiny{'ab'[i]}"
-            repo_copy(d, TINY.replace("seed: 7", f"seed: {seed}").replace("tiny", name), name)
+            run_sh_copy(d, TINY.replace("seed: 7", f"seed: {seed}").replace("tiny", name), name)
             dirs.append(d)
-            procs.append(subprocess.Popen([SNAKEMAKE, "--rerun-incomplete", "--cores", "1",
+            procs.append(subprocess.Popen(["./run.sh", "snakemake", "--cores", "1",
                                            f"results/{name}/README.md"], cwd=d, stdout=subprocess.PIPE,
                                           stderr=subprocess.STDOUT, text=True, env=environment(env)))
         outs = [p.communicate(timeout=900)[0] for p in procs]
@@ -568,30 +579,35 @@ def fault_cases(fix: Path) -> list[Case]:
         db = base / "results" / "mlflow.db"
         original = db.read_bytes()
         db.write_bytes(original[: len(original) // 2])
-        (base / "results" / "tiny" / "mlflow_runs.json").unlink(missing_ok=True)
+        for page in ("mlflow_runs.json", "README.md"):        # the track step's outputs: it must run again
+            (base / "results" / "tiny" / page).unlink(missing_ok=True)
         try:
             return snakemake_run(base, "results/tiny/README.md")
         finally:
             db.write_bytes(original)
 
+    def inputs(work):
+        shutil.copy(fix / "cell.npz", work / "cell.npz")
+        write_csv(work / "my.csv")
+
     def read_only(args):
         def run(case, work):
-            shutil.copy(fix / "cell.npz", work / "cell.npz")
-            write_csv(work / "my.csv")
             script = (f"mount --bind {work} {work} && mount -o remount,bind,ro {work} && cd {work} && "
                       f"{shlex.join([PY, *args])}")
             return subprocess.run(["unshare", "-m", "sh", "-c", script], capture_output=True, text=True,
                                   timeout=120, env=environment())
         return run
 
-    out.append(Case("fault", "tiny grid run", [], expect="accept", run=baseline, timeout=900))
+    out.append(Case("fault", "tiny grid run", [], expect="accept", run=baseline, timeout=900,
+                    setup=lambda w: run_sh_copy(w, TINY, "tiny")))
     out.append(Case("fault", "a deleted dataset, rerun", [], expect="accept", run=deleted_dataset, timeout=900))
     out.append(Case("fault", "store truncated to half: a tracked job", [], run=truncated(0.5), timeout=300,
                     check=lambda w, p: "run folder written" if ref.get("runs_0.5") else None))
     out.append(Case("fault", "store truncated to zero: a tracked job", [], run=truncated(0.0), timeout=300,
                     check=lambda w, p: "run folder written" if ref.get("runs_0.0") else None))
     out.append(Case("fault", "store truncated to half: the workflow", [], run=truncated_workflow, timeout=900))
-    out.append(Case("fault", "kill -9 and rerun", [], expect="accept", run=killed, timeout=1200))
+    out.append(Case("fault", "kill -9 and rerun", [], expect="accept", run=killed, timeout=1200,
+                    setup=lambda w: run_sh_copy(w, TINY, "tiny")))
     out.append(Case("fault", "two workflows, one store", [], expect="accept", run=shared_store, timeout=1200))
     for label, args in [("identify a cell", ["-m", "experiments.jobs.identify", "method=fft", "data.dataset=cell.npz"]),
                         ("identify a cell, no tracking", ["-m", "experiments.jobs.identify", "method=fft",
@@ -600,7 +616,7 @@ def fault_cases(fix: Path) -> list[Case]:
                                             "prior=[20,56]", "tracking.enabled=false"]),
                         ("make a dataset", ["-m", "experiments.jobs.make_dataset", "noise_ug=10", "n_samples=64",
                                             "replicates=2", "out=results/c.npz"])]:
-        out.append(Case("fault", f"read-only folder: {label}", [], run=read_only(args), timeout=120))
+        out.append(Case("fault", f"read-only folder: {label}", [], run=read_only(args), timeout=120, setup=inputs))
     return out
 
 
