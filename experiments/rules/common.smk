@@ -5,6 +5,7 @@ import json
 import os
 import shlex
 import sys
+from pathlib import Path
 
 from snakemake.exceptions import WorkflowError
 from snakemake.settings.types import DeploymentMethod
@@ -88,6 +89,19 @@ def dataset_files(wildcards):
     """The datasets an identify batch reads: the files of the cells its method runs on."""
     cells = _grid(lambda: WF.method_cells(wildcards.grid, wildcards.method))
     return [f"results/{wildcards.grid}/data/{c}.npz" for c in cells]
+
+
+def dataset_folder(wildcards):
+    """The folder of a grid's datasets, an input of its identify batches for its modification time: deleting a
+    dataset changes it, so the batches rerun, and Snakemake remakes the missing file they need first (a
+    missing file that no job to be run needs is not remade: Snakemake takes the results as up to date). The
+    datasets batch writes its files before any identify batch starts, so a run leaves the folder older than
+    the batches' outputs. Made here if absent, as the input must exist; a .snakemake_timestamp left by the
+    folder output of earlier versions would stand in for its mtime, and is removed."""
+    folder = Path("results", wildcards.grid, "data")
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / ".snakemake_timestamp").unlink(missing_ok=True)
+    return str(folder)
 
 
 def identify_jobs(wildcards):

@@ -1,10 +1,12 @@
 # One job per grid simulates every cell (experiments.jobs.batch: make_dataset's job for each cell, in one
-# process). Its outputs are the cells' files, results/<grid>/data/<cell>.npz, each named: a file deleted
-# after a run is a missing output, so Snakemake reruns the batch and what reads it (a folder as the output
-# would hide it: "Nothing to be done"). A rule's outputs cannot depend on its wildcards, so each grid gets
-# its own rule, datasets_<grid>, written from the grid's cells when the workflow is read (all grids: ~0.3 s;
-# a grid that does not load gets no rule, and is refused in one line when a target asks for it).
-# Each file is written atomically; Snakemake removes the outputs of a failed job.
+# process). Its outputs are the cells' files, results/<grid>/data/<cell>.npz, each named, so that a file
+# deleted after a run is a missing output Snakemake can remake (a folder as the output hid it: "Nothing to be
+# done"). Snakemake remakes a missing file only for a job that must run, so the identify batches also read
+# the folder, whose modification time the deletion changes (common.smk, dataset_folder): they rerun, the
+# batch first. A rule's outputs cannot depend on its wildcards, so each grid gets its own rule,
+# datasets_<grid>, written from the grid's cells when the workflow is read (every grid: ~0.3 s; a grid that
+# does not load gets no rule, and is refused in one line when a target asks for it). Each file is written
+# atomically; Snakemake removes the outputs of a failed job.
 for _grid_name in GRID_NAMES:
     try:
         _cells = WF.cells(_grid_name)

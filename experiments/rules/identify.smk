@@ -9,6 +9,7 @@ rule identify:
         "identify: {wildcards.method} on every cell of grid {wildcards.grid} -> {output}"
     input:
         data=dataset_files,
+        folder=dataset_folder,
         code=method_code,
     output:
         directory("results/{grid}/identify/{method}"),
