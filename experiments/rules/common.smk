@@ -54,6 +54,13 @@ if _REQUESTED:
         print(f"error: {_exc}", file=sys.stderr)
         sys.exit(2)
 
+# The data folders the identify batches read (dataset_folder below) are made now, before Snakemake lists what
+# exists: one made while it builds the jobs is not seen ("Missing input files"). Those of the grids asked
+# for, or of the default target (the paper grid) when none is.
+for _name in _REQUESTED or ([] if {"--lint", "--unlock"} & set(sys.argv) else ["paper"]):
+    if _name in GRID_NAMES:
+        Path("results", _name, "data").mkdir(parents=True, exist_ok=True)
+
 
 wildcard_constraints:
     grid="|".join(GRID_NAMES),
@@ -96,8 +103,9 @@ def dataset_folder(wildcards):
     dataset changes it, so the batches rerun, and Snakemake remakes the missing file they need first (a
     missing file that no job to be run needs is not remade: Snakemake takes the results as up to date). The
     datasets batch writes its files before any identify batch starts, so a run leaves the folder older than
-    the batches' outputs. Made here if absent, as the input must exist; a .snakemake_timestamp left by the
-    folder output of earlier versions would stand in for its mtime, and is removed."""
+    the batches' outputs. The input must exist: made when the workflow is read (above), and here for a grid
+    no target named; a .snakemake_timestamp left by the folder output of earlier versions would stand in for
+    its mtime, and is removed."""
     folder = Path("results", wildcards.grid, "data")
     folder.mkdir(parents=True, exist_ok=True)
     (folder / ".snakemake_timestamp").unlink(missing_ok=True)
