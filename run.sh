@@ -24,7 +24,11 @@ CORES=${CORES:-$(nproc 2>/dev/null || echo 2)}
 # A workflow killed with SIGKILL leaves Snakemake's lock behind; clear it when no Snakemake runs in this
 # working directory (Snakemake works in its --directory, so a process's cwd tells which folder it locks;
 # another user's workflow elsewhere on the machine does not count). Without /proc, any Snakemake counts.
-# (Outputs are written atomically and profiles/default reruns incomplete jobs, so the rerun completes.)
+# Every output is written atomically, so a job killed mid-way leaves no file, and one killed after its rename
+# but before Snakemake recorded it is complete and safe to redo: Snakemake reruns it without asking. The
+# option is given here, not in a default workflow profile, whose "Using workflow specific profile ..." line
+# Snakemake prints before anything else, a grid's one-line refusal included.
+RERUN=--rerun-incomplete
 snakemake_runs_here() {
   local pid
   for pid in $(pgrep -f snakemake 2>/dev/null); do
@@ -44,9 +48,10 @@ unlock_if_stale() {
 }
 
 case "${1:-}" in
-  reproduce|paper) shift; unlock_if_stale; exec snakemake --cores "$CORES" paper "$@" ;;
-  smoke)           shift; unlock_if_stale; exec snakemake --cores "$CORES" smoke "$@" ;;
-  full)            shift; unlock_if_stale; exec snakemake --cores "$CORES" full "$@" ;;
+  reproduce|paper) shift; unlock_if_stale; exec snakemake $RERUN --cores "$CORES" paper "$@" ;;
+  smoke)           shift; unlock_if_stale; exec snakemake $RERUN --cores "$CORES" smoke "$@" ;;
+  full)            shift; unlock_if_stale; exec snakemake $RERUN --cores "$CORES" full "$@" ;;
+  snakemake)       shift; unlock_if_stale; exec snakemake $RERUN "$@" ;;
   tracking-server)
     # mlflow server on a PostgreSQL backend store; artifacts are uploaded through the server into
     # results/mlflow-artifacts (or --artifacts-destination). Later options override: --host, --port, ...

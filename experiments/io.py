@@ -178,11 +178,23 @@ def save_figure(fig, path, tight: bool = True, png_compression: int = 6) -> Path
     return path
 
 
+# Folders an output path may nest (Python's recursive mkdir stops near 1000; no sensible path comes close).
+MAX_DEPTH = 200
+
+
 def check_writable(path: str | os.PathLike, what: str) -> None:
     """Raise ``ValueError`` (one line) when files cannot be written at or under ``path``: the nearest folder
     that exists on the way is a file, or this process may not write there (read-only folder or file
     system). Called before any work, so that a job refused for it leaves nothing behind."""
     target = Path(path).absolute()
+    name_max = os.pathconf("/", "PC_NAME_MAX") if hasattr(os, "pathconf") else 255
+    path_max = os.pathconf("/", "PC_PATH_MAX") if hasattr(os, "pathconf") else 4096
+    if len(os.fsencode(target)) >= path_max or any(len(os.fsencode(p)) > name_max for p in target.parts):
+        raise ValueError(f"{what} {str(path)[:60]}...: too long a path for this file system (at most {name_max} "
+                         f"bytes a name, {path_max} in all); choose a shorter path")
+    if len(target.parts) > MAX_DEPTH:
+        raise ValueError(f"{what} {str(path)[:60]}...: {len(target.parts)} folders deep (at most {MAX_DEPTH}); "
+                         f"choose a shorter path")
     here = target
     while not here.exists():
         here = here.parent

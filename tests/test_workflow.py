@@ -167,6 +167,22 @@ def test_tracking_reads_only_what_the_workflow_declares(repo_copy):
     assert "0 newly logged" in (repo_copy / "results" / "tiny" / "logs" / "track.log").read_text()
 
 
+def test_a_deleted_dataset_is_regenerated_bit_for_bit_and_the_tables_stay(repo_copy):
+    out = repo_copy / "results" / "tiny"
+    (dataset,) = (out / "data").glob("*.npz")
+    original = dataset.read_bytes()
+    table = pd.read_csv(out / "tables" / "comparison.csv").drop(columns="median_runtime_s")
+    dataset.unlink()
+    jobs = planned(repo_copy)
+    assert jobs.pop("datasets") == ["results/tiny/data"] and set(jobs) == {"identify", "aggregate", "track"}
+    proc = snakemake_in(repo_copy, "results/tiny/README.md", snakefile=repo_copy / "Snakefile")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert dataset.read_bytes() == original
+    pd.testing.assert_frame_equal(pd.read_csv(out / "tables" / "comparison.csv").drop(columns="median_runtime_s"),
+                                  table)
+    assert planned(repo_copy) == {}
+
+
 def _edit(path, old, new):
     text = path.read_text()
     assert old in text

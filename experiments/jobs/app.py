@@ -23,7 +23,8 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 
 from experiments.io import atomic_write_text, check_writable
 
-__all__ = ["CONFIG_MODULE", "CONFIG_DIR", "EXIT_BAD_INPUT", "BAD_INPUT", "one_line", "fail", "run_app"]
+__all__ = ["CONFIG_MODULE", "CONFIG_DIR", "EXIT_BAD_INPUT", "BAD_INPUT", "one_line", "fail", "run_app",
+           "check_command_line"]
 
 # configs/ travels with the code as the package data `experiments.configs` (experiments/configs links to it in
 # the repository; a wheel holds a copy), so Hydra finds it from any working directory, installed or not.
@@ -74,6 +75,59 @@ def quote_unicode_value(arg: str) -> str:
     return f"{key}='{value}'"
 
 
+# Hydra's own command-line flags (``--help`` lists them); any other word starting with ``-`` is refused here in
+# one line rather than by Hydra's argparse with its usage block.
+HYDRA_FLAGS = frozenset({"-h", "--help", "--hydra-help", "--version", "-c", "--cfg", "--resolve", "-p",
+                         "--package", "-i", "--info", "-r", "--run", "-m", "--multirun", "-sc", "--shell-completion",
+                         "-cp", "--config-path", "-cn", "--config-name", "-cd", "--config-dir",
+                         "--experimental-rerun"})
+
+
+def check_command_line(args: list[str]) -> None:
+    """Refuse, in one line, an unknown flag and a key given twice (``method=pem method=fft``: Hydra would
+    keep the last without a word)."""
+    seen = {}
+    for arg in args:
+        if arg.startswith("-") and "=" not in arg and arg not in HYDRA_FLAGS:
+            fail(f"unknown option {arg}; the options are key=value overrides (see --cfg job) and Hydra's flags "
+                 f"(see --help)")
+        match = _KEY_VALUE.match(arg)
+        if match:
+            key = match.group(1).lstrip("+~")
+            if key in seen and seen[key] != arg:
+                fail(f"{key} is given twice ({seen[key]} and {arg}); give it once")
+            seen[key] = arg
+
+
+def _check_sweep(config_name: str, args: list[str]) -> None:
+    """A sweep (``-m``) composes each job when it starts it, and a value no job can compose (``method=nosuch``)
+    would end the whole sweep with Hydra's error over many lines: each swept value is composed here first,
+    with the other overrides, and the first that fails is one line. Values a job's own check refuses are
+    left to the job (recorded in its ``error.txt``; the sweep goes on)."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    words = [a for a in args if not a.startswith("-")]
+    try:
+        overrides = OverridesParser.create().parse_overrides(words)
+    except OverrideParseException as exc:
+        fail(f"cannot read the override {exc.override}: {one_line(exc)}")
+    plain = [o.input_line for o in overrides if not o.is_sweep_override()]
+    with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
+        for override in overrides:
+            if not override.is_sweep_override():
+                continue
+            try:
+                values = list(override.sweep_string_iterator())
+            except Exception:  # noqa: BLE001 - an interval sweep (a sweeper plugin's) has no values to list
+                continue
+            for value in values:
+                line = f"{override.get_key_element()}={value}"
+                try:
+                    compose(config_name=config_name, overrides=[*plain, line], return_hydra_config=True)
+                except Exception as exc:  # noqa: BLE001 - every composition error is bad input
+                    fail(f"{line} (of the sweep {override.input_line}): {one_line(exc)}")
+
+
 def fail(message: str) -> None:
     print(f"error: {message}", file=sys.stderr)
     sys.exit(EXIT_BAD_INPUT)
@@ -87,10 +141,14 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
     the work. A bad-input exception from either becomes one line on stderr and exit status 2.
     """
     args = sys.argv[1:] = [quote_unicode_value(a) for a in sys.argv[1:]]
+    check_command_line(args)
+    if any(a in ("-m", "--multirun") for a in args):
+        _check_sweep(config_name, args)
     if not any(a in ("-m", "--multirun") or a.startswith("-") for a in args):
         try:
             with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
                 cfg = compose(config_name=config_name, overrides=args, return_hydra_config=True)
+                _check_added_keys(config_name, args)
             _check_outputs_writable(cfg)
             with open_dict(cfg):
                 del cfg["hydra"]
@@ -115,6 +173,25 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
             fail(one_line(exc))
 
     hydra.main(config_path=f"pkg://{CONFIG_MODULE}", config_name=config_name, version_base="1.3")(guarded)()
+
+
+_ABSENT = object()
+
+
+def _check_added_keys(config_name: str, args: list[str]) -> None:
+    """Hydra's ``+key=value`` adds a key the config does not have, and nothing would read it: a typo or a
+    hostile key (``+method._target_=os.system``) would pass without a word. Refused unless the key exists
+    (``++key=value`` on a known key is an override). A config group (``+group=option``) and Hydra's own
+    ``hydra.*`` keys are Hydra's to judge."""
+    added = [a for a in args if a.startswith("+") and "=" in a and "/" not in a.split("=", 1)[0]
+             and not a.lstrip("+").startswith("hydra.")]        # Hydra's own keys (hydra.job.env_set...)
+    if not added:
+        return
+    base = compose(config_name=config_name, overrides=[a for a in args if a not in added], return_hydra_config=True)
+    for arg in added:
+        key = arg.lstrip("+").split("=", 1)[0]
+        if OmegaConf.select(base, key, default=_ABSENT) is _ABSENT:
+            raise ValueError(f"{arg}: the job has no key {key} (+ adds a key nothing reads); see --cfg job")
 
 
 def _check_outputs_writable(cfg: DictConfig) -> None:

@@ -5,6 +5,9 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 from omegaconf import OmegaConf
 
@@ -39,6 +42,9 @@ def check(cfg) -> None:
             raise ValueError(f"{name} = {value} must be a finite number")
     check_dataset_config(c)
     check_cell_memory(c.replicates, c.n_samples)
+    out = str(c.out)
+    if not out or out.endswith(("/", os.sep)) or Path(out).is_dir():
+        raise ValueError(f"out = '{out}' must name a file (e.g. out=cell.npz), not a folder")
 
 
 def check_cell_memory(replicates: int, n_samples: int) -> None:

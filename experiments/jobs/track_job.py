@@ -22,7 +22,6 @@ recorded for that record (NaN estimates, the message) and the run goes on.
 
 from __future__ import annotations
 
-import argparse
 import inspect
 import json
 import sys
@@ -32,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from experiments.cli import ArgumentParser
 from experiments.io import read_npz, write_json, write_npz
 from experiments.jobs.app import fail
 from experiments.report.tracking_metrics import score_track
@@ -188,7 +188,7 @@ def run_tracker(grid: dict, tracker: str, options: dict, data_dir: Path, out: Pa
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m experiments.jobs.track_job", description=__doc__.split("\n")[0])
+    parser = ArgumentParser(prog="python -m experiments.jobs.track_job", description=__doc__.split("\n")[0])
     parser.add_argument("step", choices=("data", "run", "score"))
     parser.add_argument("grid", help="a grid name (configs/grid/<name>.yaml) or a grid file")
     parser.add_argument("--out", required=True)

@@ -7,9 +7,11 @@ everything a job would refuse, each refusal one line ``error: <grid file>: <what
 - the schema (``configs/grid/schema.yaml``, with the failing key) and finite numbers (no ``.nan``, ``.inf``);
 - its name matches its file, each method it names is registered (or an installed plugin) with its library;
 - every cell is possible (``experiments.simulate.scenarios.check_grid``) and affordable: the 2 GiB bound of a
-  dataset job (``experiments.jobs.make_dataset.check_cell_memory``);
+  dataset job (``experiments.jobs.make_dataset.check_cell_memory``), a physical noise level and a seed that
+  fits an int64 (``experiments.simulate.datasets.check_noise_and_seed``);
 - the options a grid's ``method_overrides`` set, composed by Hydra with the method's config and checked by
-  the method's own ``check_options`` (an unknown key, ``n_starts=-1``) at each sample interval of the grid.
+  the method's own ``check_options`` (an unknown key, ``n_starts=-1``) at each sample interval of the grid,
+  with the prior the overrides give (``prior=...``, resolved) or the method's.
 
 A method's options are asked of the registry (``methods.options_class``), never read from its YAML files.
 """
@@ -30,6 +32,7 @@ import methods
 from experiments.config_schema import method_of_config
 from experiments.jobs.make_dataset import check_cell_memory
 from experiments.simulate import scenarios
+from experiments.simulate.datasets import check_noise_and_seed
 from experiments.simulate.plant import PlantConfig
 from experiments.tracking import provenance
 
@@ -147,6 +150,7 @@ class Workflow:
             for cell_name, cell in grid["cells"].items():
                 try:
                     check_cell_memory(grid["replicates"], cell["n_samples"])
+                    check_noise_and_seed(cell["noise_ug"], grid["seed"])
                 except ValueError as exc:
                     raise ValueError(f"cell {cell_name}: {exc}") from None
         except ValueError as exc:
@@ -181,8 +185,10 @@ class Workflow:
                 continue
             try:
                 node = json.loads(self.resolved_config(config, tuple(overrides)))
+                prior = provenance.overridden_prior(config, tuple(overrides), str(self.root))
                 for dt in dts:
-                    methods.check_options(method_of_config(config), node["prior_rad_s"], dt, node["options"])
+                    methods.check_options(method_of_config(config), node["prior_rad_s"] if prior is None else prior,
+                                          dt, node["options"])
             except Exception as exc:  # noqa: BLE001 - Hydra's and the method's refusals alike become one line
                 raise GridError(f"error: {path}: method_overrides of {entry}: {_one_line(exc)}") from None
 
@@ -190,6 +196,28 @@ class Workflow:
         """The grids' base plant (configs/plant/paper.yaml), to check scenario cells against it."""
         values = yaml.safe_load((self.root / "configs" / "plant" / "paper.yaml").read_text())
         return PlantConfig(**{k: v for k, v in values.items() if k != "defaults"})
+
+    def check_target(self, target: str) -> None:
+        """A target inside a grid's results names one of its cells or methods (``results/<grid>/data/<cell>.npz``,
+        ``results/<grid>/identify/<method>``): else one line naming what the grid has, where Snakemake would
+        print its "No rule to produce" over several lines."""
+        parts = Path(target).parts
+        if len(parts) < 4 or parts[0] != "results" or parts[1] not in self.grid_names():
+            return
+        grid = parts[1]
+        if parts[2] == "data":
+            cells = self.cells(grid)
+            if Path(parts[3]).stem not in cells or len(parts) > 4 or not parts[3].endswith(".npz"):
+                raise GridError(f"error: {target}: not a dataset of grid {grid}; its datasets are "
+                                f"results/{grid}/data/<cell>.npz, cells: {', '.join(cells)}")
+        elif parts[2] == "identify":
+            configs = [method_config(m) for m in self.load_grid(grid)["methods"]]
+            if parts[3] not in configs:
+                raise GridError(f"error: {target}: no method '{parts[3]}' in grid {grid}; its methods: "
+                                f"{', '.join(configs)}")
+            if len(parts) > 4:              # the batch's folder is its output: a file in it is no target
+                raise GridError(f"error: {target}: one job writes every cell of {parts[3]} on grid {grid}; ask "
+                                f"for the folder results/{grid}/identify/{parts[3]}")
 
     # ---- what a grid runs ---------------------------------------------------------------------------------
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,14 +48,16 @@ def _read_csv(path: Path) -> RawFile:
     again as text by pandas to name the first such row. The stamps' printed precision is read back from the
     floats (:func:`_decimal_quantum`)."""
     try:
-        with open(path, newline="", encoding="utf-8") as f:
+        with open(path, newline="", encoding="utf-8-sig") as f:      # a byte-order mark is not a name
             header = next(csv.reader(f, skipinitialspace=True), None)
     except (UnicodeDecodeError, csv.Error) as exc:
         raise ValueError(f"{path}: not a readable CSV ({' '.join(str(exc).split())})") from None
     if not header:
         raise ValueError(f"{path}: not a readable CSV (no header line)")
     try:
-        values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, dtype=float, encoding="utf-8")
+        with warnings.catch_warnings():       # a file of no rows: said below in one line, not warned of too
+            warnings.simplefilter("ignore", UserWarning)
+            values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, dtype=float, encoding="utf-8")
         columns = dict(zip(header, values.T, strict=True)) if np.isfinite(values).all() and values.size else None
     except ValueError:
         columns = None

@@ -208,6 +208,14 @@ def uniform_step(path, t: np.ndarray, quantum) -> tuple[float, float, str]:
         from the fit by more than its resolution allows (0.6 of a unit of its last digit: rounding gives at
         most 0.5; this catches a drifting clock).
     """
+    with np.errstate(over="ignore", invalid="ignore"):    # stamps near the float's range: refused below
+        dt, t0, note = _uniform_step(path, t, quantum)
+    if not (np.isfinite(dt) and np.isfinite(t0)):
+        raise ValueError(f"{path}: the time stamps ({t[0]:.3g} ... {t[-1]:.3g} s) are too large to fit a step to")
+    return dt, t0, note
+
+
+def _uniform_step(path, t: np.ndarray, quantum) -> tuple[float, float, str]:
     n = t.size
     step = np.diff(t)
     if np.any(step <= 0):

@@ -12,7 +12,6 @@ the page that links all of it (written last: its presence means the rest is comp
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -20,6 +19,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from experiments.cli import ArgumentParser
 from experiments.io import atomic_write_text, markdown_table, write_table
 from experiments.report import axes, catalog, htmltables, pareto, plots, variants
 from experiments.report.coverage import coverage_table, honesty_lines
@@ -135,7 +135,7 @@ def headline(summary: pd.DataFrame) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", required=True, help="grid name (a title for the page)")
     ap.add_argument("--out", required=True, type=Path, help="folder to write into, e.g. results/smoke")
     ap.add_argument("--experiments", nargs="*", type=Path, default=[],

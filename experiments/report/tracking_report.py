@@ -15,13 +15,13 @@ step.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from experiments.cli import ArgumentParser
 from experiments.io import atomic_write_text, markdown_table, read_npz, write_table
 from experiments.report import htmltables, tracking_plots
 from experiments.report.aggregate import write_captions
@@ -163,7 +163,7 @@ def page(grid: dict, summary: pd.DataFrame, trackers: pd.DataFrame, figures: lis
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", required=True)
     ap.add_argument("--data", required=True, type=Path)
     ap.add_argument("--out", required=True, type=Path)

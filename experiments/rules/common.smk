@@ -5,12 +5,14 @@ import json
 import os
 import shlex
 import sys
+from pathlib import Path
 
 from snakemake.exceptions import WorkflowError
 from snakemake.settings.types import DeploymentMethod
 
 from experiments.jobs.tracking_targets import TRACKING_GRIDS
 from experiments.jobs.workflow import GridError, Workflow, requested_grids
+from experiments.tracking.store import check_store
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
 # filters only makes them fight (wkf measured 4x slower per replicate on 2 busy cores).
@@ -33,12 +35,31 @@ GRID_NAMES = WF.grid_names()
 # A requested grid is checked before the DAG is built, so a bad file or target is reported as one line (an
 # error inside an input function would come wrapped in Snakemake's context); other grids' files are not read.
 try:
-    for _name in requested_grids(sys.argv[1:], GRID_NAMES + TRACKING_GRIDS):
+    _REQUESTED = requested_grids(sys.argv[1:], GRID_NAMES + TRACKING_GRIDS)
+    for _name in _REQUESTED:
         if _name in GRID_NAMES:       # the tracking grids are checked by experiments/rules/tracking.smk
             WF.load_grid(_name)
+    for _target in sys.argv[1:]:
+        WF.check_target(_target)
 except GridError as _exc:
     print(str(_exc), file=sys.stderr)
     sys.exit(2)
+
+# The MLflow store a grid's last step writes, checked as the grid is: an empty, truncated or corrupt store is
+# one line now, not "Error in rule track" after every other job (experiments/tracking/store.py).
+if _REQUESTED:
+    try:
+        check_store()
+    except ValueError as _exc:
+        print(f"error: {_exc}", file=sys.stderr)
+        sys.exit(2)
+
+# The data folders the identify batches read (dataset_folder below) are made now, before Snakemake lists what
+# exists: one made while it builds the jobs is not seen ("Missing input files"). Those of the grids asked
+# for, or of the default target (the paper grid) when none is.
+for _name in _REQUESTED or ([] if {"--lint", "--unlock"} & set(sys.argv) else ["paper"]):
+    if _name in GRID_NAMES:
+        Path("results", _name, "data").mkdir(parents=True, exist_ok=True)
 
 
 wildcard_constraints:
@@ -71,9 +92,24 @@ def result_files(grid):
     return _grid(lambda: WF.result_files(grid))
 
 
-def dataset_jobs(wildcards):
-    """The datasets batch: one make_dataset command line per cell (experiments/jobs/batch.py), as JSON."""
-    return shlex.quote(json.dumps(_grid(lambda: WF.dataset_jobs(wildcards.grid))))
+def dataset_files(wildcards):
+    """The datasets an identify batch reads: the files of the cells its method runs on."""
+    cells = _grid(lambda: WF.method_cells(wildcards.grid, wildcards.method))
+    return [f"results/{wildcards.grid}/data/{c}.npz" for c in cells]
+
+
+def dataset_folder(wildcards):
+    """The folder of a grid's datasets, an input of its identify batches for its modification time: deleting a
+    dataset changes it, so the batches rerun, and Snakemake remakes the missing file they need first (a
+    missing file that no job to be run needs is not remade: Snakemake takes the results as up to date). The
+    datasets batch writes its files before any identify batch starts, so a run leaves the folder older than
+    the batches' outputs. The input must exist: made when the workflow is read (above), and here for a grid
+    no target named; a .snakemake_timestamp left by the folder output of earlier versions would stand in for
+    its mtime, and is removed."""
+    folder = Path("results", wildcards.grid, "data")
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / ".snakemake_timestamp").unlink(missing_ok=True)
+    return str(folder)
 
 
 def identify_jobs(wildcards):
@@ -121,5 +157,6 @@ def identify_runtime(wildcards, attempt):
     return _grid(lambda: WF.identify_runtime(wildcards.grid, wildcards.method, attempt))
 
 
-def dataset_runtime(wildcards, attempt):
-    return _grid(lambda: WF.dataset_runtime(wildcards.grid, attempt))
+def dataset_runtime(grid):
+    """The runtime request of the datasets batch of a grid (experiments/rules/datasets.smk)."""
+    return lambda wildcards, attempt: WF.dataset_runtime(grid, attempt)

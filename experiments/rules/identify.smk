@@ -8,7 +8,8 @@ rule identify:
     message:
         "identify: {wildcards.method} on every cell of grid {wildcards.grid} -> {output}"
     input:
-        data="results/{grid}/data",
+        data=dataset_files,
+        folder=dataset_folder,
         code=method_code,
     output:
         directory("results/{grid}/identify/{method}"),

@@ -41,12 +41,14 @@ from experiments.io import write_npz
 from experiments.simulate import mismatch, scenarios
 from experiments.simulate.crlb import crlb_std
 from experiments.simulate.plant import PlantConfig, build_plant
+from methods.estimate import MAX_ABS_ACCEL_M_S2
 
-__all__ = ["G0", "UG", "MIN_SAMPLES", "CELL_KEYS", "ScenarioConfig", "DatasetConfig", "scenario_axes",
-           "check_dataset_config", "replicate_rng", "make_cell", "write_cell"]
+__all__ = ["G0", "UG", "MIN_SAMPLES", "MAX_SEED", "CELL_KEYS", "ScenarioConfig", "DatasetConfig", "scenario_axes",
+           "check_noise_and_seed", "check_dataset_config", "replicate_rng", "make_cell", "write_cell"]
 
 G0 = 9.80665                 # standard gravity, m/s²
 UG = G0 * 1e-6               # 1 µg in m/s²
+MAX_SEED = 2**63 - 1         # the seed is stored as an int64 (and numpy's seed sequence takes any such)
 MIN_SAMPLES = 8
 # The entries a job needs from a cell (experiments.io.read_npz(path, required=CELL_KEYS)).
 CELL_KEYS = ("t_s", "accel_m_s2", "dt_s", "noise_ug", "seed", "truth_freq_rad_s", "crlb_std_rad_s",
@@ -107,10 +109,20 @@ def scenario_axes(cfg: DatasetConfig) -> dict:
     return out
 
 
+def check_noise_and_seed(noise_ug: float, seed: int) -> None:
+    """The bounds of a cell's noise level and seed (also checked by the workflow on a grid's cells)."""
+    if not noise_ug * UG <= MAX_ABS_ACCEL_M_S2:
+        raise ValueError(f"noise_ug = {noise_ug} is above {MAX_ABS_ACCEL_M_S2 / UG:.3g} µg (1e5 g): its samples "
+                         f"would not be physical accelerations, which every method refuses")
+    if not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"seed = {seed} must be an integer from 0 to {MAX_SEED} (2^63 - 1)")
+
+
 def check_dataset_config(cfg: DatasetConfig) -> None:
     """Raise ``ValueError`` with one clear sentence for an impossible cell."""
     if not cfg.noise_ug > 0:
         raise ValueError(f"noise_ug = {cfg.noise_ug} must be positive (the 1σ noise level in µg)")
+    check_noise_and_seed(cfg.noise_ug, cfg.seed)
     if cfg.n_samples < MIN_SAMPLES:
         raise ValueError(f"n_samples = {cfg.n_samples} is too short: at least {MIN_SAMPLES} samples")
     if cfg.replicates < 1:

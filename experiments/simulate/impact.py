@@ -9,11 +9,11 @@ impulse response Σᵢ aᵢ e^(−ζᵢωᵢτ) sin(ω_dᵢτ), τ = t − t_hit
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass
 
 import numpy as np
 
+from experiments.cli import ArgumentParser
 from experiments.io import atomic_path
 from experiments.simulate.beam import BeamGeometry, cantilever_beta_l
 from experiments.simulate.crlb import crlb_std
@@ -75,7 +75,7 @@ def simulate(seed: int, n_samples: int | None = None) -> Impact:
 def main(argv=None) -> None:
     """``python -m experiments.simulate.impact beam.csv [--seed 1]``: the record as a logger's CSV (time
     stamps printed to 1 µs, the tip acceleration in g), the example of docs/measurements.md."""
-    parser = argparse.ArgumentParser(description=main.__doc__.splitlines()[0])
+    parser = ArgumentParser(description=main.__doc__.splitlines()[0])
     parser.add_argument("out")
     parser.add_argument("--seed", type=int, default=1)
     a = parser.parse_args(argv)

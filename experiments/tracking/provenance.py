@@ -66,14 +66,26 @@ def resolved_method_config(config_name: str, overrides: tuple[str, ...] = (), ro
     if method is not None and not _SCHEMAS.get(method):
         cs.store(group="method", name=f"{method}_schema", node=method_schema(method))
         _SCHEMAS[method] = True
+    return canonical_json(OmegaConf.to_container(_compose_identify(config_name, overrides, root).method,
+                                                 resolve=True))
+
+
+def overridden_prior(config_name: str, overrides: tuple[str, ...] = (), root: str = str(ROOT)) -> list | None:
+    """The job's ``prior`` (rad/s) after ``overrides`` (a grid's ``prior=...``), resolved; None: not set."""
+    cfg = _compose_identify(config_name, overrides, root)
+    prior = cfg.prior
+    return OmegaConf.to_container(prior, resolve=True) if OmegaConf.is_config(prior) else prior
+
+
+def _compose_identify(config_name: str, overrides: tuple[str, ...], root: str):
+    """``configs/identify.yaml`` with ``method=<config_name>`` and ``overrides``, composed by Hydra."""
     backup = get_gh_backup()
     GlobalHydra.instance().clear()
     try:
         with initialize_config_dir(config_dir=str(Path(root) / "configs"), version_base="1.3"):
-            cfg = compose(config_name="identify", overrides=[f"method={config_name}", *overrides])
+            return compose(config_name="identify", overrides=[f"method={config_name}", *overrides])
     finally:
         restore_gh_from_backup(backup)
-    return canonical_json(OmegaConf.to_container(cfg.method, resolve=True))
 
 
 def _module_file(module: str, root: Path) -> Path | None:

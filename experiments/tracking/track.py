@@ -16,13 +16,13 @@ job left waiting for the store (:mod:`experiments.tracking.pending`) is logged.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
 
 import pandas as pd
 
+from experiments.cli import ArgumentParser
 from experiments.io import atomic_write_text, write_json
 from experiments.report.summary import job_metrics, summarize
 from experiments.tracking.provenance import canonical_json, digest, git_state
@@ -97,7 +97,7 @@ def read_job(path: Path) -> tuple[Path, Path, dict]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", required=True)
     ap.add_argument("--out", required=True, type=Path, help="JSON record of the logged runs")
     ap.add_argument("--summary", type=Path, help="the aggregate's page; with --page: copied there, plus "

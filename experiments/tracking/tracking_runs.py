@@ -14,13 +14,13 @@ this again logs nothing twice.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
 
 import pandas as pd
 
+from experiments.cli import ArgumentParser
 from experiments.io import atomic_write_text, write_json
 from experiments.report.tracking_metrics import summarize_cell
 from experiments.tracking.provenance import canonical_json, digest, git_state
@@ -55,7 +55,7 @@ def log_cell(experiment: str, record: dict, table_path: Path, parent_run_id: str
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", required=True)
     ap.add_argument("--out", required=True, type=Path)
     ap.add_argument("--summary", required=True, type=Path)

@@ -12,7 +12,6 @@ RMSE/CRLB over the modes that delivered, failure rate, and the tuning objective 
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -20,6 +19,7 @@ import numpy as np
 import pandas as pd
 from omegaconf import OmegaConf
 
+from experiments.cli import ArgumentParser
 from experiments.config_schema import method_of_config, variant_label
 from experiments.io import atomic_write_text, markdown_table, write_table
 from experiments.jobs.app import CONFIG_DIR, fail, one_line
@@ -64,7 +64,7 @@ def compare(config_names: list[str], cells: list[tuple[float, int]], replicates:
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--methods", nargs="+", required=True, help="method configs, e.g. akf akf_tuned")
     p.add_argument("--cells", nargs="+", default=["10:256", "1000:256"], help="noise_ug:n_samples")
     p.add_argument("--replicates", type=int, default=20)

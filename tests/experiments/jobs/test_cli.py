@@ -76,11 +76,21 @@ def test_identify_rejects_bad_input_with_one_line(workdir, args, fragments):
     (["n_samples=ten"], ["n_samples", "ten"]),
     (["noise_ug=inf"], ["noise_ug = inf must be a finite number"]),
     (["replicates=1000000000"], ["replicates × n_samples = 1000000000 × 256", "GiB"]),
+    (["noise_ug=1e308"], ["noise_ug = 1e+308 is above", "physical"]),
+    (["seed=36893488147419103232"], ["seed = 36893488147419103232 must be an integer from 0 to"]),
 ])
 def test_make_dataset_rejects_bad_input_with_one_line(workdir, args, fragments):
     proc = run("experiments.jobs.make_dataset", *args, "out=new.npz", cwd=workdir)
     assert_one_line_error(proc, *fragments)
     assert not (workdir / "new.npz").exists()
+
+
+@pytest.mark.parametrize("out", ["", "folder/"])
+def test_make_dataset_refuses_an_output_that_names_no_file(workdir, out):
+    before = set(workdir.rglob("*"))
+    proc = run("experiments.jobs.make_dataset", "n_samples=64", "replicates=2", f"out={out}", cwd=workdir)
+    assert_one_line_error(proc, f"out = '{out}' must name a file")
+    assert set(workdir.rglob("*")) == before
 
 
 def test_identify_on_a_users_csv_writes_estimate_json(workdir):
@@ -132,3 +142,31 @@ def test_quoting_leaves_the_users_own_syntax_alone():
     assert quote_unicode_value("data.path=plain.csv") == "data.path=plain.csv"
     assert quote_unicode_value("prior=[1,2]") == "prior=[1,2]"
     assert quote_unicode_value("method.options.x=a,é") == "method.options.x=a,é"     # a sweep stands
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["--nosuch", "method=fft"], ["unknown option --nosuch"]),
+    (["method=fft", "data.dataset=cell.npz", "+method._target_=os.system"], ["the job has no key method._target_"]),
+    (["method=fft", "data.dataset=cell.npz", "+colour=red"], ["+colour=red: the job has no key colour"]),
+    (["method=pem", "method=fft", "data.dataset=cell.npz"], ["method is given twice", "method=pem", "method=fft"]),
+    (["-m", "method=fft,nosuch", "data.dataset=cell.npz", "tracking.enabled=false"],
+     ["method=nosuch (of the sweep method=fft,nosuch)", "unknown method 'nosuch'"]),
+    (["method=fft", "data.dataset=cell.npz", "out=" + "d/" * 1500 + "x.csv"], ["folders deep (at most 200)"]),
+    (["method=fft", "data.dataset=cell.npz", "out=" + "é" * 200 + ".csv"], ["too long a path"]),
+])
+def test_a_bad_command_line_is_one_line_and_leaves_nothing(workdir, args, fragments):
+    before = set(workdir.rglob("*"))
+    proc = run("experiments.jobs.identify", *args, cwd=workdir)
+    assert_one_line_error(proc, *fragments)
+    assert set(workdir.rglob("*")) == before          # no run folder, no multirun folder
+
+
+@pytest.mark.parametrize("module, args, fragments", [
+    ("experiments.jobs.track_job", [], ["the following arguments are required: step, grid, --out"]),
+    ("experiments.tracking.track", ["--nosuch"], ["the following arguments are required: --grid"]),
+    ("experiments.report.aggregate", [], ["required"]),
+    ("experiments.tuning.compare", ["--methods"], ["--methods"]),
+])
+def test_a_bad_command_line_of_an_argparse_command_is_one_line(workdir, module, args, fragments):
+    proc = run(module, *args, cwd=workdir)
+    assert_one_line_error(proc, *fragments, "--help")

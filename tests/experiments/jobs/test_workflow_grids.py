@@ -68,6 +68,12 @@ def test_a_measurement_cell_runs_only_the_methods_whose_options_have_it(root):
     (("seed: 5", "seed: 5\nmethods_overrides: {}"), "Additional properties are not allowed"),
     (("seed: 5", "seed: 5\nmethod_overrides: {pem: [method.options.n_starts=2]}"), "method_overrides.pem: not a "
                                                                                    "method of the grid"),
+    (("[10, 1000]", "[10, 1.0e+308]"), "noise_ug = 1e+308 is above 1.02e+11 µg"),
+    (("seed: 5", "seed: 36893488147419103232"), "seed = 36893488147419103232 must be an integer from 0"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {fft: ['prior=${oc.env:HOME}']}"),
+     "method_overrides of fft: prior must be a list of frequencies"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {fft: ['prior=[3.5,19,23,500]']}"),
+     "prior[3] = 500.0 rad/s is above the Nyquist frequency"),
 ])
 def test_a_grid_a_job_would_refuse_is_refused_in_one_line(root, change, message):
     text = GRID.format(name="bad").replace(*change)
@@ -115,3 +121,18 @@ def test_a_target_outside_the_grids_is_refused_in_one_line(target, message):
     with pytest.raises(GridError, match=message) as info:
         requested_grids([target], ["paper", "smoke"])
     assert str(info.value).startswith(f"error: {target}: ")
+
+
+@pytest.mark.parametrize(("target", "message"), [
+    ("results/plain/data/nosuch.npz", "not a dataset of grid plain; .* cells: noise10ug_n64, noise1000ug_n64"),
+    ("results/plain/identify/nosuch", "no method 'nosuch' in grid plain; its methods: fft, akf"),
+    ("results/plain/identify/fft/noise10ug_n64.csv", "ask for the folder results/plain/identify/fft"),
+])
+def test_a_target_inside_a_grid_names_its_cells_or_methods(root, target, message):
+    wf = workflow_with(root, "plain", GRID.format(name="plain"))
+    with pytest.raises(GridError, match=message) as info:
+        wf.check_target(target)
+    assert str(info.value).startswith(f"error: {target}: ")
+    for fine in ("results/plain/data/noise10ug_n64.npz", "results/plain/identify/akf", "results/plain/README.md",
+                 "smoke", "--cores"):
+        wf.check_target(fine)

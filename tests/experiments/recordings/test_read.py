@@ -111,3 +111,29 @@ def test_a_record_that_starts_in_its_decay_is_kept_whole_and_a_short_pretrigger_
     hit = np.r_[0.001 * rng.standard_normal(64), 2 * np.exp(-0.5 * t[:192]) * np.sin(20 * t[:192] + 0.5)]
     seg = choose_segment(hit, dt, band_hz=20.0)
     assert seg.impulse_s is not None and seg.t0 > 64 * dt
+
+
+def test_a_byte_order_mark_is_not_part_of_the_time_columns_name(tmp_path):
+    t = np.arange(64) * 0.001
+    p = csv(tmp_path, [f"{x:.3f}" for x in t], np.cos(300 * t).tolist())
+    p.write_text("\ufeff" + p.read_text(), encoding="utf-8")
+    rec = read_record(p, units="g")
+    assert rec.dt_s == pytest.approx(0.001) and rec.accel_m_s2.size == 64
+
+
+@pytest.mark.parametrize("text, message", [
+    ("t,accel\n", "no columns or no rows"),
+    ("t,accel\n" + "".join(f"{1e300 * (k + 1):.6e},{k}\n" for k in range(16)), "1e\\+300"),
+])
+def test_an_empty_or_absurdly_stamped_csv_is_one_line_without_a_warning(tmp_path, text, message):
+    p = tmp_path / "r.csv"
+    p.write_text(text)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                   # a warning would be a second line on stderr
+        with pytest.raises(ValueError, match=message) as err:
+            rec = read_record(p, units="g")
+            if rec.dt_s > 1e299:                          # a step of 1e300 s is read; the job refuses the prior
+                raise ValueError(f"dt = {rec.dt_s:g}")
+    assert "\n" not in str(err.value)
