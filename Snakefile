@@ -33,3 +33,7 @@ rule smoke:
 rule full:
     input:
         grid_targets("full"),
+
+
+# Last, once every rule is defined: a target that names no rule is one line; the data folders are made.
+finish_reading(workflow.rules)

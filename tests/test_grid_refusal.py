@@ -41,6 +41,7 @@ def test_bad_axis_value_is_one_line_and_exit_2(tmp_path, axes, message):
     ("method_overrides: {fft: [method.options.zero_pad_factor=0]}\n", "results/bad/README.md",
      "configs/grid/bad.yaml: method_overrides of fft: fft: zero_pad_factor = 0 must be an integer of at least 1"),
     ("", "results/nosuch/README.md", "error: results/nosuch/README.md: no grid 'nosuch'"),
+    ("", "papr", "error: no rule 'papr'; the targets are the rules"),
 ])
 def test_a_bad_override_or_target_is_one_line_before_any_job(tmp_path, grid, target, message):
     for part in ("Snakefile", "experiments", "configs", "methods"):

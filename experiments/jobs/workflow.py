@@ -23,6 +23,7 @@ import functools
 import json
 import math
 import os
+import re
 from pathlib import Path
 
 import jsonschema
@@ -98,6 +99,25 @@ def requested_grids(targets: list[str], known: list[str]) -> list[str]:
         if len(parts) > 1 and parts[1] in known:
             names.add(parts[1])
     return sorted(names)
+
+
+def command_line_targets(argv) -> list[str]:
+    """The targets of a ``snakemake`` command line, as Snakemake's own argument parser reads them (an
+    option's value is never taken for a target); none when it cannot parse them (a cluster job's own line)."""
+    from snakemake.cli import get_argument_parser
+
+    try:
+        return list(get_argument_parser().parse_args(list(argv)).targets or [])
+    except (SystemExit, Exception):  # noqa: BLE001 - an unparsable line is Snakemake's to refuse, not ours
+        return []
+
+
+def unknown_rule_targets(targets, rules, root) -> list[str]:
+    """The targets Snakemake would answer with its multi-line "No rule to produce": a bare word (a rule's
+    shape, no path) that names no rule of the workflow and no file in ``root``."""
+    return [str(t) for t in targets
+            if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", str(t)) and str(t) not in rules
+            and not (Path(root) / str(t)).exists()]
 
 
 class Workflow:

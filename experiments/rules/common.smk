@@ -11,7 +11,7 @@ from snakemake.exceptions import WorkflowError
 from snakemake.settings.types import DeploymentMethod
 
 from experiments.jobs.tracking_targets import TRACKING_GRIDS
-from experiments.jobs.workflow import GridError, Workflow, requested_grids
+from experiments.jobs.workflow import GridError, Workflow, command_line_targets, requested_grids, unknown_rule_targets
 from experiments.tracking.store import check_store
 
 # Jobs run side by side on the cores Snakemake is given; multithreaded BLAS on the small matrices of the
@@ -54,12 +54,22 @@ if _REQUESTED:
         print(f"error: {_exc}", file=sys.stderr)
         sys.exit(2)
 
-# The data folders the identify batches read (dataset_folder below) are made now, before Snakemake lists what
-# exists: one made while it builds the jobs is not seen ("Missing input files"). Those of the grids asked
-# for, or of the default target (the paper grid) when none is.
-for _name in _REQUESTED or ([] if {"--lint", "--unlock"} & set(sys.argv) else ["paper"]):
-    if _name in GRID_NAMES:
-        Path("results", _name, "data").mkdir(parents=True, exist_ok=True)
+def finish_reading(rules):
+    """Called at the end of the Snakefile, once every rule is defined. A bare word that names no rule
+    (`snakemake --cores 2 papr`) is one line naming the rules, where Snakemake would print several lines.
+    The targets are read by Snakemake's own parser, since they are not yet in `workflow` here. Then
+    the data folders the identify batches read (dataset_folder below) are made, before Snakemake lists what
+    exists: one made while it builds the jobs is not seen ("Missing input files"). Those of the grids asked
+    for, or of the default target (the paper grid) when none is."""
+    unknown = unknown_rule_targets(command_line_targets(sys.argv[1:]), {r.name for r in rules}, workflow.basedir)
+    if unknown:
+        print(f"error: no rule '{unknown[0]}'; the targets are the rules "
+              + ", ".join(sorted(r.name for r in rules if not r.has_wildcards()))
+              + " or a file results/<grid>/...", file=sys.stderr)
+        sys.exit(2)
+    for name in _REQUESTED or ([] if {"--lint", "--unlock"} & set(sys.argv) else ["paper"]):
+        if name in GRID_NAMES:
+            Path("results", name, "data").mkdir(parents=True, exist_ok=True)
 
 
 wildcard_constraints:

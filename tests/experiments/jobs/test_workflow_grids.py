@@ -136,3 +136,15 @@ def test_a_target_inside_a_grid_names_its_cells_or_methods(root, target, message
     for fine in ("results/plain/data/noise10ug_n64.npz", "results/plain/identify/akf", "results/plain/README.md",
                  "smoke", "--cores"):
         wf.check_target(fine)
+
+
+def test_a_bare_word_that_names_no_rule_is_found_and_option_values_are_not(tmp_path):
+    from experiments.jobs.workflow import command_line_targets, unknown_rule_targets
+
+    argv = ["-n", "--cores", "2", "--executor", "slurm", "papr", "smoke", "results/smoke/README.md", "notes",
+            "--forcerun", "identify"]
+    targets = command_line_targets(argv)
+    assert targets == ["papr", "smoke", "results/smoke/README.md", "notes"]     # "2", "slurm" are values
+    (tmp_path / "notes").write_text("a file in the workflow's folder is a file target")
+    assert unknown_rule_targets(targets, {"paper", "smoke"}, tmp_path) == ["papr"]
+    assert command_line_targets(["--no-such-option"]) == []          # Snakemake's own refusal, not ours
