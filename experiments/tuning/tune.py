@@ -396,7 +396,8 @@ def track_config_text(t, sname: str, study, best, tuned: dict) -> str:
         f"convergence) + {t.penalty:g} x share of (record, mode) never converged or diverged "
         "(experiments/report/objective.py, track_objective).",
         f"# Cells: {', '.join(track_cell_label(c, i) for i, c in enumerate(t.track_cells))}; tuning seed "
-        f"{t.seed} (never a scoring seed), {t.replicates} records per cell, dt {t.dt_s:g} s, prior spread {t.prior_spread:g}.",
+        f"{t.seed} (never a scoring seed), {t.replicates} records per cell, dt {t.dt_s:g} s, "
+        f"prior spread {t.prior_spread:g}.",
         f"# Trials: {len(study.trials)} ({len(finished)} complete); best trial #{best.number}, J = {best.value:.4g}"
         + (f"; base (trial #{base_trials[0].number}) J = {base_trials[0].value:.4g}" if base_trials else "") + ".",
         f"# Best trial per cell: {per_cell}.",
