@@ -412,8 +412,11 @@ def track_config_text(t, sname: str, study, best, tuned: dict) -> str:
 
 def _shown(url: str) -> str:
     """A storage URL inside the project shown relative to it (the header must not name a checkout)."""
-    prefix = f"sqlite:///{PROJECT}/"
-    return "sqlite:///" + url.removeprefix(prefix) if url.startswith(prefix) else url
+    for root in (PROJECT, Path(CONFIG_DIR).resolve().parent, Path.cwd()):   # experiments/configs is a link
+        prefix = f"sqlite:///{root}/"
+        if url.startswith(prefix):
+            return "sqlite:///" + url.removeprefix(prefix)
+    return url
 
 
 def _flat(options: dict) -> dict:
