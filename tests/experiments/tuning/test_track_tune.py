@@ -97,3 +97,15 @@ def test_tiny_tracking_study_writes_a_variant_the_track_face_accepts(tmp_path, m
     assert track.frequencies.shape[1] == 4
     with pytest.raises(ValueError, match="unknown tracker variant 'akf:nope'"):
         variant_options("akf:nope", root=root)
+
+
+def test_benchmark_rows_take_a_variant_file():
+    """``tracking_beats``/``tracking_cpu`` rows: ``akf:tuned`` reads configs/tracker/akf_tuned.yaml, an option
+    row stays an option row, an unknown variant is refused in one line."""
+    from experiments.benchmarks.tracking_cpu import parse_row
+
+    name, options = parse_row("akf:tuned")
+    assert name == "akf" and options == variant_options("akf:tuned") and "qd_frequency" in options
+    assert parse_row("pem:trend=true") == ("pem", {"trend": True})
+    with pytest.raises(ValueError, match="unknown tracker variant 'akf:nope'"):
+        parse_row("akf:nope")
