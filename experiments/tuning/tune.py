@@ -10,7 +10,8 @@ _self_]``, ``variant: <variant>``, the tuned options) with the study's provenanc
 it ``<method>:<variant>``. A tracking study (``kind: track``, ``configs/tuning/track_<tracker>.yaml``) tunes a
 tracker's tracking options on ``track_cells`` (schedule, excitation, noise, duration) with
 ``experiments.report.objective.track_objective`` and writes ``configs/tracker/<tracker>_<variant>.yaml``,
-which tracking grids name ``<tracker>:<variant>`` (``experiments.jobs.track_variants``). Every trial is an MLflow child run of one study run (experiment ``tuning``). The
+which tracking grids name ``<tracker>:<variant>`` (``experiments.jobs.track_variants``).
+Every trial is an MLflow child run of one study run (experiment ``tuning``). The
 study lives in Optuna's RDB storage (``results/optuna.db``, beside the MLflow store): run the same command
 again and it resumes, running only the trials still missing. Why not hydra-optuna-sweeper: it pins
 optuna < 3, and a sweep of the identify job scores one cell per job, where a trial here scores several.
