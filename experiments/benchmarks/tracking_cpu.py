@@ -32,6 +32,7 @@ import numpy as np  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.io import atomic_write_text  # noqa: E402
+from experiments.jobs.track_variants import variant_options  # noqa: E402
 from experiments.simulate.datasets import UG  # noqa: E402
 from experiments.simulate.plant import build_plant  # noqa: E402
 
@@ -58,8 +59,11 @@ def pulsed_record(n: int, seed: int = 0) -> np.ndarray:
 
 
 def parse_row(spec: str) -> tuple[str, dict]:
-    """``name`` or ``name:key=value,...`` (a variant: those options over the tracker's defaults)."""
+    """``name``, ``name:key=value+...`` (those options over the tracker's defaults) or ``name:variant`` (the
+    options of ``configs/tracker/<name>_<variant>.yaml``, ``experiments.jobs.track_variants``)."""
     name, _, rest = spec.partition(":")
+    if rest and "=" not in rest:
+        return name, variant_options(spec)
     options = {}
     for item in filter(None, rest.split("+")):
         key, _, value = item.partition("=")

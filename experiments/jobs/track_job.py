@@ -34,6 +34,7 @@ import pandas as pd
 from experiments.cli import ArgumentParser
 from experiments.io import read_npz, write_json, write_npz
 from experiments.jobs.app import fail
+from experiments.jobs.track_variants import split, variant_options
 from experiments.report.tracking_metrics import score_track
 from experiments.simulate.tracking_data import make_cell
 from experiments.simulate.tracking_grid import load_grid
@@ -53,12 +54,21 @@ def tracker_names() -> list[str]:
 
 
 def grid_trackers(grid: dict) -> list[str]:
-    """The grid's trackers: ``[all]`` is every registered tracker; an unknown name is refused."""
+    """The grid's trackers: ``[all]`` is every registered tracker (``all`` may stand beside variants, e.g.
+    ``[all, akf:tuned]``); ``name:variant`` is a tracker variant (``experiments.jobs.track_variants``); an
+    unknown name or variant is refused."""
     known = tracker_names()
-    wanted = known if grid["trackers"] == ["all"] else list(grid["trackers"])
-    for name in wanted:
+    listed = list(grid["trackers"])
+    wanted = (known if "all" in listed else []) + [t for t in listed if t != "all" and not ("all" in listed
+                                                                                          and t in known)]
+    for spec in wanted:
+        name, _ = split(spec)
         if name not in known:
             raise ValueError(f"grid {grid['name']}: unknown tracker '{name}'; known: {', '.join(known)}")
+        try:
+            variant_options(spec)
+        except ValueError as exc:
+            raise ValueError(f"grid {grid['name']}: {exc}") from None
     for name in grid.get("tracker_options") or {}:
         if name not in wanted:
             raise ValueError(f"grid {grid['name']}: tracker_options.{name}: '{name}' is not one of the grid's "
@@ -67,10 +77,11 @@ def grid_trackers(grid: dict) -> list[str]:
 
 
 def check_tracker(grid: dict, tracker: str) -> dict:
-    """The tracker's options from the grid, checked against every cell (prior, Δt and record length)."""
+    """The tracker's options (a variant's over the defaults, then the grid's ``tracker_options``), checked
+    against every cell (prior, Δt and record length)."""
     import methods
 
-    options = dict((grid.get("tracker_options") or {}).get(tracker, {}))
+    options = {**variant_options(tracker), **dict((grid.get("tracker_options") or {}).get(tracker, {}))}
     check = methods.check_track_options
     takes_length = "n_samples" in inspect.signature(check).parameters
     for name, cell in grid["cells"].items():
@@ -78,9 +89,9 @@ def check_tracker(grid: dict, tracker: str) -> dict:
         nominal = np.asarray(cfg.plant.target_freq_rad_s, dtype=float)
         try:
             if takes_length:
-                check(tracker, nominal, cfg.dt_s, options, n_samples=cfg.n_samples)
+                check(split(tracker)[0], nominal, cfg.dt_s, options, n_samples=cfg.n_samples)
             else:
-                check(tracker, nominal, cfg.dt_s, options)
+                check(split(tracker)[0], nominal, cfg.dt_s, options)
         except ValueError as exc:
             raise ValueError(f"tracker {tracker}, cell {name}: {exc}") from None
     return options
@@ -94,11 +105,12 @@ def run_data(grid: dict, out: Path) -> None:
 
 
 def track_record(tracker: str, y: np.ndarray, dt_s: float, prior: np.ndarray, options: dict):
-    """One record through ``methods.track``; a tracker's exception becomes a failed track (None, message)."""
+    """One record through ``methods.track`` (``tracker`` a name or a ``name:variant`` label whose options are
+    already in ``options``); a tracker's exception becomes a failed track (None, message)."""
     import methods
 
     try:
-        return methods.track(tracker, y, dt_s, prior, **options), ""
+        return methods.track(split(tracker)[0], y, dt_s, prior, **options), ""
     except Exception as exc:  # noqa: BLE001 - one failed record is a result, not the end of the grid
         return None, f"{type(exc).__name__}: {' '.join(str(exc).split())}"
 

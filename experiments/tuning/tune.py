@@ -7,7 +7,11 @@
 Objective (``experiments.report.objective``): mean over the cells of log10(median over modes of RMSE/CRLB)
 + penalty × failure rate. Writes ``configs/method/<method>_<variant>.yaml`` (``defaults: [<method>,
 _self_]``, ``variant: <variant>``, the tuned options) with the study's provenance in its header; grids name
-it ``<method>:<variant>``. Every trial is an MLflow child run of one study run (experiment ``tuning``). The
+it ``<method>:<variant>``. A tracking study (``kind: track``, ``configs/tuning/track_<tracker>.yaml``) tunes a
+tracker's tracking options on ``track_cells`` (schedule, excitation, noise, duration) with
+``experiments.report.objective.track_objective`` and writes ``configs/tracker/<tracker>_<variant>.yaml``,
+which tracking grids name ``<tracker>:<variant>`` (``experiments.jobs.track_variants``).
+Every trial is an MLflow child run of one study run (experiment ``tuning``). The
 study lives in Optuna's RDB storage (``results/optuna.db``, beside the MLflow store): run the same command
 again and it resumes, running only the trials still missing. Why not hydra-optuna-sweeper: it pins
 optuna < 3, and a sweep of the identify job scores one cell per job, where a trial here scores several.
@@ -43,7 +47,9 @@ from experiments.simulate.datasets import DatasetConfig, make_cell
 from experiments.tracking.store import DEFAULT_DB, git_commit, log_run
 from experiments.tuning.space import base_params, check_space, suggest_options
 
-__all__ = ["PROJECT", "CellConfig", "TuningConfig", "TuneApp", "scoring_seeds", "check", "base_method",
+__all__ = ["PROJECT", "CellConfig", "TrackCellConfig", "TuningConfig", "TuneApp", "scoring_seeds", "check",
+           "check_track", "track_base_options", "track_cell_configs", "simulate_track_cells", "evaluate_track",
+           "track_cell_label", "track_config_text", "base_method",
            "simulate_cells", "evaluate", "study_name", "storage_url", "task", "config_text", "main"]
 
 PROJECT = Path(CONFIG_DIR).parent
@@ -56,13 +62,27 @@ class CellConfig:
 
 
 @dataclass
+class TrackCellConfig:
+    """A tracking cell of a ``kind: track`` study (``experiments.simulate.tracking_data.TrackingCellConfig``)."""
+
+    name: str = ""                       # the cell's label in the objective's parts (default cell<i>)
+    schedule: dict[str, Any] = field(default_factory=dict)
+    excitation: dict[str, Any] = field(default_factory=dict)
+    noise_ug: float = MISSING
+    duration_s: float = 60.0
+
+
+@dataclass
 class TuningConfig:
     """One study. ``method`` is a method config (``configs/method/<method>.yaml``) whose options are the
     starting point; the result is the variant ``<method>:<variant>``."""
 
     method: str = MISSING
     variant: str = "tuned"
+    kind: str = "identify"               # identify: free-decay cells, method options; track: tracking cells
     cells: list[CellConfig] = field(default_factory=list)
+    track_cells: list[TrackCellConfig] = field(default_factory=list)   # kind: track
+    prior_spread: float = 0.05           # kind: track, as the tracking grids
     replicates: int = 10                 # tuning replicates per cell
     seed: int = 1                        # the tuning noise seed; never a grid's scoring seed
     dt_s: float = 0.02
@@ -72,7 +92,7 @@ class TuningConfig:
     enqueue_base: bool = True            # trial 0 = the base config's values (where inside the space)
     fixed: dict[str, Any] = field(default_factory=dict)     # options set for every trial
     space: dict[str, Any] = field(default_factory=dict)     # see experiments/tuning/space.py
-    out: str | None = None               # default configs/method/<method>_<variant>.yaml
+    out: str | None = None               # default configs/method/<method>_<variant>.yaml (track: configs/tracker/)
     storage: str | None = None           # default sqlite:///results/optuna.db
 
 
@@ -98,6 +118,11 @@ def check(cfg) -> None:
     if int(t.seed) in used:
         raise ValueError(f"tuning.seed = {t.seed} is the scoring seed of grid(s) {', '.join(used[int(t.seed)])}: "
                          "tune on another seed")
+    if t.kind not in ("identify", "track"):
+        raise ValueError(f"tuning.kind = '{t.kind}': must be identify or track")
+    if t.kind == "track":
+        check_track(t)
+        return
     if method_of_config(t.method) is None:
         raise ValueError(f"tuning.method = '{t.method}' is not a method config; known methods: "
                          f"{', '.join(methods.names())}")
@@ -114,6 +139,53 @@ def check(cfg) -> None:
     unknown = set(t.fixed) - set(options)
     if unknown:
         raise ValueError(f"tuning.fixed: {sorted(unknown)} are not options of {t.method}")
+
+
+def track_base_options(t) -> dict:
+    """A tracking study's starting point: the tracker's defaults (the grids' plain row) with ``fixed`` over."""
+    import dataclasses
+
+    defaults = dataclasses.asdict(methods.track_options_class(t.method)())
+    return {**defaults, **OmegaConf.to_container(t.fixed, resolve=True)}
+
+
+def track_cell_configs(t) -> list:
+    from experiments.simulate.tracking_data import TrackingCellConfig
+    from experiments.simulate.tracking_grid import paper_plant
+
+    plant = paper_plant()
+    return [TrackingCellConfig(schedule=OmegaConf.to_container(c.schedule, resolve=True),
+                               excitation=OmegaConf.to_container(c.excitation, resolve=True),
+                               noise_ug=float(c.noise_ug), duration_s=float(c.duration_s), dt_s=float(t.dt_s),
+                               replicates=int(t.replicates), seed=int(t.seed), prior_spread=float(t.prior_spread),
+                               plant=plant)
+            for c in t.track_cells]
+
+
+def check_track(t) -> None:
+    from experiments.simulate.tracking_data import check_cell_config
+
+    if t.method not in methods.track_names():
+        raise ValueError(f"tuning.method = '{t.method}' is not a tracker; known: {', '.join(methods.track_names())}")
+    if not t.track_cells:
+        raise ValueError("tuning.track_cells is empty: give at least one {schedule, excitation, noise_ug, duration_s}")
+    if t.replicates < 1 or t.trials < 1:
+        raise ValueError(f"tuning.replicates = {t.replicates} and tuning.trials = {t.trials} must be ≥ 1")
+    unknown = set(t.fixed) - {f for f in methods.track_options_class(t.method).__dataclass_fields__}
+    if unknown:
+        raise ValueError(f"tuning.fixed: {sorted(unknown)} are not tracking options of {t.method}")
+    base = track_base_options(t)
+    cfgs = []
+    for i, cfg in enumerate(track_cell_configs(t)):
+        try:
+            check_cell_config(cfg)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"tuning.track_cells[{i}]: {' '.join(str(exc).split())}") from None
+        cfgs.append(cfg)
+    nominal = np.asarray(cfgs[0].plant.target_freq_rad_s, dtype=float)
+    check_space(OmegaConf.to_container(t.space, resolve=True), set(base), nominal.size, base)
+    for cfg in cfgs:
+        methods.check_track_options(t.method, nominal, cfg.dt_s, base, n_samples=cfg.n_samples)
 
 
 def base_method(config_name: str):
@@ -149,8 +221,45 @@ def study_name(t) -> str:
     spec = OmegaConf.to_container(t, resolve=True)
     for k in ("trials", "out", "storage"):
         spec.pop(k, None)
+    if t.kind == "identify":         # the identify studies keep the names they had before tracking studies
+        for k in ("kind", "track_cells", "prior_spread"):
+            spec.pop(k, None)
     digest = hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()[:8]
-    return f"{t.method}_{t.variant}-{digest}"
+    return f"{t.method}_{'track_' if t.kind == 'track' else ''}{t.variant}-{digest}"
+
+
+def simulate_track_cells(t) -> list[dict]:
+    from experiments.simulate.tracking_data import make_cell as make_track_cell
+
+    return [make_track_cell(cfg, bounds=False) for cfg in track_cell_configs(t)]
+
+
+def track_cell_label(c, i: int) -> str:
+    return f"{c.name or f'cell{i}'}_{c.noise_ug:g}ug_{c.duration_s:g}s"
+
+
+def evaluate_track(name: str, options: dict, cells: list[dict], labels: list[str], penalty: float):
+    """Run the tracker on every record of every cell; the objective's parts and the per-record table."""
+    from experiments.jobs.track_job import track_record
+    from experiments.report.objective import mode_failed, track_objective
+    from experiments.report.tracking_metrics import score_track
+
+    rows = []
+    for label, cell in zip(labels, cells, strict=True):
+        dt = float(cell["dt_s"])
+        truth = cell["truth_freq_rad_s"]
+        for r in range(cell["accel_m_s2"].shape[0]):
+            tr, message = track_record(name, cell["accel_m_s2"][r], dt, cell["prior_rad_s"][r], options)
+            if tr is None:
+                rows.append({"cell": label, "replicate": r, "error": np.nan, "failed_share": 1.0, "message": message})
+                continue
+            s = score_track(tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, truth, dt)
+            err = s["err_rel_median"] if np.isfinite(s["err_rel_median"]) else s["err_rel_median_late"]
+            failed = mode_failed(tr.t_s, tr.frequencies, truth, dt)
+            rows.append({"cell": label, "replicate": r, "error": err, "failed_share": float(failed.mean()),
+                         "message": ""})
+    table = pd.DataFrame(rows)
+    return track_objective(table, penalty), table
 
 
 def storage_url(t) -> str:
@@ -165,14 +274,28 @@ def task(cfg) -> None:
     import optuna  # optional extra (.[tuning])
 
     t = cfg.tuning
-    base = base_method(t.method)
-    name = method_of_config(t.method)
-    label = variant_label(name, t.variant)
-    prior = np.asarray(list(base.prior_rad_s), dtype=float)
-    base_options = {**OmegaConf.to_container(base.options, resolve=True),
-                    **OmegaConf.to_container(t.fixed, resolve=True)}
     space = OmegaConf.to_container(t.space, resolve=True)
-    cells = simulate_cells(t)
+    if t.kind == "track":
+        name = t.method
+        base_options = track_base_options(t)
+        cells = simulate_track_cells(t)
+        labels = [track_cell_label(c, i) for i, c in enumerate(t.track_cells)]
+        n_modes = cells[0]["prior_rad_s"].shape[1]
+
+        def evaluate_options(options):
+            return evaluate_track(name, options, cells, labels, float(t.penalty))[0]
+    else:
+        base = base_method(t.method)
+        name = method_of_config(t.method)
+        label = variant_label(name, t.variant)
+        prior = np.asarray(list(base.prior_rad_s), dtype=float)
+        n_modes = prior.size
+        base_options = {**OmegaConf.to_container(base.options, resolve=True),
+                        **OmegaConf.to_container(t.fixed, resolve=True)}
+        cells = simulate_cells(t)
+
+        def evaluate_options(options):
+            return evaluate(name, label, prior, options, cells, float(t.penalty))[0]
     sname = study_name(t)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(study_name=sname, storage=storage_url(t), direction="minimize",
@@ -180,13 +303,13 @@ def task(cfg) -> None:
                                 load_if_exists=True)
     _fail_stale(study)
     if t.enqueue_base and not study.trials:
-        study.enqueue_trial(base_params(space, base_options, prior.size), user_attrs={"base": True})
+        study.enqueue_trial(base_params(space, base_options, n_modes), user_attrs={"base": True})
     parent = _log_study(cfg, sname) if cfg.tracking.enabled else None
 
     def trial_objective(trial):
-        options = {**base_options, **suggest_options(trial, space, base_options, prior.size)}
+        options = {**base_options, **suggest_options(trial, space, base_options, n_modes)}
         t0 = time.perf_counter()
-        parts, _ = evaluate(name, label, prior, options, cells, float(t.penalty))
+        parts = evaluate_options(options)
         for k, v in parts.items():
             trial.set_user_attr(k, v)
         print(f"trial {trial.number}: J = {parts['value']:.4g} ({time.perf_counter() - t0:.1f} s)", flush=True)
@@ -200,9 +323,13 @@ def task(cfg) -> None:
     study.optimize(trial_objective, n_trials=remaining, catch=(ValueError, np.linalg.LinAlgError))
     best = study.best_trial
     tuned = {**OmegaConf.to_container(t.fixed, resolve=True),
-             **suggest_options(optuna.trial.FixedTrial(best.params), space, base_options, prior.size)}
-    out = Path(t.out) if t.out else PROJECT / "configs" / "method" / f"{t.method}_{t.variant}.yaml"
-    text = config_text(t, name, sname, study, best, tuned)
+             **suggest_options(optuna.trial.FixedTrial(best.params), space, base_options, n_modes)}
+    if t.kind == "track":
+        out = Path(t.out) if t.out else PROJECT / "configs" / "tracker" / f"{t.method}_{t.variant}.yaml"
+        text = track_config_text(t, sname, study, best, tuned)
+    else:
+        out = Path(t.out) if t.out else PROJECT / "configs" / "method" / f"{t.method}_{t.variant}.yaml"
+        text = config_text(t, name, sname, study, best, tuned)
     atomic_write_text(out, text)
     print(f"best trial {best.number}: J = {best.value:.4g}\nwrote {out}")
     if parent is not None:
@@ -258,10 +385,42 @@ def config_text(t, name: str, sname: str, study, best, tuned: dict) -> str:
     return "\n".join(lines) + "\n" + OmegaConf.to_yaml(OmegaConf.create(body))
 
 
+def track_config_text(t, sname: str, study, best, tuned: dict) -> str:
+    """The variant file of a tracking study (``experiments.jobs.track_variants``) with its provenance."""
+    finished = [tr for tr in study.trials if tr.value is not None]
+    base_trials = [tr for tr in finished if tr.user_attrs.get("base")]
+    attrs = best.user_attrs
+    cells = [k.removesuffix("_value") for k in attrs if k.endswith("_value")]
+    per_cell = "; ".join(f"{c}: median error {100 * attrs[c + '_median_error']:.3g} % of ω, failed modes "
+                         f"{attrs[c + '_failure_rate']:.2f}" for c in cells)
+    lines = [
+        f'# Tracker variant "{t.method}:{t.variant}": the tracking options of {t.method} (its defaults, the grids\' '
+        f"plain {t.method} row) with these over them, tuned by experiments.tuning.tune (Optuna TPE).",
+        f"# Objective: mean over cells of log10(median over records of the median tracking error / ω after "
+        f"convergence) + {t.penalty:g} x share of (record, mode) never converged or diverged "
+        "(experiments/report/objective.py, track_objective).",
+        f"# Cells: {', '.join(track_cell_label(c, i) for i, c in enumerate(t.track_cells))}; tuning seed "
+        f"{t.seed} (never a scoring seed), {t.replicates} records per cell, dt {t.dt_s:g} s, "
+        f"prior spread {t.prior_spread:g}.",
+        f"# Trials: {len(study.trials)} ({len(finished)} complete); best trial #{best.number}, J = {best.value:.4g}"
+        + (f"; base (trial #{base_trials[0].number}) J = {base_trials[0].value:.4g}" if base_trials else "") + ".",
+        f"# Best trial per cell: {per_cell}.",
+        f"# Study: {sname} in {_shown(storage_url(t))}; MLflow experiment 'tuning', run key tuning/{sname}.",
+        f"# Date: {time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}; git {git_commit()}.",
+        "# Command: python -m experiments.tuning.tune " + " ".join(sys.argv[1:]),
+        "# Values rounded to 4 significant digits.",
+    ]
+    body = {"tracker": t.method, "variant": t.variant, "options": _round(tuned)}
+    return "\n".join(lines) + "\n" + OmegaConf.to_yaml(OmegaConf.create(body))
+
+
 def _shown(url: str) -> str:
     """A storage URL inside the project shown relative to it (the header must not name a checkout)."""
-    prefix = f"sqlite:///{PROJECT}/"
-    return "sqlite:///" + url.removeprefix(prefix) if url.startswith(prefix) else url
+    for root in (PROJECT, Path(CONFIG_DIR).resolve().parent, Path.cwd()):   # experiments/configs is a link
+        prefix = f"sqlite:///{root}/"
+        if url.startswith(prefix):
+            return "sqlite:///" + url.removeprefix(prefix)
+    return url
 
 
 def _flat(options: dict) -> dict:

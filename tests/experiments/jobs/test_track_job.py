@@ -63,6 +63,8 @@ def test_a_tracker_that_raises_is_recorded_per_record(grid_file, tmp_path):
     ({"excitations": {"none": {}}}, "excitation is empty"),
     ({"noise_ug": [-1]}, "noise_ug"),
     ({"trackers": ["nope"]}, "unknown tracker 'nope'"),
+    ({"trackers": ["stand_in", "stand_in:nope"]}, "unknown tracker variant 'stand_in:nope'"),
+    ({"trackers": ["stand_in:x-y"]}, "trackers"),
     ({"tracker_options": {"stand_in": {"window_samples": 9}}}, "unknown option 'window_samples'"),
     ({"trackers": ["stand_in"], "tracker_options": {"hdmd": {"hop_samples": 9}}}, "tracker_options.hdmd"),
 ])
@@ -122,3 +124,24 @@ def test_score_step_scores_stored_tracks_again_identically(grid_file, tmp_path):
     main(["score", grid, *args])
     again = pd.read_csv(tmp_path / "t" / "step_thrusters_noise100ug_8s.csv")
     pd.testing.assert_frame_equal(first, again)
+
+
+def test_a_variant_runs_under_its_label_with_its_options(grid_file, tmp_path, monkeypatch):
+    """``hdmd:fast`` beside ``all``: its file's options reach the check (a bad one is refused naming the
+    variant) and the run, and its rows carry the label."""
+    from experiments.jobs import track_variants
+
+    monkeypatch.setattr(track_variants, "VARIANT_DIR", tmp_path / "tracker")
+    (tmp_path / "tracker").mkdir()
+    (tmp_path / "tracker" / "hdmd_fast.yaml").write_text("tracker: hdmd\nvariant: fast\noptions: {hop_samples: 50}\n")
+    grid = grid_file(trackers=["all", "hdmd:fast"])
+    main(["data", grid, "--out", str(tmp_path / "data")])
+    main(["run", grid, "--tracker", "hdmd:fast", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "v")])
+    table = pd.read_csv(tmp_path / "v" / "step_thrusters_noise100ug_8s.csv")
+    assert set(table["tracker"]) == {"hdmd:fast"}
+    record = json.loads((tmp_path / "v" / "step_thrusters_noise100ug_8s.json").read_text())
+    assert record["options"] == {"hop_samples": 50}
+    (tmp_path / "tracker" / "hdmd_fast.yaml").write_text("tracker: hdmd\nvariant: fast\noptions: {nope: 1}\n")
+    with pytest.raises(SystemExit):
+        main(["run", grid, "--tracker", "hdmd:fast", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "w")])
+    assert not (tmp_path / "w").exists()
