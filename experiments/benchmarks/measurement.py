@@ -104,11 +104,18 @@ def timed(label: str, args: list[str], cwd: Path, pythonpath: Path, repeats: int
             "wall_min": float(min(walls)), "cpu_min": float(min(cpus)), "stdout": runs[-1][2]}
 
 
+def run_dir(args: list[str], folder: str) -> list[str]:
+    """The job's arguments with its run folder set to ``folder`` (a key given twice is refused by the job)."""
+    return [a for a in args if not a.startswith("hydra.run.dir=")] + [f"hydra.run.dir={folder}"]
+
+
 def profile_phases(args: list[str], cwd: Path, env: dict | None = None,
                    pythonpath: Path = ROOT) -> tuple[list[tuple[str, float]], float]:
     out = cwd / "job.prof"
-    subprocess.run([sys.executable, "-m", "cProfile", "-o", str(out), *args], cwd=cwd, check=True,
-                   capture_output=True, env={**os.environ, "PYTHONPATH": str(pythonpath), **(env or {})})
+    proc = subprocess.run([sys.executable, "-m", "cProfile", "-o", str(out), *args], cwd=cwd, check=True,
+                          capture_output=True, env={**os.environ, "PYTHONPATH": str(pythonpath), **(env or {})})
+    if b"wrote " not in proc.stdout:          # cProfile exits 0 even when the job refused its arguments
+        raise RuntimeError("the profiled job wrote nothing: " + proc.stderr.decode(errors="replace").strip()[-300:])
     stats = pstats.Stats(str(out)).stats
     total = max(v[3] for v in stats.values())
     rows = []
@@ -179,21 +186,21 @@ def main(argv=None) -> None:
                            d, a.before, a.repeats),
                      timed("before (--before), 512 samples, prior given, MLflow tracking on", args, d, a.before,
                            a.repeats, {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})]
-        profiles = {"this release": profile_phases([*new, "hydra.run.dir=run_prof"], d, store)}
+        profiles = {"this release": profile_phases(run_dir(new, "run_prof"), d, store)}
         wait_for_logging(d, ROOT, store)
         if a.previous is not None:
             profiles["previous (--previous)"] = profile_phases(
-                [*new, "hydra.run.dir=run_prof_prev"], d, {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_prev.db'}"},
+                run_dir(new, "run_prof_prev"), d, {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_prev.db'}"},
                 a.previous)
         os.environ.update(store)
-        imports = {"this release, tracking off": import_times([*new, "hydra.run.dir=run_imp",
+        imports = {"this release, tracking off": import_times([*run_dir(new, "run_imp"),
                                                                "tracking.enabled=false"], d),
                    "this release, the default command (MLflow tracking on)": import_times(
-                       [*new, "hydra.run.dir=run_imp2"], d)}
+                       run_dir(new, "run_imp2"), d)}
         wait_for_logging(d, ROOT, store)
         if a.previous is not None:
             imports["previous (--previous), the default command (MLflow tracking on)"] = import_times(
-                [*new, "hydra.run.dir=run_imp4"], d, a.previous,
+                run_dir(new, "run_imp4"), d, a.previous,
                 {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_prev.db'}"})
         if a.before is not None:
             imports["before, 512 samples, tracking on"] = import_times(
