@@ -35,7 +35,8 @@ from experiments.io import atomic_write_text  # noqa: E402
 from experiments.report.tracking_metrics import score_track, summarize_cell  # noqa: E402
 from experiments.simulate.tracking_data import TrackingCellConfig, make_cell  # noqa: E402
 
-__all__ = ["SCHEDULES", "EXCITATIONS", "NOISE_UG", "DEFAULT_TRACKERS", "OUT", "cells", "run", "markdown", "main"]
+__all__ = ["SCHEDULES", "EXCITATIONS", "NOISE_UG", "DEFAULT_TRACKERS", "OUT", "cells", "score_record", "run",
+           "summary", "markdown", "main"]
 
 SCHEDULES = {"drift": {"drift": [0.3, 0.2, 0.2, 0.1], "ramp_end_s": 300.0},
              "step": {"step": [0.0, 0.0, 0.06, -0.04], "step_time_s": 60.0}}
@@ -56,7 +57,7 @@ def cells(seed: int, replicates: int, duration_s: float):
                 yield f"{s}_{e}_{noise:g}ug", make_cell(cfg)
 
 
-def _score(t_s, freq, conv, runtime, cell, r):
+def score_record(t_s, freq, conv, runtime, cell, r):
     st = float(cell["step_time_s"])
     return score_track(t_s, freq, conv, runtime, cell["truth_freq_rad_s"], float(cell["dt_s"]),
                        bound=cell["pcrb_std_rad_s"][r], step_time_s=st if np.isfinite(st) else None,
@@ -78,12 +79,12 @@ def run(specs: list[str], seed: int, replicates: int, duration_s: float) -> pd.D
                 name, opts = parsed[spec]
                 tr = methods.track(name, y, dt, prior, **opts)
                 rows.append({"cell": cell_name, "tracker": spec, "r": r,
-                             **_score(tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, cell, r)})
+                             **score_record(tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, cell, r)})
                 for plain, source in derived.items():
                     if source == spec:
                         rows.append({"cell": cell_name, "tracker": plain, "r": r,
-                                     **_score(tr.t_s, tr.extra["window_frequencies"], tr.extra["window_converged"],
-                                              tr.runtime_s, cell, r)})
+                                     **score_record(tr.t_s, tr.extra["window_frequencies"],
+                                                    tr.extra["window_converged"], tr.runtime_s, cell, r)})
         print(f"{cell_name}: done", flush=True)
     return pd.DataFrame(rows)
 

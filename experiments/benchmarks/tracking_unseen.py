@@ -6,9 +6,9 @@ Seven cells that no tracker option was chosen on: drifts of other sizes and sign
 steps on other modes and at other times, pulses of other torques and rates (every 3.3–10 s), noise
 100–1000 µg, and two other plants (target frequencies 2.5/14/17/45 and 4/25/28/70 rad/s, other damping),
 120 s records from ``experiments.simulate.tracking_data`` (seed ``--seed``; not a grid's scoring seed).
-Scores as ``tracking_beats``: the median over replicates of the error after the first convergence (% of ω),
-the re-convergence after a step, and the ratio to next_era ("halves" = ratio ≤ 0.5 and, on a step,
-re-converged within 20 s). Writes results/bench/tracking_unseen.md.
+Scores as ``tracking_beats`` (its ``score_record``, ``summary``): the median over replicates of the error
+after the first convergence (% of ω), the re-convergence after a step, and the ratio to next_era ("halves" =
+ratio ≤ 0.5 and, on a step, re-converged within 20 s). Writes results/bench/tracking_unseen.md.
 """
 
 from __future__ import annotations
@@ -20,12 +20,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # small matrices: BLAS thre
 import argparse  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 import methods  # noqa: E402
+from experiments.benchmarks.tracking_beats import score_record, summary  # noqa: E402
 from experiments.io import atomic_write_text  # noqa: E402
-from experiments.report.tracking_metrics import score_track, summarize_cell  # noqa: E402
 from experiments.simulate.plant import PlantConfig  # noqa: E402
 from experiments.simulate.tracking_data import TrackingCellConfig, make_cell  # noqa: E402
 
@@ -58,23 +57,14 @@ def run(trackers: list[str], seed: int, replicates: int) -> pd.DataFrame:
         cell = make_cell(TrackingCellConfig(
             schedule=schedule, excitation={"thruster_torque_n_m": torque, "thruster_rate_hz": rate}, noise_ug=noise,
             duration_s=120.0, replicates=replicates, seed=seed, plant=PlantConfig(**plant)))
-        dt, st = float(cell["dt_s"]), float(cell["step_time_s"])
+        dt = float(cell["dt_s"])
         for r in range(replicates):
             for name in trackers:
                 tr = methods.track(name, cell["accel_m_s2"][r], dt, cell["prior_rad_s"][r])
-                rows.append({"cell": label, "tracker": name, "r": r, **score_track(
-                    tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, cell["truth_freq_rad_s"], dt,
-                    bound=cell["pcrb_std_rad_s"][r], step_time_s=st if np.isfinite(st) else None,
-                    drift_span_s=cell["drift_span_s"])})
+                rows.append({"cell": label, "tracker": name, "r": r,
+                             **score_record(tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, cell, r)})
         print(f"{label}: done", flush=True)
-    out = []
-    for (cell, tracker), g in pd.DataFrame(rows).groupby(["cell", "tracker"], sort=False):
-        out.append({"cell": cell, "tracker": tracker, **summarize_cell(g, has_step=cell.startswith("step"))})
-    s = pd.DataFrame(out)
-    base = s[s.tracker == "next_era"].set_index("cell")["err_rel_median"]
-    s["ratio"] = s["err_rel_median"] / s["cell"].map(base)
-    s["halves"] = (s["ratio"] <= 0.5) & (~s["cell"].str.startswith("step") | (s["t_reconverge_s"] <= 20.0))
-    return s
+    return summary(pd.DataFrame(rows)).rename(columns={"beats": "halves"})
 
 
 def main(argv=None) -> None:

@@ -168,12 +168,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     message = (f"gated pencil (order {order}, {opts.rows} rows) on {ends.size} windows of {W} samples every {H}; "
                f"median share of Hankel columns kept {np.nanmedian(kept) if np.isfinite(kept).any() else 0:.2f}")
     extra = {"window_end_sample": ends, "columns_kept": kept}
-    std = np.nan
-    if opts.trend:
-        extra |= {"window_frequencies": freq, "window_converged": found}
-        freq, std, found, restarts = _trend.smooth(
-            ends * dt, freq, found, (W - 1) * dt, rate_noise=opts.trend_rate_noise, meas_rel=opts.trend_meas_rel,
-            gate=opts.trend_gate, restart_after=opts.trend_restart_after, rate0=opts.trend_rate0)
-        extra["trend_restarts"] = restarts
+    freq, std, found, restarts = _trend.apply(opts, ends * dt, freq, np.nan, found, (W - 1) * dt, extra)
+    if restarts is not None:
         message += f"; trend stage: {restarts.tolist()} restarts"
     return Track(ends * dt, freq, std, found, message=message, extra=extra)

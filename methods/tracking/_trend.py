@@ -117,3 +117,20 @@ def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray,
             std[j, i] = np.sqrt(max(P[0, 0], 0.0))
             conv[j, i] = ok
     return out, std, conv, restarts
+
+
+def apply(opts, t_end_s: np.ndarray, frequencies: np.ndarray, std, determined: np.ndarray, window_s: float,
+          extra: dict):
+    """The trend stage as a windowed tracker runs it when ``opts.trend``: the raw window estimates kept in
+    ``extra`` ("window_frequencies", "window_converged", and the restarts per mode), then :func:`smooth` with
+    the ``trend_*`` options. Returns (frequencies, std, determined, restarts); ``opts.trend`` false: the
+    window estimates unchanged, std NaN, restarts None."""
+    if not opts.trend:
+        return frequencies, np.nan, determined, None
+    extra |= {"window_frequencies": frequencies, "window_converged": determined}
+    freq, std, found, restarts = smooth(
+        t_end_s, frequencies, determined, window_s, rate_noise=opts.trend_rate_noise,
+        meas_rel=opts.trend_meas_rel, gate=opts.trend_gate, restart_after=opts.trend_restart_after,
+        rate0=opts.trend_rate0)
+    extra["trend_restarts"] = restarts
+    return freq, std, found, restarts

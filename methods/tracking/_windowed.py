@@ -112,11 +112,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     if failures:
         message += f"; {len(failures)} windows failed (first: {failures[0]})"
     extra = {"window_end_sample": ends, "warm_started": warm_used, "window_failures": len(failures)}
-    if opts.trend:
-        extra |= {"window_frequencies": freq, "window_converged": conv}
-        freq, std, conv, restarts = _trend.smooth(
-            ends * dt, freq, conv, (W - 1) * dt, rate_noise=opts.trend_rate_noise, meas_rel=opts.trend_meas_rel,
-            gate=opts.trend_gate, restart_after=opts.trend_restart_after, rate0=opts.trend_rate0)
-        extra["trend_restarts"] = restarts
+    freq, std, conv, restarts = _trend.apply(opts, ends * dt, freq, std, conv, (W - 1) * dt, extra)
+    if restarts is not None:
         message += f"; trend stage (centre-stamped, carried to the window's end): {restarts.tolist()} restarts"
     return Track(ends * dt, freq, std, conv, message=message, extra=extra)
