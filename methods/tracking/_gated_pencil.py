@@ -40,7 +40,7 @@ import numpy as np
 import scipy.optimize
 
 from methods.estimate import flat_record, make_options
-from methods.tracking import _trend
+from methods.tracking import _segments, _trend
 from methods.tracking._track import Track, check_window, usable_prior, window_ends
 from methods.tracking._windowed import DEFAULT_HOP_SAMPLES, DEFAULT_WINDOW_SAMPLES
 
@@ -60,6 +60,11 @@ class Options:
     detect_ratio: float = 3.0
     band: float = 0.3
     max_damping: float = 0.05
+    refine: bool = True
+    refine_steps: int = 10
+    min_segment: int = 20
+    max_rel_std: float = 0.01
+    overlap_inflation: float = 1.0
     trend: bool = True
     trend_rate_noise: float = _trend.DEFAULTS["trend_rate_noise"]
     trend_meas_rel: float = _trend.DEFAULTS["trend_meas_rel"]
@@ -113,11 +118,12 @@ def pulse_flags(seg: np.ndarray, ar_order: int, cut: float, iterations: int = 3)
 
 
 def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: int, cut: float,
-                 detect_ratio: float):
+                 detect_ratio: float, flags: np.ndarray | None = None):
     """(continuous poles s of the gated pencil, share of Hankel columns kept) for one window."""
     seg = seg - seg.mean()
     n = seg.size
-    flags = pulse_flags(seg, ar_order, cut)
+    if flags is None:
+        flags = pulse_flags(seg, ar_order, cut)
     cols = np.lib.stride_tricks.sliding_window_view(seg, rows + 1)          # (n − L, L + 1)
     cum = np.concatenate(([0], np.cumsum(flags)))
     k = np.arange(n - rows)
@@ -145,13 +151,19 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     freq = np.full((ends.size, m), np.nan)
     found = np.zeros((ends.size, m), dtype=bool)
     kept = np.full(ends.size, np.nan)
+    wstd = np.full((ends.size, m), np.nan)
+    last_w = np.full(m, np.nan)
+    last_z = np.full(m, np.nan)
     ref = prior.copy()
     limit = np.log1p(opts.band)
     for j, e in enumerate(ends.tolist()):
         seg = y[e - W + 1: e + 1]
         if flat_record(seg):
             continue
-        s, kept[j] = window_poles(seg, dt, order, opts.rows, opts.ar_order, opts.outlier_cut, opts.detect_ratio)
+        centred = seg - seg.mean()
+        flags = pulse_flags(centred, opts.ar_order, opts.outlier_cut)
+        s, kept[j] = window_poles(seg, dt, order, opts.rows, opts.ar_order, opts.outlier_cut, opts.detect_ratio,
+                                  flags)
         w = np.abs(s)
         zeta = -s.real / np.maximum(w, 1e-300)
         ok = (s.imag > 0) & (w < nyquist) & (zeta >= MIN_DAMPING) & (zeta <= opts.max_damping)
@@ -164,11 +176,28 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         hit = cost[rr, cc] < 1e6
         freq[j, cc[hit]] = np.exp(cand[rr[hit]])
         found[j, cc[hit]] = True
+        if opts.refine and found[j].any():
+            zc = np.clip(zeta[ok][rr[hit]], 1e-4, opts.max_damping)
+            w0 = np.where(found[j], freq[j], np.where(np.isfinite(last_w), last_w, ref))
+            z0 = np.where(np.isfinite(last_z), last_z, 0.005)
+            z0[cc[hit]] = zc
+            runs = _segments.segments(flags, opts.min_segment)
+            refined = _segments.fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
+            found[j] = False
+            freq[j] = np.nan
+            if refined is not None:
+                wr, zr, sr = refined
+                inside = np.abs(np.log(wr) - np.log(ref)) <= limit
+                good = inside & np.isfinite(sr) & (sr <= opts.max_rel_std * wr) & (zr <= opts.max_damping)
+                freq[j, good], wstd[j, good], found[j, good] = wr[good], sr[good], True
+                last_w = np.where(good, wr, last_w)
+                last_z = np.where(good, zr, last_z)
         ref = usable_prior(np.where(found[j], freq[j], ref), prior, nyquist)
     message = (f"gated pencil (order {order}, {opts.rows} rows) on {ends.size} windows of {W} samples every {H}; "
                f"median share of Hankel columns kept {np.nanmedian(kept) if np.isfinite(kept).any() else 0:.2f}")
     extra = {"window_end_sample": ends, "columns_kept": kept}
-    freq, std, found, restarts = _trend.apply(opts, ends * dt, freq, np.nan, found, (W - 1) * dt, extra)
+    meas = np.sqrt(opts.overlap_inflation * W / H) * wstd if opts.refine else None
+    freq, std, found, restarts = _trend.apply(opts, ends * dt, freq, np.nan, found, (W - 1) * dt, extra, meas)
     if restarts is not None:
         message += f"; trend stage: {restarts.tolist()} restarts"
     return Track(ends * dt, freq, std, found, message=message, extra=extra)

@@ -54,7 +54,8 @@ def check(opts, tracker: str) -> None:
 
 
 def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray, window_s: float, *,
-           rate_noise: float, meas_rel: float, gate: float, restart_after: int, rate0: float):
+           rate_noise: float, meas_rel: float, gate: float, restart_after: int, rate0: float,
+           meas_std: np.ndarray | None = None):
     """Run the trend stage over a track's window estimates (module docstring).
 
     Parameters
@@ -83,13 +84,16 @@ def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray,
         for j in range(K):
             z = frequencies[j, i]
             good = bool(determined[j, i]) and np.isfinite(z) and z > 0
+            r_std = meas_rel * z
+            if meas_std is not None and np.isfinite(meas_std[j, i]):
+                r_std = meas_std[j, i]
             if kf is None:
                 if not good:
                     continue
                 kf = KalmanFilter(dim_x=2, dim_z=1)
                 kf.H = np.array([[1.0, 0.0]])
                 kf.x = np.array([z, 0.0])
-                kf.P = np.diag([(meas_rel * z) ** 2, (rate0 * z) ** 2])
+                kf.P = np.diag([r_std ** 2, (rate0 * z) ** 2])
                 t_last, w0, ok = t_c[j], z, True
             else:
                 tau = t_c[j] - t_last
@@ -98,7 +102,7 @@ def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray,
                 kf.Q = Q_discrete_white_noise(dim=2, dt=tau, var=(rate_noise * w0) ** 2)
                 kf.predict()
                 if good:
-                    kf.R = np.array([[(meas_rel * z) ** 2]])
+                    kf.R = np.array([[r_std ** 2]])
                     nu = z - kf.x[0]
                     if nu * nu / (kf.P[0, 0] + kf.R[0, 0]) <= gate:
                         kf.update(np.array([z]))
@@ -120,7 +124,7 @@ def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray,
 
 
 def apply(opts, t_end_s: np.ndarray, frequencies: np.ndarray, std, determined: np.ndarray, window_s: float,
-          extra: dict):
+          extra: dict, meas_std: np.ndarray | None = None):
     """The trend stage as a windowed tracker runs it when ``opts.trend``: the raw window estimates kept in
     ``extra`` ("window_frequencies", "window_converged", and the restarts per mode), then :func:`smooth` with
     the ``trend_*`` options. Returns (frequencies, std, determined, restarts); ``opts.trend`` false: the
@@ -131,6 +135,6 @@ def apply(opts, t_end_s: np.ndarray, frequencies: np.ndarray, std, determined: n
     freq, std, found, restarts = smooth(
         t_end_s, frequencies, determined, window_s, rate_noise=opts.trend_rate_noise,
         meas_rel=opts.trend_meas_rel, gate=opts.trend_gate, restart_after=opts.trend_restart_after,
-        rate0=opts.trend_rate0)
+        rate0=opts.trend_rate0, meas_std=meas_std)
     extra["trend_restarts"] = restarts
     return freq, std, found, restarts
