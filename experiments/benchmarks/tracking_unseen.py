@@ -2,8 +2,9 @@
 
     python -m experiments.benchmarks.tracking_unseen [--seed 4711] [--replicates 2] [--trackers next_era,gated_pencil]
 
-Seven cells that no tracker option was chosen on: drifts of other sizes and signs and over other spans,
-steps on other modes and at other times, pulses of other torques and rates (every 3.3–10 s), noise
+Nine cells that no tracker option was chosen on: drifts of other sizes and signs and over other spans,
+steps on other modes and at other times, pulses of other torques and rates (at random times every 3.3–15 s
+on average, or periodic every 7 s), noise
 100–1000 µg, and two other plants (target frequencies 2.5/14/17/45 and 4/25/28/70 rad/s, other damping),
 120 s records from ``experiments.simulate.tracking_data`` (seed ``--seed``; not a grid's scoring seed).
 Scores as ``tracking_beats`` (its ``score_record``, ``summary``): the median over replicates of the error
@@ -48,14 +49,19 @@ CELLS = {
         ({"step": [0.0, 0.07, -0.03, 0.0], "step_time_s": 70.0}, (80.0, 0.25), 100.0, _PLANT_B),
     "step +3/0/+6/−4 % at 90 s, 100 N·m every 4 s, 1000 µg":
         ({"step": [0.03, 0.0, 0.06, -0.04], "step_time_s": 90.0}, (100.0, 0.25), 1000.0, {}),
+    "step −6/+4/−5/0 % at 50 s, 120 N·m periodic every 7 s, 500 µg":
+        ({"step": [-0.06, 0.04, -0.05, 0.0], "step_time_s": 50.0}, (120.0, 7.0), 500.0, {}),
+    "drift −15/−10/+10/+25 % in 250 s, 80 N·m every 15 s, 800 µg":
+        ({"drift": [-0.15, -0.1, 0.1, 0.25], "ramp_end_s": 250.0}, (80.0, 1 / 15), 800.0, {}),
 }
 
 
 def run(trackers: list[str], seed: int, replicates: int) -> pd.DataFrame:
     rows = []
     for label, (schedule, (torque, rate), noise, plant) in CELLS.items():
+        pulses = {"thruster_period_s": rate} if rate > 1 else {"thruster_rate_hz": rate}   # > 1: a period (s)
         cell = make_cell(TrackingCellConfig(
-            schedule=schedule, excitation={"thruster_torque_n_m": torque, "thruster_rate_hz": rate}, noise_ug=noise,
+            schedule=schedule, excitation={"thruster_torque_n_m": torque, **pulses}, noise_ug=noise,
             duration_s=120.0, replicates=replicates, seed=seed, plant=PlantConfig(**plant)))
         dt = float(cell["dt_s"])
         for r in range(replicates):

@@ -63,7 +63,7 @@ class Options:
     refine: bool = True
     refine_steps: int = 10
     min_segment: int = 20
-    max_rel_std: float = 0.01
+    max_phase_std: float = 0.5
     overlap_inflation: float = 1.0
     trend: bool = True
     trend_rate_noise: float = _trend.DEFAULTS["trend_rate_noise"]
@@ -187,15 +187,18 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
             freq[j] = np.nan
             if refined is not None:
                 wr, zr, sr = refined
-                inside = np.abs(np.log(wr) - np.log(ref)) <= limit
-                good = inside & np.isfinite(sr) & (sr <= opts.max_rel_std * wr) & (zr <= opts.max_damping)
+                dist = np.abs(np.log(wr)[:, None] - np.log(ref)[None, :])
+                own = np.diag(dist)
+                nearest = own <= dist.min(axis=1)           # nearer its own mode's last estimate than any other's
+                good = ((own <= limit) & nearest & np.isfinite(sr) & (sr * (W - 1) * dt <= opts.max_phase_std)
+                        & (zr <= opts.max_damping))
                 freq[j, good], wstd[j, good], found[j, good] = wr[good], sr[good], True
                 last_w = np.where(good, wr, last_w)
                 last_z = np.where(good, zr, last_z)
         ref = usable_prior(np.where(found[j], freq[j], ref), prior, nyquist)
     message = (f"gated pencil (order {order}, {opts.rows} rows) on {ends.size} windows of {W} samples every {H}; "
                f"median share of Hankel columns kept {np.nanmedian(kept) if np.isfinite(kept).any() else 0:.2f}")
-    extra = {"window_end_sample": ends, "columns_kept": kept}
+    extra = {"window_end_sample": ends, "columns_kept": kept, "window_std": wstd}
     meas = np.sqrt(opts.overlap_inflation * W / H) * wstd if opts.refine else None
     freq, std, found, restarts = _trend.apply(opts, ends * dt, freq, np.nan, found, (W - 1) * dt, extra, meas)
     if restarts is not None:
