@@ -27,9 +27,9 @@ import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import score_record, summary  # noqa: E402
 from experiments.io import atomic_write_text  # noqa: E402
 from experiments.simulate.plant import PlantConfig  # noqa: E402
-from experiments.simulate.tracking_data import TrackingCellConfig, make_cell  # noqa: E402
+from experiments.simulate.tracking_data import TrackingCellConfig, check_cell_config, make_cell  # noqa: E402
 
-__all__ = ["CELLS", "run", "main"]
+__all__ = ["CELLS", "configs", "run", "main"]
 
 OUT = Path("results/bench/tracking_unseen.md")
 _PLANT_A = {"target_freq_rad_s": [2.5, 14.0, 17.0, 45.0], "damping": [0.01, 0.004, 0.006, 0.003]}
@@ -49,20 +49,29 @@ CELLS = {
         ({"step": [0.0, 0.07, -0.03, 0.0], "step_time_s": 70.0}, (80.0, 0.25), 100.0, _PLANT_B),
     "step +3/0/+6/−4 % at 90 s, 100 N·m every 4 s, 1000 µg":
         ({"step": [0.03, 0.0, 0.06, -0.04], "step_time_s": 90.0}, (100.0, 0.25), 1000.0, {}),
-    "step −6/+4/−5/0 % at 50 s, 120 N·m periodic every 7 s, 500 µg":
-        ({"step": [-0.06, 0.04, -0.05, 0.0], "step_time_s": 50.0}, (120.0, 7.0), 500.0, {}),
+    "step −6/−4/+5/0 % at 50 s, 120 N·m periodic every 7 s, 500 µg":
+        ({"step": [-0.06, -0.04, 0.05, 0.0], "step_time_s": 50.0}, (120.0, 7.0), 500.0, {}),
     "drift −15/−10/+10/+25 % in 250 s, 80 N·m every 15 s, 800 µg":
         ({"drift": [-0.15, -0.1, 0.1, 0.25], "ramp_end_s": 250.0}, (80.0, 1 / 15), 800.0, {}),
 }
 
 
-def run(trackers: list[str], seed: int, replicates: int) -> pd.DataFrame:
-    rows = []
+def configs(seed: int, replicates: int) -> dict[str, TrackingCellConfig]:
+    """Every cell's config, each checked (``check_cell_config``) before any cell is simulated."""
+    out = {}
     for label, (schedule, (torque, rate), noise, plant) in CELLS.items():
         pulses = {"thruster_period_s": rate} if rate > 1 else {"thruster_rate_hz": rate}   # > 1: a period (s)
-        cell = make_cell(TrackingCellConfig(
+        out[label] = TrackingCellConfig(
             schedule=schedule, excitation={"thruster_torque_n_m": torque, **pulses}, noise_ug=noise,
-            duration_s=120.0, replicates=replicates, seed=seed, plant=PlantConfig(**plant)))
+            duration_s=120.0, replicates=replicates, seed=seed, plant=PlantConfig(**plant))
+        check_cell_config(out[label])
+    return out
+
+
+def run(trackers: list[str], seed: int, replicates: int) -> pd.DataFrame:
+    rows = []
+    for label, cfg in configs(seed, replicates).items():
+        cell = make_cell(cfg)
         dt = float(cell["dt_s"])
         for r in range(replicates):
             for name in trackers:
@@ -85,6 +94,10 @@ def main(argv=None) -> None:
     if args.replicates < 1 or "next_era" not in trackers or unknown:
         parser.exit(2, f"error: --replicates = {args.replicates} must be at least 1 and --trackers = "
                        f"{args.trackers} must name known trackers, next_era among them\n")
+    try:
+        configs(args.seed, args.replicates)
+    except ValueError as exc:                  # a cell the simulator refuses: one line, before any work
+        parser.exit(2, f"error: {exc}\n")
     s = run(trackers, args.seed, args.replicates)
     lines = [f"# Trackers on records unlike the grid's (`python -m experiments.benchmarks.tracking_unseen --seed "
              f"{args.seed} --replicates {args.replicates}`)", "",
