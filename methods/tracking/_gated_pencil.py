@@ -141,6 +141,30 @@ def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: in
     return np.log(z.astype(complex)) / dt, float(keep.mean())
 
 
+def _labelled(w: np.ndarray, zeta: np.ndarray, std: np.ndarray, ref: np.ndarray, limit: float, max_std_rad_s: float,
+              max_damping: float) -> np.ndarray:
+    """Which refined modes count as determined, and as the mode their label says.
+
+    A mode counts when it is within ``limit`` (log) of its last estimate ``ref``, lightly damped, and its std
+    is under ``max_std_rad_s`` (the window's phase-std test). A mode that lies nearer another mode's last
+    estimate than its own counts only if that other mode is itself determined at a distinct pole (more than
+    3 combined std away): else it is that mode's pole picked up by a component whose own mode has died away.
+    Of two modes on one pole (within 3 combined std) only the one nearer its own last estimate counts."""
+    dist = np.abs(np.log(w)[:, None] - np.log(ref)[None, :])
+    own = np.diag(dist)
+    ok = (own <= limit) & np.isfinite(std) & (std <= max_std_rad_s) & (zeta <= max_damping)
+    apart = np.abs(w[:, None] - w[None, :]) > 3 * np.hypot(std[:, None], std[None, :])
+    good = ok.copy()
+    for i in np.flatnonzero(ok):
+        k = int(np.argmin(dist[i]))
+        if k != i and not (ok[k] and apart[i, k]):
+            good[i] = False
+    for i, k in zip(*np.nonzero(np.triu(~apart, 1)), strict=True):
+        if good[i] and good[k]:
+            good[i if own[i] > own[k] else k] = False
+    return good
+
+
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
     opts = make_options(Options, options, name)
     W, H = opts.window_samples, opts.hop_samples
@@ -187,11 +211,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
             freq[j] = np.nan
             if refined is not None:
                 wr, zr, sr = refined
-                dist = np.abs(np.log(wr)[:, None] - np.log(ref)[None, :])
-                own = np.diag(dist)
-                nearest = own <= dist.min(axis=1)           # nearer its own mode's last estimate than any other's
-                good = ((own <= limit) & nearest & np.isfinite(sr) & (sr * (W - 1) * dt <= opts.max_phase_std)
-                        & (zr <= opts.max_damping))
+                good = _labelled(wr, zr, sr, ref, limit, opts.max_phase_std / ((W - 1) * dt), opts.max_damping)
                 freq[j, good], wstd[j, good], found[j, good] = wr[good], sr[good], True
                 last_w = np.where(good, wr, last_w)
                 last_z = np.where(good, zr, last_z)
