@@ -86,7 +86,7 @@ def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray,
             good = bool(determined[j, i]) and np.isfinite(z) and z > 0
             r_std = meas_rel * z
             if meas_std is not None and np.isfinite(meas_std[j, i]):
-                r_std = meas_std[j, i]
+                r_std = float(np.hypot(meas_std[j, i], r_std))
             if kf is None:
                 if not good:
                     continue
