@@ -24,8 +24,18 @@ What. On each window of W samples (every H samples):
 3. **Modes**: the poles with ω_d > 0 and damping in [−0.02, ``max_damping``] are assigned to the modes by
    ``linear_sum_assignment`` on |log ω − log ω_ref| within ``band``, ω_ref the last estimate of each mode
    (the prior at first); a mode without a pole in its band is not determined in that window.
-4. **Trend stage** (``trend``, on by default; :mod:`methods.tracking._trend`): each window's estimate put at
-   the window's centre and carried to the present by a local-linear-trend Kalman filter per mode.
+4. **Segment fit** (``refine``, on by default; :mod:`methods.tracking._segments`): the window cut at the
+   flagged samples into pulse-free runs of ≥ ``min_segment`` samples; m damped sinusoids with (ω, ζ) shared
+   by every run and amplitudes, phases and offset per run (projected out), fitted by least squares from the
+   pencil's poles (a mode the pencil missed: from its last refined value) — the maximum-likelihood fit of the
+   piecewise free decay under white noise — with the std of ω from the reduced Jacobian. A refined mode
+   counts when it is within ``band`` of its last estimate, lightly damped, its std × the window span is
+   under ``max_phase_std`` rad (an energy test alike for every frequency: a mode that died away between
+   sparse pulses fails it), and it is not another mode's pole (:func:`_labelled`).
+5. **Trend stage** (``trend``, on by default; :mod:`methods.tracking._trend`): each window's estimate put at
+   the window's centre and carried to the present by a local-linear-trend Kalman filter per mode; with the
+   segment fit, a window weighs by its own std: R = ``overlap_inflation``·(W/H)·std² + (``trend_meas_rel``·ω)²
+   (consecutive windows share W − H samples; the floor is the model error of a constant-frequency fit).
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -84,7 +94,11 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     _int(opts.rows, "rows", 4, name)
     _int(opts.extra_order, "extra_order", 0, name)
     _int(opts.ar_order, "ar_order", 2, name)
-    for key in ("outlier_cut", "detect_ratio", "band", "max_damping"):
+    if not isinstance(opts.refine, bool):
+        raise ValueError(f"{name}: refine = {opts.refine!r} must be true or false")
+    _int(opts.refine_steps, "refine_steps", 1, name)
+    _int(opts.min_segment, "min_segment", 4, name)
+    for key in ("outlier_cut", "detect_ratio", "band", "max_damping", "max_phase_std", "overlap_inflation"):
         value = getattr(opts, key)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (np.isfinite(value) and value > 0):
             raise ValueError(f"{name}: {key} = {value!r} must be a finite number > 0")
