@@ -6,7 +6,8 @@ paper's setting is the variant ``pem:paper``, configs/method/pem_paper.yaml). Be
 - ``_fit``: the starts, the search per start, the repair restarts and the :class:`~methods.estimate.Estimate`;
 - :mod:`methods.pem.predictor`: the innovation-form predictor of eq. (31) and its exact Jacobian;
 - :mod:`methods.pem.search`: the Gauss–Newton / Levenberg–Marquardt search of eq. (30) (the reference path);
-- ``_fast``: the same search by variable projection for the default options;
+- ``_fast``: the same search by variable projection for the default options; its per-record model (basis,
+  linear solve, reduced Jacobian) is public as :class:`SeparableModel` (``gated_pencil``'s segment fit);
 - ``_pencil``: the matrix-pencil start from the record;
 - ``_residual``: the residual's whiteness check and the robust (sandwich) std, in every estimate;
 - ``_drift``: :func:`segment_drift`, the test for a frequency that drifts over the record.
@@ -32,6 +33,7 @@ import numpy as np
 
 from methods.pem import _fast, predictor, search
 from methods.pem._drift import DriftReport, segment_drift
+from methods.pem._fast import _Model as SeparableModel
 from methods.pem._fit import (
     Options,
     check_options,
@@ -41,7 +43,7 @@ from methods.pem._fit import (
     starts,
 )
 
-__all__ = ["DriftReport", "Options", "check_options", "detection_std", "free_mask", "identify",
+__all__ = ["DriftReport", "Options", "SeparableModel", "check_options", "detection_std", "free_mask", "identify",
            "predictor", "reference_path", "search", "segment_drift", "starts"]
 
 

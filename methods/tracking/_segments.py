@@ -10,7 +10,7 @@ t = (k − k_s)Δt from its own start), the model is
 
 linear in c_s = (A_s, B_s, b_s) for fixed θ = (ω, ζ). With every c_s at its least-squares value the residual
 is ε(θ) = [P⊥_s y_s]_s and the reduced Jacobian (Kaufman) is block-stacked, J_r = [P⊥_s ∂ε_s/∂θ]_s, since
-the projections are block-diagonal. Each block is :class:`methods.pem._fast._Model` (the basis, the linear
+the projections are block-diagonal. Each block is :class:`methods.pem.SeparableModel` (the basis, the linear
 solve and the reduced Jacobian of pem's own search); the search over θ is
 ``scipy.optimize.least_squares`` (trust-region reflective within bounds on ω and ζ), warm-started by the
 caller (the gated pencil's poles, or the last window's). The std of ω is σ̂²(J_rᵀJ_r)⁻¹ at the minimum,
@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
-from methods.pem._fast import _Model
+from methods.pem import SeparableModel
 
 MIN_ZETA, MAX_ZETA = 1e-5, 0.3
 
@@ -41,7 +41,7 @@ class _Piecewise:
     """Residual and reduced Jacobian of the piecewise model over the segments of one window."""
 
     def __init__(self, y: np.ndarray, dt: float, m: int, runs: list[tuple[int, int]]):
-        self.models = [_Model(y[a:b], dt, m, True, 0.0) for a, b in runs]
+        self.models = [SeparableModel(y[a:b], dt, m, True, 0.0) for a, b in runs]
         self.m = m
         self.n = sum(b - a for a, b in runs)
         self._x = None
