@@ -73,7 +73,7 @@ def cell_label(axes: dict) -> tuple[str, str]:
 
 
 # pem as it was before the residual check: no line absorbed, no drift test, and its white-noise std
-BEFORE = {"absorb_lines": False, "drift_segments": 0}
+BEFORE = {"absorb_lines": False, "drift_segments": 0, "skip_clipped": False}
 
 
 def run_method(name: str, records: np.ndarray, dt: float, extra_options: dict | None = None) -> list:

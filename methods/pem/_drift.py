@@ -9,7 +9,10 @@ residual is white):
 
     ω̄ = Σ ω̂ₖ/sₖ² / Σ 1/sₖ²,   χ² = Σₖ (ω̂ₖ − ω̄)²/sₖ²  ~  χ²_{K−1}  when the frequency is constant.
 
-When χ²'s p-value is below α the mode drifts: the report gives ω̂ against the segments' mid-times and
+With K ≥ 3 segments the amplitude line's slope β_a (below) is tested too, against its std from the sₖ
+(one dof: the power against a monotone drift that the χ² on K − 1 dof spreads thin; a half-record of the
+softening beam whose mode 2 drifted by 16 of its std between halves passed the χ² alone), each test at α/2.
+When the p-value is below α the mode drifts: the report gives ω̂ against the segments' mid-times and
 envelope amplitudes âₖ (the mode's fitted amplitude aᵢe^{−ζωt} at the segment's middle, m/s²), the
 weighted lines ω = ω₀ + β_t t and ω = ω₀ + β_a a² (the Duffing backbone's form for small shifts,
 ω(a) ≈ ω₀(1 + 3εa²/(8ω₀²)); ω₀ is then the small-amplitude frequency), by ``numpy.polyfit`` with weights 1/sₖ
@@ -45,7 +48,7 @@ class DriftReport:
     std: np.ndarray                     # (K, m) robust std sₖ, rad/s
     amplitude_m_s2: np.ndarray          # (K, m) envelope amplitude at the segment's middle
     chi2: np.ndarray                    # (m,)
-    p_value: np.ndarray                 # (m,)
+    p_value: np.ndarray                 # (m,) the test's p: 2·min(χ²'s, the slope's) (Bonferroni), K ≥ 3
     drifting: np.ndarray                # (m,) bool: p < alpha
     slope_per_s: np.ndarray             # (m,) β_t, rad/s per s
     slope_per_s_std: np.ndarray
@@ -58,6 +61,7 @@ class DriftReport:
     whole_record: np.ndarray            # (m,) the whole record's frequencies
     reference_amplitude_m_s2: np.ndarray  # (m,) where the whole-record frequency sits on the amplitude line
     reference_time_s: np.ndarray        # (m,) and on the time line
+    slope_p_value: np.ndarray           # (m,) two-sided p of the amplitude line's slope (its WLS std)
     notes: list[str] = field(default_factory=list)
 
     def summary(self) -> list[str]:
@@ -103,6 +107,7 @@ def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = DRIFT
         raise ValueError(f"n_segments = {n_segments} leaves {seg} samples per segment of a {y.size}-sample "
                          f"record; at least {MIN_SEGMENT_SAMPLES} are needed")
     prior = np.asarray(prior, float)
+    options = {**options, "drift_segments": 0}     # each fit is of one frequency per mode: no drift test in it
     whole = identify(y, dt, prior, **options) if whole is None else whole
     start = np.where(whole.converged_per_mode, whole.frequencies, prior)
     if not np.all(np.diff(start) > 0):
@@ -140,22 +145,31 @@ def _envelope(part: np.ndarray, dt: float, w: np.ndarray, z: np.ndarray) -> np.n
 
 
 def _line(x: np.ndarray, f: np.ndarray, s: np.ndarray) -> tuple[float, float, float, float]:
-    """(slope, its std, intercept, its std) of the weighted line f = intercept + slope·x (weights 1/s),
-    the std from the sₖ alone, times Birge's ratio √(χ²/(K − 2)) when the K points scatter about the line
-    more than their sₖ allow (χ² beyond its 95 % point on K − 2 dof: a backbone that is not linear in x, a
-    drift in time rather than amplitude). Below that point the sₖ are kept: inflating by every χ² > K − 2
-    on one dof widened the small-amplitude std of Duffing records to 75 % within 1σ."""
+    """(slope, its std, intercept, its std) of the weighted line f = intercept + slope·x (weights 1/s).
+
+    The std is the larger of two: the weighted least-squares one from the sₖ alone, times Birge's ratio
+    √(χ²/(K − 2)) when the K points scatter about the line more than their sₖ allow (χ² beyond its 95 %
+    point on K − 2 dof), and the delete-one-segment jackknife's, √((K − 1)/K · Σⱼ(θ̂₍ⱼ₎ − θ̄)²) with θ̂₍ⱼ₎
+    the line without segment j (K ≥ 3; Efron & Stein 1981). The first trusts the sₖ; the jackknife does not:
+    it sees a segment that pulls the line beyond its sₖ (a close pair of modes beating inside a segment,
+    coloured noise the segment's robust std underrates), which moved ω₀ of the softening beam's mode 3 by
+    2–3 of the first's std (docs/uncertainty.md)."""
     coef, cov = np.polyfit(x, f, 1, w=1.0 / s, cov="unscaled")
-    dof = x.size - 2
+    k = x.size
+    dof = k - 2
     chi2 = float(np.sum(((f - np.polyval(coef, x)) / s) ** 2))
     birge = np.sqrt(chi2 / dof) if dof > 0 and chi2 > scipy.special.chdtri(dof, 0.05) else 1.0
-    return (float(coef[0]), float(birge * np.sqrt(cov[0, 0])), float(coef[1]),
-            float(birge * np.sqrt(cov[1, 1])))
+    var = np.diag(cov) * birge ** 2
+    if k >= 3:
+        loo = np.array([np.polyfit(np.delete(x, j), np.delete(f, j), 1, w=1.0 / np.delete(s, j))
+                        for j in range(k)])
+        var = np.fmax(var, (k - 1) / k * np.sum((loo - loo.mean(axis=0)) ** 2, axis=0))
+    return float(coef[0]), float(np.sqrt(var[0])), float(coef[1]), float(np.sqrt(var[1]))
 
 
 def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
     m = freq.shape[1]
-    keys = ("chi2", "p", "bt", "bt_s", "ba", "ba_s", "w0", "w0_s", "tau", "a_ref", "t_ref")
+    keys = ("chi2", "p", "p_slope", "bt", "bt_s", "ba", "ba_s", "w0", "w0_s", "tau", "a_ref", "t_ref")
     out = {key: np.full(m, np.nan) for key in keys}
     drifting = np.zeros(m, bool)
     notes = []
@@ -180,6 +194,13 @@ def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
                     out["a_ref"][i] = np.sqrt(a2)
                     decay, log_a0 = np.polyfit(t, np.log(a), 1)
                     out["t_ref"][i] = (np.log(out["a_ref"][i]) - log_a0) / decay if decay != 0 else np.nan
+        if ok.sum() >= 3 and np.ptp(a) > 0:
+            # the amplitude line's slope against its weighted-least-squares std (sₖ alone): one dof, the
+            # test with the power against a monotone drift; with the χ² on K − 1 dof, each at α/2
+            coef, cov = np.polyfit(a ** 2, f, 1, w=1.0 / s, cov="unscaled")
+            out["p_slope"][i] = float(scipy.special.erfc(abs(coef[0]) / np.sqrt(2 * cov[0, 0])))
+            p = min(1.0, 2 * min(p, out["p_slope"][i]))
+            out["p"][i] = p
         if p >= alpha:
             notes.append(f"mode {i + 1}: one frequency over the record ({ok.sum()} segments agree: "
                          f"chi2 = {chi2:.3g}, p = {p:.2g})")
@@ -197,7 +218,7 @@ def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
         notes.append(note)
     return DriftReport(t_mid, freq, std, amp, out["chi2"], out["p"], drifting, out["bt"], out["bt_s"],
                        out["ba"], out["ba_s"], out["w0"], out["w0_s"], out["tau"], np.asarray(whole, float),
-                       out["a_ref"], out["t_ref"], notes)
+                       out["a_ref"], out["t_ref"], out["p_slope"], notes)
 
 
 def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
