@@ -63,7 +63,7 @@ def figure(y: np.ndarray, dt: float, truth: np.ndarray, amplitude: np.ndarray, d
             ax.plot(grid, drift["small_amplitude_rad_s"][i] + drift["slope_per_amp2"][i] * grid ** 2, "C1--",
                     lw=1, label="ω₀ + βa²")
         if np.isfinite(drift["reference_amplitude_m_s2"][i]):
-            ax.plot(drift["reference_amplitude_m_s2"][i], est.frequencies[i], "C3s", ms=6, label="whole record")
+            ax.plot(drift["reference_amplitude_m_s2"][i], drift["whole_record"][i], "C3s", ms=6, label="whole record")
         ax.set_title(f"mode {i + 1}" + (" (drifts)" if drift["drifting"][i] else ""), fontsize=9)
         ax.set_xlabel("envelope amplitude (m/s²)", fontsize=8)
         ax.tick_params(labelsize=7)
