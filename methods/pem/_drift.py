@@ -37,6 +37,7 @@ from methods.pem.predictor import modal_basis
 MIN_SEGMENT_SAMPLES = 64
 REPORTS = ("small_amplitude", "record")   # what a drifting mode reports (Options.drift_frequency)
 DRIFT_ALPHA = 0.05       # level of the per-mode drift test (a false alarm widens one std by τ)
+MAX_INFLATION = 5.0      # ω₀ of the backbone fit is reported where its std is at most this × the record's
 
 
 @dataclass
@@ -246,22 +247,51 @@ def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
     # Only the modes whose segments disagree at level DRIFT_ALPHA change (a stationary record keeps its
     # answer in 19 modes of 20; τ for every mode made the std of coloured-noise records 15 points too wide).
     drifting = report.drifting & est.converged_per_mode & np.isfinite(est.std)
+    if opts.drift_frequency == "small_amplitude":
+        return _small_amplitude(est, y, dt, extra, report, drifting)
     if not drifting.any():
         return dataclasses.replace(est, extra=extra)
-    line = (np.isfinite(report.small_amplitude_rad_s) & np.isfinite(report.small_amplitude_std)
-            & (report.small_amplitude_std > 0))
-    small = drifting & line & (opts.drift_frequency == "small_amplitude")
     tau = np.where(np.isfinite(report.tau_rad_s), report.tau_rad_s, 0.0)
-    widened = drifting & ~small & (tau > 0)
-    freq = np.where(small, report.small_amplitude_rad_s, est.frequencies)
-    std = np.where(small, report.small_amplitude_std, np.where(widened, np.hypot(est.std, tau), est.std))
+    widened = drifting & (tau > 0)
+    std = np.where(widened, np.hypot(est.std, tau), est.std)
     notes = [report.notes[i] for i in np.flatnonzero(drifting)]
-    if small.any():
-        notes.append("reported at small amplitude (a → 0: the amplitude line's ω₀ ± its std) for modes "
-                     + ", ".join(str(i + 1) for i in np.flatnonzero(small)))
     if widened.any():
         notes.append("the std includes the spread between segments (modes "
                      + ", ".join(str(i + 1) for i in np.flatnonzero(widened)) + ")")
-    extra["drift_reported"] = np.where(small, "small_amplitude", np.where(drifting, "record", "")).tolist()
+    extra["drift_reported"] = np.where(drifting, "record", "").tolist()
+    return dataclasses.replace(est, std=std, extra=extra, message="; ".join([est.message, *notes]))
+
+
+def _small_amplitude(est, y, dt, extra, report, drifting):
+    """``drift_frequency="small_amplitude"``: every mode whose small-amplitude frequency the record
+    determines reports it, ω₀ ± its robust std of the backbone-chirp fit (:func:`methods.pem._chirp.fit`,
+    in ``extra["backbone"]``), whether or not its segments disagree. "Determines": ω₀'s std at most
+    :data:`MAX_INFLATION` × the constant-frequency fit's robust std; beyond that the envelope hardly decays
+    over the record, amplitude and time are one direction, and the mode keeps the record's average and its
+    std (its frequency at the amplitude the record holds). Reporting ω₀ for the drifting modes only mixed
+    two quantities: a window whose drift test missed a drift answered its own average, many of its std
+    from the other window's ω₀ (docs/uncertainty.md §5)."""
+    import dataclasses
+
+    from methods.pem import _chirp
+
+    fit = _chirp.fit(y, dt, est.frequencies, np.asarray(est.extra["damping"], float))
+    extra["backbone"] = fit
+    s = fit["std"]
+    use = (est.converged_per_mode & np.isfinite(fit["frequencies"]) & np.isfinite(s) & (s > 0)
+           & (s <= MAX_INFLATION * est.std))
+    freq = np.where(use, fit["frequencies"], est.frequencies)
+    std = np.where(use, s, est.std)
+    notes = [report.notes[i] for i in np.flatnonzero(drifting)]
+    if use.any():
+        notes.append("reported at small amplitude (ω₀ of the backbone fit ω(t) = ω₀ + κ·exp(−2ζωt), robust "
+                     "std) for mode" + ("s " if use.sum() > 1 else " ")
+                     + ", ".join(str(i + 1) for i in np.flatnonzero(use)))
+    kept = est.converged_per_mode & ~use
+    if kept.any():
+        notes.append("the record does not determine the small-amplitude frequency of mode"
+                     + ("s " if kept.sum() > 1 else " ") + ", ".join(str(i + 1) for i in np.flatnonzero(kept))
+                     + ": its record average is reported")
+    extra["drift_reported"] = np.where(use, "small_amplitude", np.where(drifting, "record", "")).tolist()
     return dataclasses.replace(est, frequencies=freq, std=std, extra=extra,
                                message="; ".join([est.message, *notes]))

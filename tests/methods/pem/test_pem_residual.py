@@ -158,8 +158,8 @@ def test_a_drifting_mode_reports_its_small_amplitude_frequency():
     drift = small.extra["drift"]
     assert small.extra["drift_reported"] == ["small_amplitude"]
     assert record.extra["drift_reported"] == ["record"]
-    assert small.frequencies[0] == drift["small_amplitude_rad_s"][0]
-    assert small.std[0] == drift["small_amplitude_std"][0]
+    assert small.frequencies[0] == small.extra["backbone"]["frequencies"][0]     # the backbone fit's ω₀
+    assert small.std[0] == small.extra["backbone"]["std"][0]
     assert record.frequencies[0] == drift["whole_record"][0]
     # the backbone ω√(1 + 2δa²) lies below ω at every amplitude, and so does the record's average; the
     # small-amplitude frequency covers ω, several times closer

@@ -81,3 +81,47 @@ def test_line_std_against_a_monte_carlo_when_the_segments_std_is_too_small():
     assert 0.8 * mc < np.sqrt(np.mean(np.square(std))) < 1.5 * mc
     inside = np.abs(np.array(est) - 20.0) <= np.array(std)
     assert 0.6 < inside.mean() < 0.8
+
+
+def test_backbone_fit_against_a_monte_carlo_in_coloured_noise():
+    """:func:`methods.pem._chirp.fit` on one Duffing mode (backbone ω√(1 + 2δA²), A = 1 at release) in AR(1)
+    noise (φ = 0.8): ω₀ is the linear ω, κ the first-order shift ωδ at release, and the robust std matches
+    the spread of 300 fits (measured: 0.00315 against 0.00308 rad/s, 69 % / 95 % within 1σ / 2σ)."""
+    import scipy.signal
+
+    from experiments.simulate.mismatch import duffing_modes
+    from methods.pem import _chirp
+
+    n, w, delta = 1024, 20.0, -0.01
+    clean = duffing_modes(DT * np.arange(n), [w], [0.01], [1.0], [0.3], delta)
+    rng = np.random.default_rng(11)
+    est, std, kappa = [], [], []
+    for _ in range(300):
+        noise = 0.02 * scipy.signal.lfilter([np.sqrt(1 - 0.8 ** 2)], [1, -0.8], rng.standard_normal(n))
+        fit = _chirp.fit(clean + noise, DT, np.array([19.95]), np.array([0.01]))
+        est.append(fit["frequencies"][0])
+        std.append(fit["std"][0])
+        kappa.append(fit["kappa"][0])
+    est, std = np.array(est), np.array(std)
+    mc = est.std()
+    assert abs(est.mean() - w) < 0.2 * mc
+    assert 0.8 * mc < np.sqrt(np.mean(std ** 2)) < 1.25 * mc
+    assert 0.6 < np.mean(np.abs(est - w) <= std) < 0.76
+    assert np.mean(kappa) == pytest.approx(w * delta, rel=0.05)
+
+
+def test_backbone_fit_of_two_windows_agrees():
+    """The two halves of a Duffing record: ω₀ (a → 0) is the same number for both, within 3 combined std,
+    while their constant-frequency fits differ by far more."""
+    from experiments.simulate.mismatch import duffing_modes
+
+    n, w = 2048, 20.0
+    rng = np.random.default_rng(12)
+    y = duffing_modes(DT * np.arange(n), [w], [0.003], [1.0], [0.0], -0.01) + 1e-3 * rng.standard_normal(n)
+    a, b = pem.identify(y[:n // 2], DT, [18.0]), pem.identify(y[n // 2:], DT, [18.0])
+    assert a.extra["drift_reported"] == ["small_amplitude"] == b.extra["drift_reported"]
+    assert abs(a.frequencies[0] - b.frequencies[0]) <= 3 * np.hypot(a.std[0], b.std[0])
+    for est in (a, b):
+        assert abs(est.frequencies[0] - w) <= 3 * est.std[0]
+    whole_a, whole_b = a.extra["drift"]["whole_record"][0], b.extra["drift"]["whole_record"][0]
+    assert abs(whole_a - whole_b) > 10 * np.hypot(a.extra["white_noise_std"][0], b.extra["white_noise_std"][0])
