@@ -82,10 +82,9 @@ class Options:
     posterior_summary: str = "mean"      # with prior_std_rad_s: "mean" (posterior mean, MMSE) or "mode" (MAP)
     posterior_draws: int = 0             # with "mean": importance draws per round around the MAP; 0: Laplace mixture
     drift_segments: int = 3              # segments of the drift test when the residual is not white; 0: off
-    # what a mode whose frequency drifts reports: "record" (the whole record's average, its std widened by the
-    # spread between segments) or "small_amplitude" (ω₀ of the line ω = ω₀ + βa², the linear structure's
-    # frequency, ± the line's std: 72 % / 95 % on Duffing records, but it extrapolates a clipped record's
-    # apparent drift too); the other is kept in extra["drift"] (methods/pem/_drift.py, docs/uncertainty.md)
+    # what a record whose residual is not white reports: "small_amplitude" (ω₀ of the backbone-chirp fit,
+    # the frequency as the amplitude goes to zero, for every mode the record determines; methods/pem/_chirp.py)
+    # or "record" (the record's average, a drifting mode's std widened by the spread between segments)
     drift_frequency: str = "small_amplitude"
     # a record whose extreme value is a plateau (a clipped sensor, methods/pem/_saturation.py) is fitted after
     # its last clipped sample (when MIN_TAIL samples remain), and extra["saturation"] says so; False: as it is
