@@ -9,7 +9,8 @@ record's start. Its phase is then ω_d t + κ g(t), g(t) = (1 − e^{−2σt})/(
 with σ = ζω, ω_d = ω√(1 − ζ²) and ω the frequency as the amplitude goes to zero: the same number whatever
 window of the record is fitted. The amplitudes (A, B, b) enter linearly and are projected out (variable
 projection); (ω, ζ, κ) per mode are found by ``scipy.optimize.least_squares`` (trust-region reflective,
-finite-difference Jacobian) from the constant-frequency fit (κ = 0). Unlike the segments' line
+finite-difference Jacobian) from the constant-frequency fit (κ = 0), within bounds (ω within ×1.5^±1 of
+that fit's, ζ in ±0.8, |κ| ≤ 0.2ω; a mode that ends on a bound is not determined: NaN). Unlike the segments' line
 (:mod:`methods.pem._drift`), the fit sees the whole window at once: a close pair whose beat period is as
 long as a segment is resolved. The std is the robust one (:func:`methods.pem._residual.sandwich_std` and
 :func:`~methods.pem._residual.spectral_sandwich_std`, the larger) on the Jacobian of the projected residual.
@@ -23,6 +24,8 @@ import numpy as np
 import scipy.optimize
 
 from methods.pem import _residual
+
+MAX_SHIFT = 0.2          # |κ| ≤ 0.2ω: a frequency shift at the record's start of at most 20 %
 
 
 def basis(theta: np.ndarray, dt: float, n: int) -> np.ndarray:
@@ -65,11 +68,18 @@ def fit(y, dt: float, w: np.ndarray, z: np.ndarray) -> dict:
     out = {"frequencies": nan, "std": nan, "kappa": nan, "kappa_std": nan, "success": False}
     if not (np.isfinite(w).all() and np.isfinite(z).all()) or y.size < 3 * m + 2 * m + 2:
         return out
-    theta0 = np.concatenate([w, z, np.zeros(m)])
+    if np.any(w <= 0):
+        return out
+    # bounds: ω within the record's ×1.5^±1, ζ as pem's, |κ| ≤ MAX_SHIFT·ω (a weak nonlinearity); a mode
+    # whose ω or κ ends on a bound is not determined (a slow mode in heavy noise otherwise let ω → 0 and κ
+    # carry its whole frequency: the phase of a mode that hardly decays is (ω + κ)t)
+    lo = np.concatenate([w / 1.5, np.full(m, -0.8), -MAX_SHIFT * w])
+    hi = np.concatenate([w * 1.5, np.full(m, 0.8), MAX_SHIFT * w])
+    theta0 = np.clip(np.concatenate([w, z, np.zeros(m)]), lo, hi)
     scale = np.concatenate([np.maximum(1e-3 * w, 1e-6), np.full(m, 1e-3), np.maximum(1e-3 * w, 1e-6)])
     try:
-        res = scipy.optimize.least_squares(_residual_of, theta0, args=(y, dt), method="trf", x_scale=scale,
-                                           diff_step=1e-7, max_nfev=200 * (3 * m + 1))
+        res = scipy.optimize.least_squares(_residual_of, theta0, args=(y, dt), bounds=(lo, hi), method="trf",
+                                           x_scale=scale, diff_step=1e-7, max_nfev=200 * (3 * m + 1))
     except (ValueError, np.linalg.LinAlgError):
         return out
     e = res.fun
@@ -77,5 +87,7 @@ def fit(y, dt: float, w: np.ndarray, z: np.ndarray) -> dict:
     hac = _residual.sandwich_std(res.jac, e, p)[0]
     spec = _residual.spectral_sandwich_std(res.jac, e, p)
     std = np.fmax(hac, spec)
-    return {"frequencies": res.x[:m], "std": std[:m], "kappa": res.x[2 * m:], "kappa_std": std[2 * m:],
+    free = (res.active_mask[:m] == 0) & (res.active_mask[2 * m:] == 0)
+    return {"frequencies": np.where(free, res.x[:m], np.nan), "std": np.where(free, std[:m], np.nan),
+            "kappa": np.where(free, res.x[2 * m:], np.nan), "kappa_std": np.where(free, std[2 * m:], np.nan),
             "success": bool(res.success)}
