@@ -37,6 +37,10 @@ from methods.pem.predictor import modal_basis
 MIN_SEGMENT_SAMPLES = 64
 REPORTS = ("small_amplitude", "record")   # what a drifting mode reports (Options.drift_frequency)
 DRIFT_ALPHA = 0.05       # level of the per-mode drift test (a false alarm widens one std by τ)
+INFO_DECAYS = 5.0        # the drift test and the backbone fit read the record up to 5/(ζω) of its most slowly
+                         # decaying mode: beyond it lies 0.28 % of any mode's frequency information
+                         # (∫_T^∞ t²e^{−2σt}dt / ∫_0^∞ = e^{−x}(1 + x + x²/2), x = 2σT = 10), and fitting
+                         # segments of noise alone made a long record's test 30× the fit's cost
 MAX_INFLATION = 5.0      # ω₀ of the backbone fit is reported where its std is at most this × the record's
 
 
@@ -241,6 +245,12 @@ def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
     k = int(opts.drift_segments)
     if k < 2 or check is None or check["white"] or y.size // k < MIN_SEGMENT_SAMPLES:
         return est
+    n_info = informative_samples(y.size, dt, est)
+    cut = n_info < y.size and n_info // k >= MIN_SEGMENT_SAMPLES
+    if cut:
+        y = y[:n_info]
+        est = dataclasses.replace(est, message=est.message + f"; drift test on the first {n_info * dt:.4g} s "
+                                  f"({n_info} samples: the modes have decayed into the noise after it)")
     options = {**dataclasses.asdict(opts), "drift_segments": 0}
     report = segment_drift(y, dt, prior, k, whole=est, **options)
     extra = {**est.extra, "drift": dataclasses.asdict(report)}
@@ -260,6 +270,16 @@ def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
                      + ", ".join(str(i + 1) for i in np.flatnonzero(widened)) + ")")
     extra["drift_reported"] = np.where(drifting, "record", "").tolist()
     return dataclasses.replace(est, std=std, extra=extra, message="; ".join([est.message, *notes]))
+
+
+def informative_samples(n: int, dt: float, est) -> int:
+    """Samples up to T = :data:`INFO_DECAYS`/min σᵢ (σᵢ = ζᵢωᵢ of the converged modes of ``est``), at most
+    ``n``; ``n`` when a mode's decay rate is not positive and finite (no cut)."""
+    z = np.asarray(est.extra.get("damping", np.full(est.frequencies.size, np.nan)), float)
+    sigma = (z * est.frequencies)[est.converged_per_mode]
+    if sigma.size == 0 or not np.all(np.isfinite(sigma) & (sigma > 0)):
+        return int(n)
+    return int(min(n, np.ceil(INFO_DECAYS / sigma.min() / dt)))
 
 
 def _small_amplitude(est, y, dt, extra, report, drifting):

@@ -114,6 +114,20 @@ def test_identify_reports_the_robust_std_when_the_residual_is_coloured():
     assert not np.array_equal(est.std, est.extra["white_noise_std"])
 
 
+def test_the_drift_test_reads_only_the_part_of_a_long_record_where_the_modes_are_above_the_noise():
+    # decay rates 0.05 and 0.1 /s: 5/0.05 = 100 s (5000 samples) hold all but 0.3 % of the slower mode's
+    # frequency information; the 20 000-sample record's last 300 s are coloured noise alone
+    rng = np.random.default_rng(17)
+    y = _record(rng, 20_000, lambda r, n: 0.01 * _ar1(r, n, 0.9))
+    est = pem.identify(y, DT, [18.0, 52.0])
+    assert not est.extra["residual_check"]["white"]
+    assert "drift test on the first" in est.message
+    t_mid = np.asarray(est.extra["drift"]["t_mid_s"])
+    k = t_mid.size
+    assert 0.9 * 100.0 < t_mid[-1] * 2 * k / (2 * k - 1) < 1.1 * 100.0      # the last segment ends near 100 s
+    assert abs(est.frequencies[0] - 20.3) < 5 * est.std[0]
+
+
 def _duffing(delta, n=2048, w=20.0, zeta=0.002, noise=1e-3, seed=8):
     """One Duffing mode from rest at amplitude 1: ẍ + 2ζωẋ + ω²x + εx³ = 0, ε = 8ω²δ/3, backbone
     ω(A) = ω√(1 + 2δA²) (experiments.simulate.mismatch)."""
