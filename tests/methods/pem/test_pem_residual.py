@@ -126,6 +126,12 @@ def test_the_drift_test_reads_only_the_part_of_a_long_record_where_the_modes_are
     k = t_mid.size
     assert 0.9 * 100.0 < t_mid[-1] * 2 * k / (2 * k - 1) < 1.1 * 100.0      # the last segment ends near 100 s
     assert abs(est.frequencies[0] - 20.3) < 5 * est.std[0]
+    # the 56.7 rad/s mode (decay 0.1 /s) holds its information in the first 50 s: a segment that starts
+    # after it does not count for that mode, and the linear record is not called drifting
+    starts = t_mid - t_mid[0]
+    seg_f = np.asarray(est.extra["drift"]["frequencies"])
+    assert np.isnan(seg_f[starts >= 50.0, 1]).all() and np.isfinite(seg_f[starts < 50.0, 1]).all()
+    assert not np.any(est.extra["drift"]["drifting"])
 
 
 def _duffing(delta, n=2048, w=20.0, zeta=0.002, noise=1e-3, seed=8):
