@@ -101,6 +101,12 @@ def _cell_axes(ax, noises, lengths, *, ylabel: bool = True):
         ax.set_ylabel("noise 1σ (µg)")
 
 
+def _dark(color) -> bool:
+    """Whether black text would be hard to read on ``color`` (its relative luminance below 0.3)."""
+    r, g, b = matplotlib.colors.to_rgb(color)
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b < 0.3
+
+
 def winner_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
     """Per mode and cell: the method with the lowest RMSE among those failing ≤ 10 %, RMSE/CRLB written in."""
     methods = sorted(summary["method"].unique())
@@ -123,15 +129,16 @@ def winner_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
                 best = cell.loc[cell["rmse_rad_s"].idxmin()]
                 grid[i, j] = methods.index(best["method"]) + 1
                 bayes = best.get("rmse_over_posterior_mean", np.nan)
-                if not best["identifiable"] and np.isfinite(bayes):
+                ink = "white" if _dark(_style(best["method"])[0]) else "black"
+                if np.isfinite(bayes):
                     # where the CRLB is loose: against the Bayesian yardstick (the posterior mean's RMSE)
                     ax.text(j, i, f"{bayes:.2f}", ha="center", va="center", fontsize=7, style="italic",
-                            fontweight="bold")
+                            fontweight="bold", color=ink)
                     continue
                 ratio = best["rmse_over_crlb"]
                 label = f"{ratio:.1f}" if ratio < 100 else f"{ratio:.0e}".replace("e+0", "e")
                 ax.text(j, i, label if best["identifiable"] else f"({label})", ha="center", va="center",
-                        fontsize=7)
+                        fontsize=7, color=ink if best["identifiable"] else "black")
                 if not best["identifiable"]:      # a "win" where the bound says nothing can be identified
                     ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, fc="white", alpha=0.6, ec="none"))
         ax.imshow(grid, cmap=cmap, norm=norm, aspect="auto", origin="lower")
@@ -143,9 +150,9 @@ def winner_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
     bayes = "rmse_over_posterior_mean" in summary.columns and summary["rmse_over_posterior_mean"].notna().any()
     fig.suptitle("Best method per cell (lowest RMSE among methods failing ≤ 10 %); number = its RMSE/CRLB; "
                  "pale, in brackets: the mode is not identifiable there (CRLB > 1 % of ω or > 10 % of the spacing)"
-                 + ("\nbold italic: not identifiable, RMSE / the posterior mean's RMSE on the same records "
-                    "(the Bayesian yardstick, where the CRLB > 0.1 × the prior's 1σ; < 1: closer than the "
-                    "Bayes estimator)" if bayes else ""), fontsize=9)
+                 + ("\nbold italic: a cell where some mode's CRLB > 0.1 × the prior's 1σ: RMSE / the RMSE of the "
+                    "posterior mean on the same records (the Bayesian yardstick; < 1: closer than that estimator)"
+                    if bayes else ""), fontsize=9)
     legend_rows = -(-(len(methods) + 1) // 7)
     fig.tight_layout(rect=(0, 0.04 + 0.05 * legend_rows, 1, 0.93 if bayes else 0.95))
     return _save(fig, stem)
