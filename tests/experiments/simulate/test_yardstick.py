@@ -81,3 +81,24 @@ def test_the_summary_gets_rmse_over_the_posterior_mean_only_in_cells_where_the_b
     # mode 2 shares its cell with the loose mode 1: the posterior mean is its yardstick too
     np.testing.assert_allclose(out["rmse_over_posterior_mean"], [2.0, 4.0, 4.0, np.nan])
     np.testing.assert_allclose(out["van_trees_std_rad_s"], [0.1, 0.01, 0.1, 0.05])
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--prior-rad-s", "4.4", "--prior-std-rad-s", "-1"], "--prior-std-rad-s [-1.0] must be positive"),
+    (["--prior-rad-s", "4.4", "5", "--prior-std-rad-s", "1"], "one per mode of --prior-std-rad-s"),
+    (["--prior-rad-s", "4.4", "--prior-std-rad-s", "1", "--particles", "3"], "--particles 3 must be at least 10"),
+])
+def test_the_job_refuses_bad_input_in_one_line_and_writes_nothing(tmp_path, capsys, args, message):
+    from experiments.io import write_npz
+    from experiments.jobs import yardstick as job
+
+    write_npz(tmp_path / "cell.npz", one_mode_cell(0.05, records=2))
+    out = tmp_path / "y.csv"
+    assert job.main([*args, "--out", str(out), str(tmp_path / "cell.npz")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "\n" not in err and message in err, err
+    assert not out.exists()
+    # and a good call writes one row per mode
+    assert job.main(["--prior-rad-s", "4.4", "--prior-std-rad-s", "1", "--particles", "50", "--out", str(out),
+                     str(tmp_path / "cell.npz")]) == 0
+    assert len(pd.read_csv(out)) == 1
