@@ -59,7 +59,8 @@ def _line(method) -> str:
 
 
 def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed_value) -> list[Path]:
-    """RMSE against ``x`` (noise_ug or n_samples) at ``fixed`` = ``fixed_value``; CRLB dashed."""
+    """RMSE against ``x`` (noise_ug or n_samples) at ``fixed`` = ``fixed_value``; CRLB dashed; the posterior
+    mean's RMSE (the Bayesian yardstick, where the grid has one) grey dash-dot."""
     sub = summary[summary[fixed] == fixed_value]
     modes = sorted(sub["mode"].unique())
     fig, axes = plt.subplots(1, len(modes), figsize=(4.2 * len(modes), 3.8), squeeze=False)
@@ -73,6 +74,9 @@ def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed
         crlb = sm.drop_duplicates(x)
         ax.plot(crlb[x], crlb["crlb_std_rad_s"], "k--", lw=1.2, label="CRLB")
         ax.plot(crlb[x], crlb["crlb_offset_std_rad_s"], "k:", lw=1.2, label="CRLB, offset unknown")
+        if "posterior_mean_rmse_rad_s" in crlb.columns and crlb["posterior_mean_rmse_rad_s"].notna().any():
+            ax.plot(crlb[x], crlb["posterior_mean_rmse_rad_s"], color="0.35", ls=(0, (6, 2, 1, 2)), lw=2.2,
+                    marker="o", ms=3, label="posterior mean")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_title(f"mode {mode} ({sm['true_rad_s'].iloc[0]:.2f} rad/s)")
@@ -88,7 +92,7 @@ def rmse_against(summary: pd.DataFrame, stem: Path, *, x: str, fixed: str, fixed
     what = f"{fixed_value:g} µg" if fixed == "noise_ug" else f"{fixed_value} samples"
     fig.suptitle(f"RMSE against {'noise' if x == 'noise_ug' else 'record length'} at {what} "
                  f"(methods failing > {MAX_FAILURE_RATE:.0%} of replicates not drawn)")
-    fig.tight_layout(rect=(0, 0, 0.9, 1))
+    fig.tight_layout(rect=(0, 0, 0.88 if "posterior mean" in labels else 0.9, 1))
     return _save(fig, stem)
 
 
