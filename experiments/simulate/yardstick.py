@@ -30,7 +30,7 @@ from experiments.simulate import bayes
 __all__ = ["LOOSE", "PARTICLES", "VAN_TREES_POINTS", "STREAM", "COLUMNS", "loose_modes", "cell_rows"]
 
 LOOSE = 0.1            # the classical bound is loose where CRLB > LOOSE × the prior's 1σ
-PARTICLES = 250        # per SMC run; two runs per record (measured: docs/prior.md, "The paper grid")
+PARTICLES = 250        # per SMC run; two runs per record (docs/prior.md §6: their Monte-Carlo error)
 VAN_TREES_POINTS = 5   # Gauss–Hermite nodes per mode
 STREAM = 0x5942        # "YB"
 
