@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import mlflow
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -243,3 +244,28 @@ def test_run_sh_clears_a_stale_lock_unless_a_snakemake_works_in_this_folder(repo
 
     assert stale_lock_cleared_with(tmp_path)          # another workflow elsewhere on the machine: cleared
     assert not stale_lock_cleared_with(repo_copy)     # a Snakemake working here: left alone
+
+
+def test_a_grid_with_a_yardstick_prior_gets_the_bayesian_columns_and_a_rerun_does_nothing(repo_copy):
+    # a one-cell grid where the CRLB is loose (20 samples at 1 mg): the yardstick rule runs once, its columns
+    # reach the comparison table, and a second dry run is empty until the prior's config changes
+    grid = TINY.replace("tiny", "bayes").replace("[64]", "[20]").replace("[fft, akf]", "[fft]")
+    (repo_copy / "configs" / "grid" / "bayes.yaml").write_text(grid + "yardstick_prior: pem_map\n")
+    target = "results/bayes/README.md"
+    assert set(planned(repo_copy, target)) == {"datasets", "identify", "yardstick", "aggregate", "track"}
+    proc = snakemake_in(repo_copy, target, snakefile=repo_copy / "Snakefile")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    out = repo_copy / "results" / "bayes"
+    ys = pd.read_csv(out / "yardstick.csv")
+    assert len(ys) == 4 and ys["loose"].any() and ys.loc[ys["loose"], "posterior_mean_rmse_rad_s"].notna().all()
+    table = pd.read_csv(out / "tables" / "comparison.csv")
+    merged = table.merge(ys, on=["noise_ug", "n_samples", "mode"], suffixes=("", "_y"))
+    np.testing.assert_allclose(merged["rmse_over_posterior_mean"],       # every mode of the loose cell
+                               merged["rmse_rad_s"] / merged["posterior_mean_rmse_rad_s_y"])
+    np.testing.assert_allclose(merged["van_trees_std_rad_s"], merged["van_trees_std_rad_s_y"])
+    assert planned(repo_copy, target) == {}                              # cached: a rerun does nothing
+    cfg = repo_copy / "configs" / "method" / "pem_map.yaml"
+    original = _edit(cfg, "[0.795, 5.019, 5.196, 15.873]", "[0.8, 5.0, 5.2, 15.9]")
+    assert set(planned(repo_copy, target)) == {"yardstick", "aggregate", "track"}
+    cfg.write_text(original)
+    assert planned(repo_copy, target) == {}

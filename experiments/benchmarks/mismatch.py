@@ -10,9 +10,9 @@ with its own config's prior and options (``configs/method/<name>.yaml``), and th
 plant's eigenfrequencies are scored by ``experiments.report.coverage.coverage`` on the modes each
 replicate determined (``converged_per_mode``). For pem these stds are scored:
 
-- ``reported``: what it answers (the white-noise std, or the robust one when its residual check fails,
-  with the drift term for a drifting mode; with ``drift_frequency=small_amplitude``, the small-amplitude
-  frequency and its std for such a mode);
+- ``reported``: what it answers (the white-noise std; when its residual check fails, ω₀ of the
+  backbone-chirp fit and its robust std for every mode the record determines, the robust std elsewhere;
+  with ``pem:record``, the robust std with the drift term for a drifting mode);
 - ``white``: the white-noise std σ̂√diag((JᵀJ)⁻¹) of the same fit;
 - ``robust``: the sandwich std, without the drift term;
 - ``before``: pem as it was before the residual check (``absorb_lines`` and ``drift_segments`` off,
@@ -73,7 +73,7 @@ def cell_label(axes: dict) -> tuple[str, str]:
 
 
 # pem as it was before the residual check: no line absorbed, no drift test, and its white-noise std
-BEFORE = {"absorb_lines": False, "drift_segments": 0}
+BEFORE = {"absorb_lines": False, "drift_segments": 0, "skip_clipped": False}
 
 
 def run_method(name: str, records: np.ndarray, dt: float, extra_options: dict | None = None) -> list:

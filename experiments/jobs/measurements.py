@@ -111,7 +111,8 @@ def report(name: str, prior, est, data: dict, run_dir: Path, diagram=None) -> li
     # a mode that drifts with amplitude reports its small-amplitude frequency (pem's drift_frequency); the
     # model drawn against the record is the one fitted at the record's own (whole-record) frequencies
     drift = est.extra.get("drift") or {}
-    fit = fit_modes(seg.y, seg.dt, np.asarray(drift.get("whole_record", est.frequencies), float), damping)
+    start = int((est.extra.get("saturation") or {}).get("fit_start", 0))       # a clipped record: after the clip
+    fit = fit_modes(seg.y, seg.dt, np.asarray(drift.get("whole_record", est.frequencies), float), damping, start)
     how = (diagram.how + f"; refined by {name}" if diagram is not None else f"{name} from the prior given")
     modes = []
     for i in range(m):

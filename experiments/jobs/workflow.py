@@ -176,6 +176,11 @@ class Workflow:
         except ValueError as exc:
             raise GridError(f"error: {path}: {exc}") from None
         self._check_overrides(path, grid)
+        if "yardstick_prior" in grid:
+            try:
+                self.yardstick_prior(grid["yardstick_prior"])
+            except ValueError as exc:
+                raise GridError(f"error: {path}: yardstick_prior: {_one_line(exc)}") from None
         return grid
 
     def _check_methods(self, path: str, grid: dict) -> None:
@@ -322,6 +327,39 @@ class Workflow:
         if not jobs:
             raise GridError(f"error: grid {grid}: method {config} runs on none of its cells")
         return jobs
+
+    # ---- the Bayesian yardstick (experiments/simulate/yardstick.py) ----------------------------------------
+
+    @functools.cache  # noqa: B019 - one Workflow per Snakemake process
+    def yardstick_prior(self, config: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """(μ, s) of the yardstick: the method config's ``prior_rad_s`` and ``options.prior_std_rad_s``, one
+        home for the prior a grid is scored against (the paper grid: pem_map's)."""
+        if not (self.method_dir / f"{config}.yaml").exists():
+            raise ValueError(f"'{config}': no configs/method/{config}.yaml")
+        node = json.loads(self.resolved_config(config))
+        mu = node.get("prior_rad_s")
+        std = (node.get("options") or {}).get("prior_std_rad_s")
+        if mu is None or std is None:
+            raise ValueError(f"'{config}' states no prior_rad_s and options.prior_std_rad_s")
+        std = [float(std)] * len(mu) if isinstance(std, (int, float)) else std
+        if len(std) != len(mu):
+            raise ValueError(f"'{config}': {len(mu)} prior frequencies but {len(std)} prior_std_rad_s")
+        return tuple(map(float, mu)), tuple(map(float, std))
+
+    def yardstick_files(self, grid: str) -> list[str]:
+        """The grid's yardstick table, or none when the grid names no ``yardstick_prior``."""
+        return [f"results/{grid}/yardstick.csv"] if "yardstick_prior" in self.load_grid(grid) else []
+
+    def yardstick_cells(self, grid: str) -> list[str]:
+        """The dataset files the yardstick reads: the grid's plain cells (no scenario axis)."""
+        g = self.load_grid(grid)
+        return [f"results/{grid}/data/{c}.npz" for c, cell in g["cells"].items() if not cell["axes"]]
+
+    def yardstick_args(self, grid: str) -> str:
+        """The yardstick job's prior options."""
+        mu, std = self.yardstick_prior(self.load_grid(grid)["yardstick_prior"])
+        return (f"--prior-rad-s {' '.join(f'{v:g}' for v in mu)} "
+                f"--prior-std-rad-s {' '.join(f'{v:g}' for v in std)}")
 
     # ---- what a job's result depends on (Snakemake's rerun triggers) --------------------------------------
 

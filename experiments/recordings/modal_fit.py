@@ -28,9 +28,11 @@ class ModalFit:
     offset: float
 
 
-def fit_modes(y: np.ndarray, dt: float, freq_rad_s, damping) -> ModalFit:
+def fit_modes(y: np.ndarray, dt: float, freq_rad_s, damping, start: int = 0) -> ModalFit:
     """Least-squares amplitudes of the modes (ωᵢ, ζᵢ) in ``y`` (module docstring); a mode with a NaN
-    frequency gets a NaN amplitude and no column, a NaN damping is taken as 0."""
+    frequency gets a NaN amplitude and no column, a NaN damping is taken as 0. ``start``: the amplitudes
+    from the samples from there on only (a clipped record's part after its last clipped sample, which is
+    what the method fitted); the model and residual still cover every sample."""
     y = np.asarray(y, float)
     w = np.asarray(freq_rad_s, float)
     z = np.nan_to_num(np.asarray(damping, float), nan=0.0)
@@ -39,7 +41,7 @@ def fit_modes(y: np.ndarray, dt: float, freq_rad_s, damping) -> ModalFit:
     env = np.exp(-np.outer(t, z[ok] * w[ok]))
     wd = w[ok] * np.sqrt(np.clip(1 - z[ok] ** 2, 0.0, None))
     V = np.hstack([np.ones((y.size, 1)), env * np.cos(np.outer(t, wd)), env * np.sin(np.outer(t, wd))])
-    coef = scipy.linalg.lstsq(V, y, lapack_driver="gelsd")[0]
+    coef = scipy.linalg.lstsq(V[start:], y[start:], lapack_driver="gelsd")[0]
     k = int(ok.sum())
     amplitude = np.full(w.size, np.nan)
     amplitude[ok] = np.hypot(coef[1:1 + k], coef[1 + k:])

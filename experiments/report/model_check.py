@@ -22,6 +22,12 @@ def check_lines(extra: dict) -> list[str]:
              f"{check['variance_ratio']:.3g}x the floor"
              + (f"; judged below {check['band_rad_s']:.4g} rad/s, the decimated record's pass band"
                 if check.get("band_rad_s") is not None else "") + ")"]
+    clip = extra.get("saturation")
+    if clip is not None:
+        lines.append(f"saturation: the sensor clipped ({clip['clipped_samples']} samples at "
+                     + ", ".join(f"{v:.4g}" for v in clip["levels_m_s2"]) + " m/s²); "
+                     + (f"fitted from sample {clip['fit_start']}, after the last clipped one" if clip["fit_start"]
+                        else "too few samples follow it: fitted as it is, the distortion included"))
     if "robust_std_rad_s" in check:
         robust = np.asarray(check["robust_std_rad_s"])
         lines.append("robust std (rad/s): " + ", ".join(f"{s:.3g}" for s in robust))
@@ -41,5 +47,5 @@ def check_json(extra: dict) -> dict:
     """The ``estimate.json`` entries: ``residual_check`` and ``drift`` (present when the method gives them)."""
     if not isinstance(extra, dict):
         return {}
-    return {key: extra[key] for key in ("residual_check", "drift", "drift_reported",
-                                                       "white_noise_std") if extra.get(key) is not None}
+    return {key: extra[key] for key in ("residual_check", "drift", "drift_reported", "white_noise_std",
+                                        "saturation") if extra.get(key) is not None}

@@ -21,7 +21,7 @@ from experiments.report.coverage import COLUMNS as COVERAGE_COLUMNS
 from experiments.report.coverage import coverage
 from experiments.simulate.scenarios import AXES
 
-__all__ = ["KEYS", "cell_keys", "summarize", "job_metrics"]
+__all__ = ["KEYS", "YARDSTICK_COLUMNS", "cell_keys", "summarize", "attach_yardstick", "job_metrics"]
 
 KEYS = ["method", "noise_ug", "n_samples", "mode"]
 
@@ -67,6 +67,33 @@ def summarize(results: pd.DataFrame) -> pd.DataFrame:
     out = (results.groupby(keys, sort=True, dropna=False)[results.columns.drop(keys)]
            .apply(_stats).reset_index())
     return out
+
+
+# The columns the Bayesian yardstick (experiments/simulate/yardstick.py) adds, after rmse_over_crlb_offset.
+YARDSTICK_COLUMNS = ["van_trees_std_rad_s", "posterior_mean_rmse_rad_s", "posterior_mean_mc_rad_s",
+                     "rmse_over_posterior_mean"]
+
+
+def attach_yardstick(summary: pd.DataFrame, yardstick: pd.DataFrame) -> pd.DataFrame:
+    """The summary with the yardstick of its plain cells, per (noise, length, mode): the van Trees bound
+    (every cell), the posterior mean's RMSE on the cell's records and its Monte-Carlo error, and the method's
+    RMSE over it, beside RMSE/CRLB. The posterior mean is the yardstick of every mode of a cell where the CRLB
+    of some mode is loose (the modes share the record: the prior that pins one sharpens the others, e.g.
+    mode 4 at 20 samples, whose RMSE is far below its CRLB); elsewhere NaN. Scenario cells get NaN."""
+    y = yardstick.copy()
+    loose = y.groupby(["noise_ug", "n_samples"])["loose"].transform("any").astype(bool)
+    for col in ("posterior_mean_rmse_rad_s", "posterior_mean_mc_rad_s"):
+        y[col] = y[col].where(loose)
+    y = y[["noise_ug", "n_samples", "mode", *YARDSTICK_COLUMNS[:3]]]
+    scenario = [c for c in cell_keys(summary)[2:]]
+    plain = summary[scenario].isna().all(axis=1) if scenario else pd.Series(True, index=summary.index)
+    out = summary.drop(columns=[c for c in YARDSTICK_COLUMNS if c in summary.columns])
+    merged = out.merge(y, on=["noise_ug", "n_samples", "mode"], how="left")
+    merged.loc[~plain.to_numpy(), YARDSTICK_COLUMNS[:3]] = np.nan
+    merged["rmse_over_posterior_mean"] = merged["rmse_rad_s"] / merged["posterior_mean_rmse_rad_s"]
+    cols = list(out.columns)
+    at = cols.index("rmse_over_crlb_offset") + 1
+    return merged[cols[:at] + YARDSTICK_COLUMNS + cols[at:]]
 
 
 def job_metrics(summary: pd.DataFrame) -> dict[str, float]:

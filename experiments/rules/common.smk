@@ -102,6 +102,18 @@ def result_files(grid):
     return _grid(lambda: WF.result_files(grid))
 
 
+def yardstick_files(grid):
+    return _grid(lambda: WF.yardstick_files(grid))
+
+
+def yardstick_cells(wildcards):
+    return _grid(lambda: WF.yardstick_cells(wildcards.grid))
+
+
+def yardstick_args(wildcards):
+    return _grid(lambda: WF.yardstick_args(wildcards.grid))
+
+
 def dataset_files(wildcards):
     """The datasets an identify batch reads: the files of the cells its method runs on."""
     cells = _grid(lambda: WF.method_cells(wildcards.grid, wildcards.method))

@@ -20,12 +20,41 @@ from experiments.report import catalog
 report: "../report/captions/workflow.rst"
 
 
+# The Bayesian yardstick of a grid that names a prior (yardstick_prior: docs/prior.md): one job per grid,
+# the van Trees bound of every plain cell and the posterior mean's RMSE on the records of the cells where the
+# CRLB is loose (experiments/simulate/yardstick.py). Its inputs are the datasets and the code; the prior is a
+# param (an edit of the prior's config reruns it), so a rerun with nothing changed does nothing.
+rule yardstick:
+    message:
+        "yardstick: the Bayesian yardstick of grid {wildcards.grid} -> {output}"
+    input:
+        data=yardstick_cells,
+        code=["experiments/simulate/bayes.py", "experiments/simulate/yardstick.py", "experiments/jobs/yardstick.py"],
+    output:
+        "results/{grid}/yardstick.csv",
+    params:
+        prior=yardstick_args,
+    threads: 1
+    resources:
+        mem_mb=MEM_MB_JOB,
+        runtime=30,
+    conda:
+        CONDA_ENV
+    log:
+        "results/{grid}/logs/yardstick.log",
+    benchmark:
+        "results/{grid}/benchmarks/yardstick.tsv"
+    shell:
+        "python -m experiments.jobs.yardstick {params.prior} --out {output} -- {input.data} > {log} 2>&1"
+
+
 rule aggregate:
     message:
         "aggregate: tables, figures and summary of grid {wildcards.grid} -> {output.page}"
     input:
         results=lambda wc: identify_dirs(wc.grid),
         experiments=lambda wc: experiment_dirs(wc.grid),
+        yardstick=lambda wc: yardstick_files(wc.grid),
     output:
         page="results/{grid}/summary.md",
         figures=report(
@@ -50,7 +79,8 @@ rule aggregate:
         "results/{grid}/logs/aggregate.log",
     shell:
         "python -m experiments.report.aggregate --grid {wildcards.grid} --out results/{wildcards.grid}"
-        " --page {output.page} --experiments {input.experiments} -- {params.tables} > {log} 2>&1"
+        " --page {output.page} --experiments {input.experiments} --yardstick {input.yardstick}"
+        " -- {params.tables} > {log} 2>&1"
 
 
 rule track:

@@ -10,7 +10,9 @@ paper's setting is the variant ``pem:paper``, configs/method/pem_paper.yaml). Be
   linear solve, reduced Jacobian) is public as :class:`SeparableModel` (``gated_pencil``'s segment fit);
 - ``_pencil``: the matrix-pencil start from the record;
 - ``_residual``: the residual's whiteness check and the robust (sandwich) std, in every estimate;
-- ``_drift``: :func:`segment_drift`, the test for a frequency that drifts over the record.
+- ``_drift``: :func:`segment_drift`, the test for a frequency that drifts over the record;
+- ``_chirp``: the small-amplitude frequency ω₀ from one fit of the record's backbone chirp;
+- ``_saturation``: a clipped sensor's plateaus, left out of the fit.
 
 ``predictor`` and ``search`` are public so that a study can drive the search on its own problem
 (``experiments.benchmarks.pem`` compares it with SciPy's ``least_squares`` on the same predictor).

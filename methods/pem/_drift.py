@@ -9,7 +9,10 @@ residual is white):
 
     ω̄ = Σ ω̂ₖ/sₖ² / Σ 1/sₖ²,   χ² = Σₖ (ω̂ₖ − ω̄)²/sₖ²  ~  χ²_{K−1}  when the frequency is constant.
 
-When χ²'s p-value is below α the mode drifts: the report gives ω̂ against the segments' mid-times and
+With K ≥ 3 segments the amplitude line's slope β_a (below) is tested too, against its std from the sₖ
+(one dof: the power against a monotone drift that the χ² on K − 1 dof spreads thin; a half-record of the
+softening beam whose mode 2 drifted by 16 of its std between halves passed the χ² alone), each test at α/2.
+When the p-value is below α the mode drifts: the report gives ω̂ against the segments' mid-times and
 envelope amplitudes âₖ (the mode's fitted amplitude aᵢe^{−ζωt} at the segment's middle, m/s²), the
 weighted lines ω = ω₀ + β_t t and ω = ω₀ + β_a a² (the Duffing backbone's form for small shifts,
 ω(a) ≈ ω₀(1 + 3εa²/(8ω₀²)); ω₀ is then the small-amplitude frequency), by ``numpy.polyfit`` with weights 1/sₖ
@@ -34,6 +37,11 @@ from methods.pem.predictor import modal_basis
 MIN_SEGMENT_SAMPLES = 64
 REPORTS = ("small_amplitude", "record")   # what a drifting mode reports (Options.drift_frequency)
 DRIFT_ALPHA = 0.05       # level of the per-mode drift test (a false alarm widens one std by τ)
+INFO_DECAYS = 5.0        # the drift test and the backbone fit read the record up to 5/(ζω) of its most slowly
+                         # decaying mode: beyond it lies 0.28 % of any mode's frequency information
+                         # (∫_T^∞ t²e^{−2σt}dt / ∫_0^∞ = e^{−x}(1 + x + x²/2), x = 2σT = 10), and fitting
+                         # segments of noise alone made a long record's test 30× the fit's cost
+MAX_INFLATION = 5.0      # ω₀ of the backbone fit is reported where its std is at most this × the record's
 
 
 @dataclass
@@ -45,7 +53,7 @@ class DriftReport:
     std: np.ndarray                     # (K, m) robust std sₖ, rad/s
     amplitude_m_s2: np.ndarray          # (K, m) envelope amplitude at the segment's middle
     chi2: np.ndarray                    # (m,)
-    p_value: np.ndarray                 # (m,)
+    p_value: np.ndarray                 # (m,) the test's p: 2·min(χ²'s, the slope's) (Bonferroni), K ≥ 3
     drifting: np.ndarray                # (m,) bool: p < alpha
     slope_per_s: np.ndarray             # (m,) β_t, rad/s per s
     slope_per_s_std: np.ndarray
@@ -58,6 +66,7 @@ class DriftReport:
     whole_record: np.ndarray            # (m,) the whole record's frequencies
     reference_amplitude_m_s2: np.ndarray  # (m,) where the whole-record frequency sits on the amplitude line
     reference_time_s: np.ndarray        # (m,) and on the time line
+    slope_p_value: np.ndarray           # (m,) two-sided p of the amplitude line's slope (its WLS std)
     notes: list[str] = field(default_factory=list)
 
     def summary(self) -> list[str]:
@@ -103,6 +112,7 @@ def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = DRIFT
         raise ValueError(f"n_segments = {n_segments} leaves {seg} samples per segment of a {y.size}-sample "
                          f"record; at least {MIN_SEGMENT_SAMPLES} are needed")
     prior = np.asarray(prior, float)
+    options = {**options, "drift_segments": 0}     # each fit is of one frequency per mode: no drift test in it
     whole = identify(y, dt, prior, **options) if whole is None else whole
     start = np.where(whole.converged_per_mode, whole.frequencies, prior)
     if not np.all(np.diff(start) > 0):
@@ -121,6 +131,15 @@ def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = DRIFT
         freq[k] = np.where(ok, est.frequencies, np.nan)
         std[k] = np.where(ok & (s > 0), s, np.nan)
         amp[k] = _envelope(part, dt, est.frequencies, est.extra["damping"])
+    # a segment that starts after a mode's informative part (INFO_DECAYS/σᵢ, σᵢ from the whole record) holds
+    # < 0.3 % of its frequency information: a "detection" there is noise (a long record in AR(1) noise gave
+    # mode 2 at 15.8 rad/s, 10⁵ of its std from 20.24, and a false drift)
+    z = np.asarray(whole.extra.get("damping", np.full(m, np.nan)), float)
+    sigma = z * np.asarray(whole.frequencies, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        horizon = np.where(np.isfinite(sigma) & (sigma > 0), INFO_DECAYS / sigma, np.inf)
+    late = (np.arange(k_seg)[:, None] * seg * dt) >= horizon[None, :]
+    freq[late], std[late], amp[late] = np.nan, np.nan, np.nan
     return _report(t_mid, freq, std, amp, whole.frequencies, alpha)
 
 
@@ -140,22 +159,31 @@ def _envelope(part: np.ndarray, dt: float, w: np.ndarray, z: np.ndarray) -> np.n
 
 
 def _line(x: np.ndarray, f: np.ndarray, s: np.ndarray) -> tuple[float, float, float, float]:
-    """(slope, its std, intercept, its std) of the weighted line f = intercept + slope·x (weights 1/s),
-    the std from the sₖ alone, times Birge's ratio √(χ²/(K − 2)) when the K points scatter about the line
-    more than their sₖ allow (χ² beyond its 95 % point on K − 2 dof: a backbone that is not linear in x, a
-    drift in time rather than amplitude). Below that point the sₖ are kept: inflating by every χ² > K − 2
-    on one dof widened the small-amplitude std of Duffing records to 75 % within 1σ."""
+    """(slope, its std, intercept, its std) of the weighted line f = intercept + slope·x (weights 1/s).
+
+    The std is the larger of two: the weighted least-squares one from the sₖ alone, times Birge's ratio
+    √(χ²/(K − 2)) when the K points scatter about the line more than their sₖ allow (χ² beyond its 95 %
+    point on K − 2 dof), and the delete-one-segment jackknife's, √((K − 1)/K · Σⱼ(θ̂₍ⱼ₎ − θ̄)²) with θ̂₍ⱼ₎
+    the line without segment j (K ≥ 3; Efron & Stein 1981). The first trusts the sₖ; the jackknife does not:
+    it sees a segment that pulls the line beyond its sₖ (a close pair of modes beating inside a segment,
+    coloured noise the segment's robust std underrates), which moved ω₀ of the softening beam's mode 3 by
+    2–3 of the first's std (docs/uncertainty.md)."""
     coef, cov = np.polyfit(x, f, 1, w=1.0 / s, cov="unscaled")
-    dof = x.size - 2
+    k = x.size
+    dof = k - 2
     chi2 = float(np.sum(((f - np.polyval(coef, x)) / s) ** 2))
     birge = np.sqrt(chi2 / dof) if dof > 0 and chi2 > scipy.special.chdtri(dof, 0.05) else 1.0
-    return (float(coef[0]), float(birge * np.sqrt(cov[0, 0])), float(coef[1]),
-            float(birge * np.sqrt(cov[1, 1])))
+    var = np.diag(cov) * birge ** 2
+    if k >= 3:
+        loo = np.array([np.polyfit(np.delete(x, j), np.delete(f, j), 1, w=1.0 / np.delete(s, j))
+                        for j in range(k)])
+        var = np.fmax(var, (k - 1) / k * np.sum((loo - loo.mean(axis=0)) ** 2, axis=0))
+    return float(coef[0]), float(np.sqrt(var[0])), float(coef[1]), float(np.sqrt(var[1]))
 
 
 def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
     m = freq.shape[1]
-    keys = ("chi2", "p", "bt", "bt_s", "ba", "ba_s", "w0", "w0_s", "tau", "a_ref", "t_ref")
+    keys = ("chi2", "p", "p_slope", "bt", "bt_s", "ba", "ba_s", "w0", "w0_s", "tau", "a_ref", "t_ref")
     out = {key: np.full(m, np.nan) for key in keys}
     drifting = np.zeros(m, bool)
     notes = []
@@ -180,6 +208,13 @@ def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
                     out["a_ref"][i] = np.sqrt(a2)
                     decay, log_a0 = np.polyfit(t, np.log(a), 1)
                     out["t_ref"][i] = (np.log(out["a_ref"][i]) - log_a0) / decay if decay != 0 else np.nan
+        if ok.sum() >= 3 and np.ptp(a) > 0:
+            # the amplitude line's slope against its weighted-least-squares std (sₖ alone): one dof, the
+            # test with the power against a monotone drift; with the χ² on K − 1 dof, each at α/2
+            coef, cov = np.polyfit(a ** 2, f, 1, w=1.0 / s, cov="unscaled")
+            out["p_slope"][i] = float(scipy.special.erfc(abs(coef[0]) / np.sqrt(2 * cov[0, 0])))
+            p = min(1.0, 2 * min(p, out["p_slope"][i]))
+            out["p"][i] = p
         if p >= alpha:
             notes.append(f"mode {i + 1}: one frequency over the record ({ok.sum()} segments agree: "
                          f"chi2 = {chi2:.3g}, p = {p:.2g})")
@@ -197,7 +232,7 @@ def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
         notes.append(note)
     return DriftReport(t_mid, freq, std, amp, out["chi2"], out["p"], drifting, out["bt"], out["bt_s"],
                        out["ba"], out["ba_s"], out["w0"], out["w0_s"], out["tau"], np.asarray(whole, float),
-                       out["a_ref"], out["t_ref"], notes)
+                       out["a_ref"], out["t_ref"], out["p_slope"], notes)
 
 
 def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
@@ -219,28 +254,73 @@ def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
     k = int(opts.drift_segments)
     if k < 2 or check is None or check["white"] or y.size // k < MIN_SEGMENT_SAMPLES:
         return est
+    n_info = informative_samples(y.size, dt, est)
+    cut = n_info < y.size and n_info // k >= MIN_SEGMENT_SAMPLES
+    if cut:
+        y = y[:n_info]
+        est = dataclasses.replace(est, message=est.message + f"; drift test on the first {n_info * dt:.4g} s "
+                                  f"({n_info} samples: the modes have decayed into the noise after it)")
     options = {**dataclasses.asdict(opts), "drift_segments": 0}
     report = segment_drift(y, dt, prior, k, whole=est, **options)
     extra = {**est.extra, "drift": dataclasses.asdict(report)}
     # Only the modes whose segments disagree at level DRIFT_ALPHA change (a stationary record keeps its
     # answer in 19 modes of 20; τ for every mode made the std of coloured-noise records 15 points too wide).
     drifting = report.drifting & est.converged_per_mode & np.isfinite(est.std)
+    if opts.drift_frequency == "small_amplitude":
+        return _small_amplitude(est, y, dt, extra, report, drifting)
     if not drifting.any():
         return dataclasses.replace(est, extra=extra)
-    line = (np.isfinite(report.small_amplitude_rad_s) & np.isfinite(report.small_amplitude_std)
-            & (report.small_amplitude_std > 0))
-    small = drifting & line & (opts.drift_frequency == "small_amplitude")
     tau = np.where(np.isfinite(report.tau_rad_s), report.tau_rad_s, 0.0)
-    widened = drifting & ~small & (tau > 0)
-    freq = np.where(small, report.small_amplitude_rad_s, est.frequencies)
-    std = np.where(small, report.small_amplitude_std, np.where(widened, np.hypot(est.std, tau), est.std))
+    widened = drifting & (tau > 0)
+    std = np.where(widened, np.hypot(est.std, tau), est.std)
     notes = [report.notes[i] for i in np.flatnonzero(drifting)]
-    if small.any():
-        notes.append("reported at small amplitude (a → 0: the amplitude line's ω₀ ± its std) for modes "
-                     + ", ".join(str(i + 1) for i in np.flatnonzero(small)))
     if widened.any():
         notes.append("the std includes the spread between segments (modes "
                      + ", ".join(str(i + 1) for i in np.flatnonzero(widened)) + ")")
-    extra["drift_reported"] = np.where(small, "small_amplitude", np.where(drifting, "record", "")).tolist()
+    extra["drift_reported"] = np.where(drifting, "record", "").tolist()
+    return dataclasses.replace(est, std=std, extra=extra, message="; ".join([est.message, *notes]))
+
+
+def informative_samples(n: int, dt: float, est) -> int:
+    """Samples up to T = :data:`INFO_DECAYS`/min σᵢ (σᵢ = ζᵢωᵢ of the converged modes of ``est``), at most
+    ``n``; ``n`` when a mode's decay rate is not positive and finite (no cut)."""
+    z = np.asarray(est.extra.get("damping", np.full(est.frequencies.size, np.nan)), float)
+    sigma = (z * est.frequencies)[est.converged_per_mode]
+    if sigma.size == 0 or not np.all(np.isfinite(sigma) & (sigma > 0)):
+        return int(n)
+    return int(min(n, np.ceil(INFO_DECAYS / sigma.min() / dt)))
+
+
+def _small_amplitude(est, y, dt, extra, report, drifting):
+    """``drift_frequency="small_amplitude"``: every mode whose small-amplitude frequency the record
+    determines reports it, ω₀ ± its robust std of the backbone-chirp fit (:func:`methods.pem._chirp.fit`,
+    in ``extra["backbone"]``), whether or not its segments disagree. "Determines": ω₀'s std at most
+    :data:`MAX_INFLATION` × the constant-frequency fit's robust std; beyond that the envelope hardly decays
+    over the record, amplitude and time are one direction, and the mode keeps the record's average and its
+    std (its frequency at the amplitude the record holds). Reporting ω₀ for the drifting modes only mixed
+    two quantities: a window whose drift test missed a drift answered its own average, many of its std
+    from the other window's ω₀ (docs/uncertainty.md §5)."""
+    import dataclasses
+
+    from methods.pem import _chirp
+
+    fit = _chirp.fit(y, dt, est.frequencies, np.asarray(est.extra["damping"], float))
+    extra["backbone"] = fit
+    s = fit["std"]
+    use = (est.converged_per_mode & np.isfinite(fit["frequencies"]) & np.isfinite(s) & (s > 0)
+           & (s <= MAX_INFLATION * est.std))
+    freq = np.where(use, fit["frequencies"], est.frequencies)
+    std = np.where(use, s, est.std)
+    notes = [report.notes[i] for i in np.flatnonzero(drifting)]
+    if use.any():
+        notes.append("reported at small amplitude (ω₀ of the backbone fit ω(t) = ω₀ + κ·exp(−2ζωt), robust "
+                     "std) for mode" + ("s " if use.sum() > 1 else " ")
+                     + ", ".join(str(i + 1) for i in np.flatnonzero(use)))
+    kept = est.converged_per_mode & ~use
+    if kept.any():
+        notes.append("the record does not determine the small-amplitude frequency of mode"
+                     + ("s " if kept.sum() > 1 else " ") + ", ".join(str(i + 1) for i in np.flatnonzero(kept))
+                     + ": its record average is reported")
+    extra["drift_reported"] = np.where(use, "small_amplitude", np.where(drifting, "record", "")).tolist()
     return dataclasses.replace(est, frequencies=freq, std=std, extra=extra,
                                message="; ".join([est.message, *notes]))

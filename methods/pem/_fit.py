@@ -38,7 +38,7 @@ from threadpoolctl import ThreadpoolController
 
 from methods import labels
 from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
-from methods.pem import _drift, _lines, _map, _residual, search
+from methods.pem import _drift, _lines, _map, _residual, _saturation, search
 from methods.pem import _fast as fast
 from methods.pem._pencil import PENCIL_WINDOW, pencil_start
 from methods.pem.predictor import modal_basis
@@ -82,11 +82,13 @@ class Options:
     posterior_summary: str = "mean"      # with prior_std_rad_s: "mean" (posterior mean, MMSE) or "mode" (MAP)
     posterior_draws: int = 0             # with "mean": importance draws per round around the MAP; 0: Laplace mixture
     drift_segments: int = 3              # segments of the drift test when the residual is not white; 0: off
-    # what a mode whose frequency drifts reports: "record" (the whole record's average, its std widened by the
-    # spread between segments) or "small_amplitude" (ω₀ of the line ω = ω₀ + βa², the linear structure's
-    # frequency, ± the line's std: 72 % / 95 % on Duffing records, but it extrapolates a clipped record's
-    # apparent drift too); the other is kept in extra["drift"] (methods/pem/_drift.py, docs/uncertainty.md)
-    drift_frequency: str = "record"
+    # what a record whose residual is not white reports: "small_amplitude" (ω₀ of the backbone-chirp fit,
+    # the frequency as the amplitude goes to zero, for every mode the record determines; methods/pem/_chirp.py)
+    # or "record" (the record's average, a drifting mode's std widened by the spread between segments)
+    drift_frequency: str = "small_amplitude"
+    # a record whose extreme value is a plateau (a clipped sensor, methods/pem/_saturation.py) is fitted after
+    # its last clipped sample (when MIN_TAIL samples remain), and extra["saturation"] says so; False: as it is
+    skip_clipped: bool = True
     absorb_lines: bool = True            # refit with a residual line outside every band as an extra mode
     # the residual check judges the residual below this frequency only, rad/s: a decimated record's pass
     # band, above which the anti-alias filter coloured the noise (the measurement job sets it); None: all
@@ -122,11 +124,16 @@ def identify(y, dt, prior, **options) -> Estimate:
     # One BLAS thread inside the fit: its matrices are small (p ≤ 4m + 1 columns), and OpenBLAS's own
     # threads made it 2.6–5× slower on 2 cores (measured: experiments.benchmarks.pem_speed --parts warm blas).
     with _blas().limit(limits=1, user_api="blas"):
+        clip = _saturation.detect(y) if opts.skip_clipped else None
+        start = 0 if clip is None or y.size - clip["last_clipped"] - 1 < MIN_TAIL else clip["last_clipped"] + 1
+        y = y[start:]
         if opts.prior_std_rad_s is not None:
-            return _identify_map(y, dt, prior, opts)
-        est = _lines.absorb(_identify(y, dt, prior, opts), y, dt, prior, opts,
-                            lambda wider: _identify(y, dt, wider, opts))
-        return _drift.attach(est, y, dt, prior, opts)
+            est = _identify_map(y, dt, prior, opts)
+        else:
+            est = _lines.absorb(_identify(y, dt, prior, opts), y, dt, prior, opts,
+                                lambda wider: _identify(y, dt, wider, opts))
+            est = _drift.attach(est, y, dt, prior, opts)
+        return est if clip is None else _saturation.attach(est, clip, start)
 
 
 @functools.cache
@@ -364,6 +371,8 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
         raise ValueError("start_spread, tol_loss and tol_step must be non-negative")
     if opts.drift_segments != 0 and opts.drift_segments < 2:
         raise ValueError(f"drift_segments = {opts.drift_segments} must be 0 (off) or at least 2")
+    if not isinstance(opts.skip_clipped, bool):
+        raise ValueError(f"skip_clipped = {opts.skip_clipped!r} must be true or false")
     if opts.drift_frequency not in _drift.REPORTS:
         raise ValueError(f"drift_frequency = {opts.drift_frequency!r} must be one of "
                          + ", ".join(repr(r) for r in _drift.REPORTS))
@@ -405,6 +414,7 @@ def _check_prior_std(opts: Options, prior: np.ndarray) -> None:
 # Bounds on the work one fit may be asked for: beyond them an option is a typo, not a setting (a thousand
 # starts of a ~1 ms search is a second per record; the default is 3, and 3-30 iterations converge).
 MAX_STARTS = 1000
+MIN_TAIL = 64            # samples after the last clipped one that the fit needs to leave the clipped part out
 MAX_ITERATIONS = 10_000
 
 

@@ -120,8 +120,10 @@ def laplace_mixture(fits: list[dict], m: int) -> dict:
     x = np.array([f["x"][:nn] for f in distinct])
     var = np.array([np.abs(np.diag(f["cov"])) for f in distinct])
     mean = w @ x
+    # Σ wₖ (σₖ² + (xₖ − x̄)²): the law of total variance about the mean, not E[x²] − x̄², which cancels to
+    # zero when σ is below ~1e-8 of x (a 20 rad/s mode at 0.1 µg on 256 samples)
     return {"count": len(distinct), "weights": w, "mean": mean,
-            "std": np.sqrt(np.maximum(w @ (var + x**2) - mean**2, 0.0))}
+            "std": np.sqrt(w @ (var + (x - mean) ** 2))}
 
 
 def _lm(model, x, mu, s, dof, est_z, lo, hi, dt, zeta_prior=None) -> dict:

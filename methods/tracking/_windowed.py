@@ -31,6 +31,13 @@ DEFAULT_WINDOW_SAMPLES = 512      # 10.24 s at Δt = 0.02 s: 5 periods of the sl
 DEFAULT_HOP_SAMPLES = 50          # 1 s at Δt = 0.02 s
 WINDOW_FIELDS = ("window_samples", "hop_samples", "warm_start") + _trend.TREND_FIELDS
 
+# A method's defaults on a window (the caller's options win): pem answers a window's own frequency, not the
+# small-amplitude ω₀ it reports for a whole record whose residual is not white (a tracked frequency drifts
+# in time, which the amplitude backbone would extrapolate; methods/pem/_chirp.py).
+WINDOW_DEFAULTS: dict[str, dict] = {
+    "pem": {"drift_frequency": "record"},
+}
+
 # A method's options on a window whose prior is the previous window's determined estimate.
 WARM_OPTIONS: dict[str, dict] = {
     "pem": {"n_starts": 1, "data_driven_start": False},
@@ -74,6 +81,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
     """Track with method ``name`` on sliding windows (module docstring). ``options``: the checked keywords."""
     window, own = split(options)
+    own = {**WINDOW_DEFAULTS.get(name, {}), **own}
     opts = make_options(options_class(name), options, name)
     identify = methods.get(name)
     W, H = opts.window_samples, opts.hop_samples

@@ -69,6 +69,8 @@ def test_a_measurement_cell_runs_only_the_methods_whose_options_have_it(root):
     (("seed: 5", "seed: 5\nmethod_overrides: {pem: [method.options.n_starts=2]}"), "method_overrides.pem: not a "
                                                                                    "method of the grid"),
     (("[10, 1000]", "[10, 1.0e+308]"), "noise_ug = 1e+308 is above 1.02e+11 µg"),
+    (("seed: 5", "seed: 5\nyardstick_prior: nosuch"), "yardstick_prior: 'nosuch': no configs/method/nosuch.yaml"),
+    (("seed: 5", "seed: 5\nyardstick_prior: pem"), "yardstick_prior: 'pem' states no prior_rad_s and"),
     (("seed: 5", "seed: 36893488147419103232"), "seed = 36893488147419103232 must be an integer from 0"),
     (("seed: 5", "seed: 5\nmethod_overrides: {fft: ['prior=${oc.env:HOME}']}"),
      "method_overrides of fft: prior must be a list of frequencies"),
@@ -83,6 +85,21 @@ def test_a_grid_a_job_would_refuse_is_refused_in_one_line(root, change, message)
     line = str(info.value)
     assert line.startswith("error: ") and "bad.yaml" in line and "\n" not in line
     assert message in line, line
+
+
+def test_the_yardstick_prior_is_the_named_configs_prior_and_its_spread(root):
+    import yaml
+
+    wf = workflow_with(root, "bayes", GRID.format(name="bayes") + "yardstick_prior: pem_map\n")
+    cfg = yaml.safe_load((root / "configs" / "method" / "pem_map.yaml").read_text())
+    pem = yaml.safe_load((root / "configs" / "method" / "pem.yaml").read_text())
+    mu, std = wf.yardstick_prior("pem_map")
+    assert list(mu) == pem["prior_rad_s"] and list(std) == cfg["options"]["prior_std_rad_s"]
+    assert wf.yardstick_args("bayes") == ("--prior-rad-s " + " ".join(f"{v:g}" for v in mu)
+                                          + " --prior-std-rad-s " + " ".join(f"{v:g}" for v in std))
+    assert wf.yardstick_files("bayes") == ["results/bayes/yardstick.csv"]
+    assert wf.yardstick_cells("bayes") == [f"results/bayes/data/noise{u}ug_n64.npz" for u in (10, 1000)]
+    assert workflow_with(root, "plain", GRID.format(name="plain")).yardstick_files("plain") == []
 
 
 def test_an_option_a_method_refuses_is_named_before_any_job(root):

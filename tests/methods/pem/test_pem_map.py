@@ -142,3 +142,12 @@ def test_laplace_mixture_weights_maxima_by_their_evidence():
     np.testing.assert_allclose(mix["mean"], [1 + 0.8, 5.0])
     var = 0.2 * (0.01 + 1.0) + 0.8 * (0.04 + 4.0) - 1.8**2
     np.testing.assert_allclose(mix["std"], [np.sqrt(var), np.sqrt(0.2 * 0.01 + 0.8 * 0.04)])
+
+
+def test_laplace_mixture_std_survives_a_sharp_maximum_far_from_zero():
+    # one maximum at 20 rad/s with σ = 1e-9 rad/s (a mode at 0.1 µg on 256 samples): E[x²] − x̄² cancels to 0
+    from methods.pem import _map
+
+    a = {"x": np.array([20.24, 56.67]), "cost": 1.0, "cov": np.diag([1e-18, 4e-18])}
+    mix = _map.laplace_mixture([a], m=2)
+    np.testing.assert_allclose(mix["std"], [1e-9, 2e-9], rtol=1e-12)

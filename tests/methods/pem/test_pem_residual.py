@@ -114,6 +114,26 @@ def test_identify_reports_the_robust_std_when_the_residual_is_coloured():
     assert not np.array_equal(est.std, est.extra["white_noise_std"])
 
 
+def test_the_drift_test_reads_only_the_part_of_a_long_record_where_the_modes_are_above_the_noise():
+    # decay rates 0.05 and 0.1 /s: 5/0.05 = 100 s (5000 samples) hold all but 0.3 % of the slower mode's
+    # frequency information; the 20 000-sample record's last 300 s are coloured noise alone
+    rng = np.random.default_rng(17)
+    y = _record(rng, 20_000, lambda r, n: 0.01 * _ar1(r, n, 0.9))
+    est = pem.identify(y, DT, [18.0, 52.0])
+    assert not est.extra["residual_check"]["white"]
+    assert "drift test on the first" in est.message
+    t_mid = np.asarray(est.extra["drift"]["t_mid_s"])
+    k = t_mid.size
+    assert 0.9 * 100.0 < t_mid[-1] * 2 * k / (2 * k - 1) < 1.1 * 100.0      # the last segment ends near 100 s
+    assert abs(est.frequencies[0] - 20.3) < 5 * est.std[0]
+    # the 56.7 rad/s mode (decay 0.1 /s) holds its information in the first 50 s: a segment that starts
+    # after it does not count for that mode, and the linear record is not called drifting
+    starts = t_mid - t_mid[0]
+    seg_f = np.asarray(est.extra["drift"]["frequencies"])
+    assert np.isnan(seg_f[starts >= 50.0, 1]).all() and np.isfinite(seg_f[starts < 50.0, 1]).all()
+    assert not np.any(est.extra["drift"]["drifting"])
+
+
 def _duffing(delta, n=2048, w=20.0, zeta=0.002, noise=1e-3, seed=8):
     """One Duffing mode from rest at amplitude 1: ẍ + 2ζωẋ + ω²x + εx³ = 0, ε = 8ω²δ/3, backbone
     ω(A) = ω√(1 + 2δA²) (experiments.simulate.mismatch)."""
@@ -145,21 +165,21 @@ def test_no_drift_on_a_linear_record():
 
 
 def test_identify_says_which_amplitude_a_drifting_frequency_refers_to():
-    est = pem.identify(_duffing(-0.01), DT, [18.0])
+    est = pem.identify(_duffing(-0.01), DT, [18.0], drift_frequency="record")
     assert est.extra["drift"]["drifting"][0]
     assert "amplitude of about" in est.message
     assert est.std[0] > est.extra["white_noise_std"][0]
 
 
-def test_a_drifting_mode_can_report_its_small_amplitude_frequency():
+def test_a_drifting_mode_reports_its_small_amplitude_frequency():
     w, y = 20.0, _duffing(-0.01)
-    record = pem.identify(y, DT, [18.0])
-    small = pem.identify(y, DT, [18.0], drift_frequency="small_amplitude")
+    record = pem.identify(y, DT, [18.0], drift_frequency="record")
+    small = pem.identify(y, DT, [18.0])
     drift = small.extra["drift"]
     assert small.extra["drift_reported"] == ["small_amplitude"]
     assert record.extra["drift_reported"] == ["record"]
-    assert small.frequencies[0] == drift["small_amplitude_rad_s"][0]
-    assert small.std[0] == drift["small_amplitude_std"][0]
+    assert small.frequencies[0] == small.extra["backbone"]["frequencies"][0]     # the backbone fit's ω₀
+    assert small.std[0] == small.extra["backbone"]["std"][0]
     assert record.frequencies[0] == drift["whole_record"][0]
     # the backbone ω√(1 + 2δa²) lies below ω at every amplitude, and so does the record's average; the
     # small-amplitude frequency covers ω, several times closer
