@@ -116,16 +116,23 @@ def render_paper_tables(tables) -> str:
     return "\n".join(out)
 
 
+def _wins(frame: pd.DataFrame, cells: str, label: str, ratio: str) -> list[str]:
+    """Per mode, a line: each method that has the lowest RMSE in some cell of ``frame``, in how many, and the
+    median of column ``ratio`` (called ``label``) over those cells."""
+    lines = []
+    for mode, g in frame.groupby("mode"):
+        best = g.loc[g.groupby(cell_keys(g), dropna=False)["rmse_rad_s"].idxmin()]
+        counts = best["method"].value_counts()
+        parts = [f"{m} wins {c} of {len(best)} {cells} (median {label} "
+                 f"{best[best['method'] == m][ratio].median():.2f})" for m, c in counts.items()]
+        lines.append(f"- mode {mode}: " + "; ".join(parts))
+    return lines
+
+
 def headline(summary: pd.DataFrame) -> str:
     """Per mode: which method is best most often among identifiable cells, and how far from the bound."""
     ident = summary[summary["identifiable"] & (summary["failure_rate"] <= 0.1)].dropna(subset=["rmse_rad_s"])
-    lines = []
-    for mode, g in ident.groupby("mode"):
-        best = g.loc[g.groupby(cell_keys(g), dropna=False)["rmse_rad_s"].idxmin()]
-        counts = best["method"].value_counts()
-        parts = [f"{m} wins {c} of {len(best)} identifiable cells (median RMSE/CRLB "
-                 f"{best[best['method'] == m]['rmse_over_crlb'].median():.2f})" for m, c in counts.items()]
-        lines.append(f"- mode {mode}: " + "; ".join(parts))
+    lines = _wins(ident, "identifiable cells", "RMSE/CRLB", "rmse_over_crlb")
     per_method = (summary[summary["identifiable"]].groupby("method")
                   .agg(median_rmse_over_crlb=("rmse_over_crlb", "median"),
                        median_rmse_over_crlb_offset=("rmse_over_crlb_offset", "median"),
@@ -149,12 +156,7 @@ def bayes_headline(summary: pd.DataFrame) -> str:
              "Bayesian yardstick: the RMSE of the posterior mean under the grid's prior on the same records "
              "(docs/prior.md); < 1 is closer to this truth than that estimator, which no method beats on average "
              "over truths drawn from the prior:", ""]
-    for mode, g in ok.groupby("mode"):
-        best = g.loc[g.groupby(cell_keys(g), dropna=False)["rmse_rad_s"].idxmin()]
-        counts = best["method"].value_counts()
-        parts = [f"{m} wins {c} of {len(best)} cells (median RMSE/posterior mean "
-                 f"{best[best['method'] == m]['rmse_over_posterior_mean'].median():.2f})" for m, c in counts.items()]
-        lines.append(f"- mode {mode}: " + "; ".join(parts))
+    lines += _wins(ok, "cells", "RMSE/posterior mean", "rmse_over_posterior_mean")
     per_method = (ok.groupby("method")
                   .agg(pairs=("rmse_over_posterior_mean", "size"),
                        median_rmse_over_posterior_mean=("rmse_over_posterior_mean", "median"),
