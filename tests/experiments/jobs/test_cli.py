@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -118,6 +119,14 @@ def test_a_long_single_record_says_what_it_is_doing(workdir):
     info = [ln for ln in proc.stderr.splitlines() if ln.startswith("info: ")]
     assert len(info) == 2 and "100000 samples" in info[0] and "done in" in info[1], proc.stderr
     assert "mode 1: 3 rad/s" in proc.stdout
+    # the job's MLflow run is logged after the answer by a detached logger, into this module's folder: log it
+    # now (the command waits for that logger's lock) so that no later test sees files appear in the folder
+    done = run("experiments.tracking.pending", cwd=workdir)
+    assert done.returncode == 0, done.stderr
+    deadline = time.time() + 120
+    while (workdir / "long" / "mlflow_pending.json").exists() and time.time() < deadline:
+        time.sleep(0.2)
+    assert (workdir / "long" / "mlflow_run.json").exists()
 
 
 def test_an_unbalanced_override_names_it_and_how_to_quote(workdir):
