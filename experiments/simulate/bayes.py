@@ -147,6 +147,16 @@ MOVES = 3              # Metropolis moves per tempering stage
 ESS_TARGET = 0.5       # each stage keeps this share of the particles' effective sample size
 
 
+def _prior_vectors(mu, s, damping, damping_std):
+    """(μ, s, ζ₀ per mode, centre, spread): the prior of the sampled vector, (ω) or (ω, ζ) when
+    ``damping_std`` gives ζ a Gaussian prior N(ζ₀, damping_std²)."""
+    mu, s = np.asarray(mu, float), np.asarray(s, float)
+    z0 = np.broadcast_to(np.asarray(damping, float), (mu.size,))
+    if damping_std is None:
+        return mu, s, z0, mu, s
+    return mu, s, z0, np.r_[mu, z0], np.r_[s, np.broadcast_to(np.asarray(damping_std, float), (mu.size,))]
+
+
 def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles: int = 1000,
                        ordered: bool = True, offset: bool = True, max_stages: int = 200, damping_std=None,
                        particles_out: bool = False):
@@ -166,12 +176,8 @@ def smc_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, *, particles
     Returns (E[ω | y] as the weighted particle mean at β = 1, the ESS of that last weighting, stages);
     ``particles_out``: also the last particles (K, d) and their weights (K,), a sample of the posterior.
     """
-    mu, s = np.asarray(mu, float), np.asarray(s, float)
+    mu, s, z0, centre, spread = _prior_vectors(mu, s, damping, damping_std)
     m = mu.size
-    z0 = np.broadcast_to(np.asarray(damping, float), (m,))
-    centre, spread = mu, s
-    if damping_std is not None:
-        centre, spread = np.r_[mu, z0], np.r_[s, np.broadcast_to(np.asarray(damping_std, float), (m,))]
     d = centre.size
 
     def log_prior(x):
@@ -244,12 +250,8 @@ def importance_posterior_mean(y, t, mu, s, damping, noise_std: float, rng, centr
     particles — with bandwidth Silverman's factor × their covariance, mixed with the prior itself (share
     ``defensive``, so that a posterior mode the centres miss is still proposed). Weights are exact,
     prior·likelihood/q, so the estimate is consistent whatever the centres. Returns (E[ω | y], ESS)."""
-    mu, s = np.asarray(mu, float), np.asarray(s, float)
+    mu, s, z0, centre, spread = _prior_vectors(mu, s, damping, damping_std)
     m = mu.size
-    z0 = np.broadcast_to(np.asarray(damping, float), (m,))
-    centre, spread = mu, s
-    if damping_std is not None:
-        centre, spread = np.r_[mu, z0], np.r_[s, np.broadcast_to(np.asarray(damping_std, float), (m,))]
     c = np.asarray(centres, float)
     k, d = c.shape
     cw = np.full(k, 1.0 / k) if centre_weights is None else np.asarray(centre_weights, float) / np.sum(centre_weights)

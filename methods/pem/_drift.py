@@ -134,10 +134,7 @@ def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = DRIFT
     # a segment that starts after a mode's informative part (INFO_DECAYS/σᵢ, σᵢ from the whole record) holds
     # < 0.3 % of its frequency information: a "detection" there is noise (a long record in AR(1) noise gave
     # mode 2 at 15.8 rad/s, 10⁵ of its std from 20.24, and a false drift)
-    z = np.asarray(whole.extra.get("damping", np.full(m, np.nan)), float)
-    sigma = z * np.asarray(whole.frequencies, float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        horizon = np.where(np.isfinite(sigma) & (sigma > 0), INFO_DECAYS / sigma, np.inf)
+    horizon = _horizons(whole)
     late = (np.arange(k_seg)[:, None] * seg * dt) >= horizon[None, :]
     freq[late], std[late], amp[late] = np.nan, np.nan, np.nan
     return _report(t_mid, freq, std, amp, whole.frequencies, alpha)
@@ -281,14 +278,22 @@ def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
     return dataclasses.replace(est, std=std, extra=extra, message="; ".join([est.message, *notes]))
 
 
-def informative_samples(n: int, dt: float, est) -> int:
-    """Samples up to T = :data:`INFO_DECAYS`/min σᵢ (σᵢ = ζᵢωᵢ of the converged modes of ``est``), at most
-    ``n``; ``n`` when a mode's decay rate is not positive and finite (no cut)."""
+def _horizons(est) -> np.ndarray:
+    """Per mode, the end of its informative part, :data:`INFO_DECAYS`/σᵢ (σᵢ = ζᵢωᵢ of ``est``), s; inf where
+    σᵢ is not positive and finite."""
     z = np.asarray(est.extra.get("damping", np.full(est.frequencies.size, np.nan)), float)
-    sigma = (z * est.frequencies)[est.converged_per_mode]
-    if sigma.size == 0 or not np.all(np.isfinite(sigma) & (sigma > 0)):
+    sigma = z * np.asarray(est.frequencies, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(np.isfinite(sigma) & (sigma > 0), INFO_DECAYS / sigma, np.inf)
+
+
+def informative_samples(n: int, dt: float, est) -> int:
+    """Samples up to the longest horizon (:func:`_horizons`) of the converged modes of ``est``, at most ``n``;
+    ``n`` when none converged or a converged mode's decay rate is not positive and finite (no cut)."""
+    h = _horizons(est)[est.converged_per_mode]
+    if h.size == 0 or not np.all(np.isfinite(h)):
         return int(n)
-    return int(min(n, np.ceil(INFO_DECAYS / sigma.min() / dt)))
+    return int(min(n, np.ceil(h.max() / dt)))
 
 
 def _small_amplitude(est, y, dt, extra, report, drifting):

@@ -19,6 +19,16 @@ def _record(n, noise, seed, w=TRUE_W, amp=(1.04, -4.10, -4.84, 6.42), zeta=0.005
     return clean + offset + noise * np.random.default_rng(seed).standard_normal(n)
 
 
+def _one_mode_cost(y, t, w, mu, s, zeta):
+    """Φ(ω) = (N − q) log RSS(ω) + ((ω − μ)/s)², RSS from numpy's lstsq on the basis
+    [e^{−ζωt}cos ω_d t, e^{−ζωt}sin ω_d t, 1] (ζ held): the brute force the one-mode tests compare with."""
+    env = np.exp(-zeta * w * t)
+    wd = w * np.sqrt(1 - zeta**2)
+    V = np.column_stack([env * np.cos(wd * t), env * np.sin(wd * t), np.ones(t.size)])
+    rss = np.sum((y - V @ np.linalg.lstsq(V, y, rcond=None)[0]) ** 2)
+    return (t.size - 3) * np.log(rss) + ((w - mu) / s) ** 2
+
+
 def test_one_mode_map_is_the_minimum_of_the_posterior_cost_on_a_grid():
     # brute force, independent of the search: Φ(ω) = (N − q) log RSS(ω) + ((ω − μ)/s)², RSS from numpy's
     # lstsq on the basis [e^{−ζωt}cos ω_d t, e^{−ζωt}sin ω_d t, 1] (ζ held), minimised over a fine grid
@@ -28,11 +38,7 @@ def test_one_mode_map_is_the_minimum_of_the_posterior_cost_on_a_grid():
     grid = np.linspace(mu - 4 * s, mu + 4 * s, 16001)
 
     def cost(w):
-        env = np.exp(-zeta * w * t)
-        V = np.column_stack([env * np.cos(w * np.sqrt(1 - zeta**2) * t), env * np.sin(w * np.sqrt(1 - zeta**2) * t),
-                             np.ones(n)])
-        rss = np.sum((y - V @ np.linalg.lstsq(V, y, rcond=None)[0]) ** 2)
-        return (n - 3) * np.log(rss) + ((w - mu) / s) ** 2
+        return _one_mode_cost(y, t, w, mu, s, zeta)
 
     costs = np.array([cost(w) for w in grid])
     w_grid = grid[np.argmin(costs)]
@@ -109,11 +115,7 @@ def test_posterior_mean_by_importance_sampling_matches_a_brute_force_integral():
     grid = np.linspace(mu - 6 * s, mu + 6 * s, 6001)
 
     def cost(w):
-        env = np.exp(-zeta * w * t)
-        V = np.column_stack([env * np.cos(w * np.sqrt(1 - zeta**2) * t), env * np.sin(w * np.sqrt(1 - zeta**2) * t),
-                             np.ones(n)])
-        rss = np.sum((y - V @ np.linalg.lstsq(V, y, rcond=None)[0]) ** 2)
-        return (n - 3) * np.log(rss) + ((w - mu) / s) ** 2
+        return _one_mode_cost(y, t, w, mu, s, zeta)
 
     c = np.array([cost(w) for w in grid])
     p = np.exp(-0.5 * (c - c.min()))
