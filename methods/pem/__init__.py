@@ -7,9 +7,12 @@ paper's setting is the variant ``pem:paper``, configs/method/pem_paper.yaml). Be
 - :mod:`methods.pem.predictor`: the innovation-form predictor of eq. (31) and its exact Jacobian;
 - :mod:`methods.pem.search`: the Gauss–Newton / Levenberg–Marquardt search of eq. (30) (the reference path);
 - ``_fast``: the same search by variable projection for the default options; its per-record model (basis,
-  linear solve, reduced Jacobian) is public as :class:`SeparableModel` (``gated_pencil``'s segment fit);
+  linear solve, reduced Jacobian) is public as :class:`SeparableModel`;
+- ``_separable``: :func:`separable_fit`, the variable-projection fit of shared poles over a record's
+  pulse-free segments from a given start (``gated_pencil``'s window fit; the peers' mode picker's check);
 - ``_pencil``: the matrix-pencil start from the record;
-- ``_residual``: the residual's whiteness check and the robust (sandwich) std, in every estimate;
+- ``_residual``: the residual's whiteness check (public as :func:`residual_check`) and the robust (sandwich)
+  std, in every estimate;
 - ``_drift``: :func:`segment_drift`, the test for a frequency that drifts over the record;
 - ``_chirp``: the small-amplitude frequency ω₀ from one fit of the record's backbone chirp;
 - ``_saturation``: a clipped sensor's plateaus, left out of the fit.
@@ -44,9 +47,12 @@ from methods.pem._fit import (
     identify,
     starts,
 )
+from methods.pem._residual import residual_check
+from methods.pem._separable import separable_fit
 
 __all__ = ["DriftReport", "Options", "SeparableModel", "check_options", "detection_std", "free_mask", "identify",
-           "predictor", "reference_path", "search", "segment_drift", "starts"]
+           "predictor", "reference_path", "residual_check", "search", "segment_drift", "separable_fit",
+           "starts"]
 
 
 @contextlib.contextmanager

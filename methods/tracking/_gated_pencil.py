@@ -24,14 +24,14 @@ What. On each window of W samples (every H samples):
 3. **Modes**: the poles with ω_d > 0 and damping in [−0.02, ``max_damping``] are assigned to the modes by
    ``linear_sum_assignment`` on |log ω − log ω_ref| within ``band``, ω_ref the last estimate of each mode
    (the prior at first); a mode without a pole in its band is not determined in that window.
-4. **Segment fit** (``refine``, on by default; :mod:`methods.tracking._segments`): the window cut at the
-   flagged samples into pulse-free runs of ≥ ``min_segment`` samples; m damped sinusoids with (ω, ζ) shared
-   by every run and amplitudes, phases and offset per run (projected out), fitted by least squares from the
-   pencil's poles (a mode the pencil missed: from its last refined value) — the maximum-likelihood fit of the
-   piecewise free decay under white noise — with the std of ω from the reduced Jacobian. A refined mode
-   counts when it is within ``band`` of its last estimate, lightly damped, its std × the window span is
-   under ``max_phase_std`` rad (an energy test alike for every frequency: a mode that died away between
-   sparse pulses fails it), and it is not another mode's pole (:func:`_labelled`).
+4. **Segment fit** (``refine``, on by default; :mod:`methods.tracking._segments`,
+   :func:`methods.pem.separable_fit`): the window cut at the flagged samples into pulse-free runs of ≥
+   ``min_segment`` samples; m damped sinusoids with (ω, ζ) shared by every run and amplitudes, phases and offset per
+   run (projected out), fitted by least squares from the pencil's poles (a mode the pencil missed: from its last
+   refined value) — the maximum-likelihood fit of the piecewise free decay under white noise — with the std of ω
+   from the reduced Jacobian. A refined mode counts when it is within ``band`` of its last estimate, lightly damped,
+   its std × the window span is under ``max_phase_std`` rad (an energy test alike for every frequency: a mode that
+   died away between sparse pulses fails it), and it is not another mode's pole (:func:`_labelled`).
 5. **Trend stage** (``trend``, on by default; :mod:`methods.tracking._trend`): each window's estimate put at
    the window's centre and carried to the present by a local-linear-trend Kalman filter per mode; with the
    segment fit, a window weighs by its own std: R = ``overlap_inflation``·(W/H)·std² + (``trend_meas_rel``·ω)²
@@ -49,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
+from methods import pem
 from methods.estimate import flat_record, make_options
 from methods.tracking import _segments, _trend
 from methods.tracking._track import Track, check_window, usable_prior, window_ends
@@ -220,7 +221,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
             z0 = np.where(np.isfinite(last_z), last_z, 0.005)
             z0[cc[hit]] = zc
             runs = _segments.segments(flags, opts.min_segment)
-            refined = _segments.fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
+            refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
             found[j] = False
             freq[j] = np.nan
             if refined is not None:

@@ -88,3 +88,50 @@ def test_only_the_m_most_energetic_are_assigned():
     y = Y + record([weak], [0.05])
     got = pick_modes(MODES + [weak], y, DT, PRIOR)
     np.testing.assert_allclose(got.frequencies[3], 56.67, rtol=1e-12)
+
+
+NOISY = Y + 1e-3 * np.random.default_rng(11).standard_normal(T.size)
+
+
+def test_a_placed_pole_the_record_puts_elsewhere_is_not_confirmed():
+    """Mode 2's pole 2 % off (an SSI-like inaccuracy): placed in its slot, but the record's maximum-likelihood fit
+    puts it back at 20.24 rad/s, so it is not determined; the other three are. Without the check all four are."""
+    moved = MODES.copy()
+    moved[1] = pole(20.24 * 1.02)
+    got = pick_modes(moved, NOISY, DT, PRIOR)
+    assert got.found.all()
+    assert got.determined.tolist() == [True, False, True, True]
+    np.testing.assert_allclose(got.frequencies[1], 20.24 * 1.02, rtol=1e-12)      # the library's number stays
+    assert abs(got.record_fit[1] - 20.24) < 5 * got.record_fit_std[1]
+    assert "mode 2 not confirmed" in got.message
+    assert pick_modes(moved, NOISY, DT, PRIOR, check=False).determined.all()
+
+
+def test_the_record_fit_is_pems_maximum_likelihood_fit():
+    """The check's fit from exact poles and pem's own fit of the same record (its search, its starts) agree within
+    a twentieth of a std, with the same std (within 2 %): the same least-squares problem."""
+    from methods import pem
+
+    got = pick_modes(MODES, NOISY, DT, PRIOR)
+    est = pem.identify(NOISY, DT, PRIOR)
+    assert got.determined.all() and est.converged
+    assert np.all(np.abs(got.record_fit - est.frequencies) <= 0.05 * est.std), (got.record_fit, est.frequencies)
+    np.testing.assert_allclose(got.record_fit_std, est.std, rtol=0.02)
+
+
+def test_a_record_too_short_for_the_candidates_model_confirms_nothing():
+    """12 samples cannot hold 4 damped sinusoids and an offset (17 unknowns): placed, never determined."""
+    t = T[:12]
+    y = sum(a * np.exp(p.real * t) * np.cos(p.imag * t) for p, a in zip(MODES, [1.0, 2.0, 2.0, 3.0], strict=True))
+    got = pick_modes(MODES, y, DT, PRIOR)
+    assert got.found.any() and not got.determined.any()
+
+
+def test_a_mode_the_poles_miss_leaves_the_residual_coloured_and_nothing_confirmed():
+    """The library missed the 56.67 rad/s mode: the three poles it gave are placed, but the record's fit without
+    the fourth leaves a line in the residual (not white), so none of them is called determined."""
+    got = pick_modes(MODES[:3], NOISY, DT, PRIOR)
+    assert got.found.tolist() == [True, True, True, False]
+    assert got.record_white is False and not got.determined.any()
+    assert "residual is not white" in got.message
+    assert pick_modes(MODES, NOISY, DT, PRIOR).record_white is True

@@ -56,6 +56,8 @@ def test_bad_options_name_the_value(name):
         methods.get(name)(y, DT, [5.0], band=-1.0)
     with pytest.raises(ValueError, match="no_such_option"):
         methods.get(name)(y, DT, [5.0], no_such_option=1)
+    with pytest.raises(ValueError, match="confirm = 'yes' must be true or false"):
+        methods.check_options(name, [5.0], DT, {"confirm": "yes"})
 
 
 @pytest.mark.parametrize("name", ["hdmd", "bopdmd"])
