@@ -22,6 +22,7 @@ estimate.
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 import scipy.optimize
 
 from methods.pem._fast import _Model as SeparableModel
@@ -70,9 +71,13 @@ class _Piecewise:
 
 
 def separable_fit(y: np.ndarray, dt: float, runs: list[tuple[int, int]], w0: np.ndarray, z0: np.ndarray,
-        max_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+                  max_steps: int, residual: bool = False) -> tuple | None:
     """(ω, ζ, std of ω) of the piecewise model from the start (w0, z0); None when the problem is
-    ill-posed (fewer samples than unknowns, a singular basis). std is NaN where JᵀJ is singular."""
+    ill-posed (fewer samples than unknowns, a singular basis). std is NaN where JᵀJ is singular.
+
+    With ``residual``, also the residual ε at the optimum (the segments' samples, in order) and the columns
+    spanning the fit's tangent space there — each segment's basis Φ_s (block-diagonal) and J_r — for a
+    whiteness test of ε (:func:`methods.pem.residual_check`'s ``basis``)."""
     m = w0.size
     q = len(runs)
     n = sum(b - a for a, b in runs)
@@ -102,4 +107,8 @@ def separable_fit(y: np.ndarray, dt: float, runs: list[tuple[int, int]], w0: np.
         std = np.sqrt(np.clip(np.diag(cov)[:m], 0.0, None))
     except np.linalg.LinAlgError:
         std = np.full(m, np.nan)
-    return sol.x[:m], sol.x[m:], std
+    if not residual:
+        return sol.x[:m], sol.x[m:], std
+    # each model's Φ is that of its last fit: the one at sol.x that gave ``parts``
+    basis = np.hstack([scipy.linalg.block_diag(*[model.phi for model in problem.models]), J])
+    return sol.x[:m], sol.x[m:], std, e, basis
