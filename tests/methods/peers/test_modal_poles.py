@@ -7,7 +7,7 @@ to a real mode), assign to the prior by log-frequency, and say NaN / not found w
 
 import numpy as np
 
-from methods.peers._mode_picker import continuous_poles, energies, physical, pick_modes
+from methods.peers._mode_picker import continuous_poles, energies, physical, pick_modes, same_slots
 
 DT = 0.02
 T = np.arange(256) * DT
@@ -135,3 +135,30 @@ def test_a_mode_the_poles_miss_leaves_the_residual_coloured_and_nothing_confirme
     assert got.record_white is False and not got.determined.any()
     assert "residual is not white" in got.message
     assert pick_modes(MODES, NOISY, DT, PRIOR).record_white is True
+
+
+def test_a_confirmed_mode_in_a_slot_a_spare_pole_shifted_is_not_determined():
+    """The prior lists three modes, the record holds two (3 and 20 rad/s, exactly where the prior says modes 1 and
+    3 are; mode 2 is not excited), and the library adds a pair of spare poles near 26 rad/s that fit the noise with
+    cancelling amplitudes. Ranked by energy a spare is the third pole, so the three sorted poles put 20 rad/s in
+    slot 2 — a right frequency in the wrong slot, which the record confirms. Assigned again among the confirmed
+    poles alone, 20 rad/s belongs to slot 3: slot 2's mode is withdrawn (not determined), as is the spare's."""
+    y = record([pole(3.0), pole(20.0)], [1.0, 1.0]) + 0.02 * np.random.default_rng(0).standard_normal(T.size)
+    poles = [pole(3.0), pole(20.0), pole(26.0, 0.02), pole(26.1, 0.02)]
+    prior = [3.0, 14.0, 20.0]
+    unchecked = pick_modes(poles, y, DT, prior, check=False)
+    assert abs(unchecked.frequencies[1] - 20.0) < 1e-9 and unchecked.determined.all()   # the crossing
+    got = pick_modes(poles, y, DT, prior)
+    assert got.found.all()
+    assert got.determined.tolist() == [True, False, False]
+    assert got.record_white and abs(got.record_fit[1] - 20.0) < 3 * got.record_fit_std[1]   # confirmed as a mode
+    assert "modes 2, 3 not confirmed" in got.message
+
+
+def test_the_slot_check_only_withdraws():
+    """same_slots keeps a confirmed mode where the confirmed ones alone give it the same slot, never adds one."""
+    prior = np.array([3.0, 14.0, 20.0])
+    assert same_slots(np.array([3.0, 14.5, 20.2]), np.array([True, True, True]), prior, 0.5).all()
+    assert same_slots(np.array([3.0, 20.0, 26.0]), np.array([True, True, False]), prior, 0.5).tolist() == \
+        [True, False, False]
+    assert not same_slots(np.array([3.0, 14.5, 20.2]), np.zeros(3, bool), prior, 0.5).any()
