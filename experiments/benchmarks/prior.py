@@ -15,6 +15,8 @@ noise of ``--noise-ug`` µg. Every estimator sees the same records:
 - **pem (ML)**: ``methods.get("pem")`` with prior μ, no prior_std_rad_s (today's default);
 - **pem:map**: the options of ``configs/method/pem_map.yaml`` (its damping prior) with
   ``prior_std_rad_s = s`` (methods/pem/_map.py);
+- **pem:map sampled** (with ``--posterior-draws K``): the same with ``posterior_draws = K``, its posterior
+  mean by importance sampling around the MAP (methods/pem/_map.py);
 - **MMSE**: the posterior mean by sequential Monte Carlo (experiments.simulate.bayes; ``--draws``
   particles, linear unknowns projected out, σ known) under pem:map's own prior, the damping prior
   included: the attainable limit for that knowledge; and the same with ζ known, beside pem:map with ζ held;
