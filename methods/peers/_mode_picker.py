@@ -33,7 +33,7 @@ that every peer is scored on the same rule and the library alone decides the pol
    poles), with σ its std(ω) at the optimum. A placed mode counts as determined only when (a) that model explains
    the record — its residual passes pem's whiteness check (:func:`methods.pem.residual_check`, α = 1 %; a mode the
    library missed leaves a line in the residual, and the fit without it merges or pulls its neighbours, so then no
-   mode is confirmed); (b) the record locates it — σ ≤ 1 % of ω, pem's "determined by the data"; and (c) the
+   mode is confirmed); (b) the record locates it — σ ≤ 1 % of ω, pem's "determined by the data"; (c) the
    library's pole lies within the benchmark's success tolerance of the record's, less the record's own error:
    |ω_library − ω_record| ≤ max(5σ, 0.5 % ω) − 3σ (experiments.report.success's tolerance; the record's
    estimate is within 3σ of the truth in 99.7 % of records); and (d) the confirmed modes, assigned again
