@@ -12,8 +12,9 @@ input j (``force_body_y`` or ``force_tip``) with modal gains bᵢ = φᵢ·gⱼ 
     [ξᵢ; ξ̇ᵢ]_{k+1} = Φ(ωᵢ,ζᵢ)[ξᵢ; ξ̇ᵢ]_k + Γ(ωᵢ,ζᵢ) bᵢ (u_k + f_k),   ω_{k+1} = ω_k + w_k,   ζ constant,
     y_k = Σᵢ cᵢ(−ωᵢ² ξᵢ − 2ζᵢωᵢ ξ̇ᵢ) + D (u_k + f_k) + e_k,
 
-with u_k the known inputs (the thruster pulses: known to this bound too), w_k ~ N(0, diag q) the random walk
-matched to the schedule (``pcrb.random_walk_q``) and e_k ~ N(0, σ²). The process noise is
+with u_k the known inputs (the thruster pulses: known to this bound too), w_k ~ N(0, diag q_k) the random walk
+matched to the schedule step by step (``pcrb.matched_walk_q``: q_k = (ω(t_{k+1}) − ω(t_k))²) and
+e_k ~ N(0, σ²). The process noise is
 v_k = g_k f_k, g_k = [Γ(ωᵢ,ζᵢ)[:, 1] bᵢ]ᵢ stacked (rank one: one force drives every mode), so
 Q_k = σ_f² g_k g_kᵀ on the oscillator block; the force also enters y_k, so the measurement noise
 D f_k + e_k has variance R = σ² + D²σ_f² and is correlated with v_k: S_k = E[v_k(Df_k + e_k)] = σ_f² D g_k.
@@ -40,7 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from experiments.simulate.pcrb import jacobians, pcrb_covariance, prior_covariance, random_walk_q
+from experiments.simulate.pcrb import jacobians, matched_walk_q, pcrb_covariance, prior_covariance
 from experiments.simulate.timevarying import INPUTS, ModalModel, oscillator_transition
 
 __all__ = ["force_noise", "unknown_force_pcrb"]
@@ -85,16 +86,15 @@ def force_noise(model: ModalModel, w, dt_s: float, force_std_n: float, force_inp
 
 
 def unknown_force_pcrb(model: ModalModel, w, x, dt_s: float, noise_std: float, prior, *, force_std_n: float,
-                       force_input: str = "force_body_y", u=None, rw_rel: float | None = None, rw_q=None,
-                       slosh=None, prior_rel_std: float | None = None, damping: bool = True,
-                       P0=None) -> np.ndarray:
+                       force_input: str = "force_body_y", u=None, rw_q=None,
+                       prior_rel_std: float | None = None, damping: bool = True, P0=None) -> np.ndarray:
     """The **unknown-force** PCRB std (rad/s) of every frequency at every sample, per replicate.
 
     The white force on ``force_input`` (1σ ``force_std_n`` per sample) is unknown to the bound and enters as
     process noise on the oscillators (and, through the direct term, as correlated measurement noise); the
     other inputs in ``u`` (thruster pulses) are known to it. The frequencies walk with per-sample variance
-    ``rw_q`` (default ``pcrb.random_walk_q(w, dt_s, rw_rel, slosh=slosh)``: matched to the schedule); ζ is an
-    unknown constant with ``damping``. Module docstring for the model and the recursion.
+    ``rw_q`` (default ``pcrb.matched_walk_q(w)``: matched to the schedule step by step, as the genie's); ζ is
+    an unknown constant with ``damping``. Module docstring for the model and the recursion.
 
     Parameters
     ----------
@@ -109,11 +109,11 @@ def unknown_force_pcrb(model: ModalModel, w, x, dt_s: float, noise_std: float, p
     prior : ndarray, shape (R, m) or (m,)
         The prior frequencies the trackers get (they set the bound's prior spread, ``pcrb.prior_covariance``).
     force_std_n : float
-        σ_f (N per sample). 0 gives the genie bound (``pcrb.cell_pcrb``) with the same walk.
+        σ_f (N per sample). 0 gives the genie bound (``pcrb.cell_pcrb``) with this walk.
     u : ndarray, shape (R, N, len(INPUTS)), optional
         The true inputs, the white force included: the Jacobians are taken along the true trajectory.
-    rw_q : ndarray, shape (m,), optional
-        The walk's per-sample variance (rad²/s²), instead of the schedule's.
+    rw_q : ndarray, shape (m,) or (N, m), optional
+        The walk's per-sample variance (rad²/s²), constant or per sample, instead of the schedule's.
     P0 : ndarray, shape (d, d), optional
         The prior covariance of z_0 instead of ``pcrb.prior_covariance`` (e.g. the oscillators' stationary one).
 
@@ -127,7 +127,7 @@ def unknown_force_pcrb(model: ModalModel, w, x, dt_s: float, noise_std: float, p
     F, H = jacobians(model, w, x, dt_s, u, damping=damping)
     d = F.shape[-1]
     Qf, S, direct_var = force_noise(model, w, dt_s, force_std_n, force_input, damping=damping)
-    q = random_walk_q(w, dt_s, rw_rel, slosh=slosh) if rw_q is None else np.broadcast_to(rw_q, (m,))
+    q = matched_walk_q(w) if rw_q is None else np.broadcast_to(rw_q, w.shape)
     Qf[:, np.arange(2 * m, 3 * m), np.arange(2 * m, 3 * m)] += q
     if P0 is None:
         P0 = np.diag(prior_covariance(model, w, x, prior, prior_rel_std=prior_rel_std, damping=damping))

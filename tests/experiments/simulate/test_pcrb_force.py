@@ -9,7 +9,7 @@ import pytest
 import scipy.linalg
 import scipy.signal
 
-from experiments.simulate.pcrb import cell_pcrb
+from experiments.simulate.pcrb import cell_pcrb, matched_walk_q
 from experiments.simulate.pcrb_force import force_noise, unknown_force_pcrb
 from experiments.simulate.timevarying import INPUTS, ModalModel, simulate
 
@@ -163,3 +163,25 @@ def test_force_noise_is_rank_one_and_refuses_an_unknown_input():
     assert direct_var == pytest.approx((DIRECT * FORCE) ** 2)
     with pytest.raises(ValueError, match="force_input = 'force_x'"):
         force_noise(model, np.full((10, 1), W0), DT, FORCE, "force_x")
+
+
+def test_matched_walk_moves_at_the_schedules_rate_and_jumps_only_at_a_step():
+    n = 100
+    ramp = np.linspace(20.0, 21.0, n)[:, None]
+    step = np.where(np.arange(n) < 40, 20.0, 21.2)[:, None]
+    np.testing.assert_allclose(matched_walk_q(ramp)[:, 0], (1.0 / (n - 1)) ** 2, rtol=1e-9)
+    q = matched_walk_q(step)[:, 0]
+    # elsewhere the floor, a walk of 1e-4·ω over the record
+    assert q[39] == pytest.approx(1.2**2) and np.allclose(q[np.arange(n) != 39], (1e-4 * 20.0) ** 2 / n)
+
+
+def test_a_cell_under_a_white_force_has_both_bounds_and_the_genie_is_the_lower():
+    from experiments.simulate.tracking_data import TrackingCellConfig, make_cell
+
+    cfg = TrackingCellConfig(schedule={"drift": 0.05}, excitation={"disturbance_force_n": 5.0}, noise_ug=300.0,
+                             duration_s=10.0, replicates=2)
+    cell = make_cell(cfg)
+    genie, unknown = cell["pcrb_std_rad_s"], cell["pcrb_unknown_force_std_rad_s"]
+    assert genie.shape == unknown.shape == (2, 500, 4)
+    assert np.all(unknown >= genie * (1 - 1e-9))
+    assert np.median(unknown[:, -100:] / genie[:, -100:]) > 4          # 8.9 on this 10 s cell
