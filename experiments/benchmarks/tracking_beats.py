@@ -60,7 +60,8 @@ def cells(seed: int, replicates: int, duration_s: float):
 def score_record(t_s, freq, conv, runtime, cell, r):
     st = float(cell["step_time_s"])
     return score_track(t_s, freq, conv, runtime, cell["truth_freq_rad_s"], float(cell["dt_s"]),
-                       bound=cell["pcrb_std_rad_s"][r], step_time_s=st if np.isfinite(st) else None,
+                       bound=cell["pcrb_std_rad_s"][r], bound_unknown_force=cell["pcrb_unknown_force_std_rad_s"][r],
+                       step_time_s=st if np.isfinite(st) else None,
                        drift_span_s=cell["drift_span_s"])
 
 

@@ -146,6 +146,8 @@ def score_cell(tracker: str, tracks: dict, data: dict, cell_meta: dict, messages
     for r in range(tracks["frequencies"].shape[0]):
         s = score_track(tracks["t_s"], tracks["frequencies"][r], tracks["converged"][r], tracks["runtime_s"][r],
                         data["truth_freq_rad_s"], float(data["dt_s"]), bound=data["pcrb_std_rad_s"][r],
+                        bound_unknown_force=(data["pcrb_unknown_force_std_rad_s"][r]
+                                             if "pcrb_unknown_force_std_rad_s" in data else None),
                         step_time_s=step if np.isfinite(step) else None,
                         drift_span_s=span if np.all(np.isfinite(span)) else None)
         rows.append({"tracker": tracker, **cell_meta, "replicate": r, **s, "message": str(messages[r])[:300]})

@@ -6,6 +6,8 @@ schedule × excitation × noise × duration, named ``<schedule>_<excitation>_noi
 checked whole before any work: the schema (``configs/grid/schema_tracking.yaml``), then every cell
 (``tracking_data.check_cell_config``: a schedule that crosses modes or reaches Nyquist, an empty
 excitation, a record too short), each failure one line naming the file, the cell and the value.
+A grid's ``exclude`` lists (schedule, excitation) pairs left out of the product (a class of excitation
+that only some schedules need); a pair that names no schedule or excitation of the grid is refused.
 Which trackers run is the job's business (``experiments.jobs.track_job``); this module knows no method.
 """
 
@@ -65,10 +67,19 @@ def load_grid(name_or_path: str, *, check_cells: bool = True) -> dict:
     grid.setdefault("dt_s", 0.02)
     grid.setdefault("prior_spread", 0.05)
     grid.setdefault("tracker_options", {})
+    excluded = set()
+    for i, pair in enumerate(grid.get("exclude") or []):
+        for key, known in (("schedule", grid["schedules"]), ("excitation", grid["excitations"])):
+            if pair[key] not in known:
+                raise ValueError(f"{path}: exclude.{i}.{key}: '{pair[key]}' names no {key} of this grid "
+                                 f"({', '.join(known)})")
+        excluded.add((pair["schedule"], pair["excitation"]))
     plant = paper_plant()
     cells = {}
     for (sname, sched), (ename, exc_), noise, duration in itertools.product(
             grid["schedules"].items(), grid["excitations"].items(), grid["noise_ug"], grid["duration_s"]):
+        if (sname, ename) in excluded:
+            continue
         name = cell_name(sname, ename, noise, duration)
         cfg = TrackingCellConfig(schedule=ScheduleConfig(**(sched or {})), excitation=ExcitationConfig(**(exc_ or {})),
                                  noise_ug=float(noise), duration_s=float(duration), dt_s=float(grid["dt_s"]),

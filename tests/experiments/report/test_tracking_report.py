@@ -32,3 +32,13 @@ def test_no_tracker_converged_names_the_smallest_late_error():
     lines = verdict(pd.DataFrame([row("fft", math.nan, 0.04, math.nan, 1.0),
                                   row("pll", math.nan, 0.09, math.nan, 1.0)]))
     assert "no tracker held every mode within 1 %; the smallest late error: fft, 4 %" in lines[0]
+
+
+def test_baseline_ratio_and_the_bound_stand_beside_the_error():
+    from experiments.report.tracking_report import add_baseline_ratio
+
+    rows = [dict(row("pem", 0.002, 0.002, 8.0), cell="c", err_ufbound_median=1.3),
+            dict(row("next_era", 0.005, 0.005, 6.0), cell="c", err_ufbound_median=3.0)]
+    summary = add_baseline_ratio(pd.DataFrame(rows))
+    assert summary["x_next_era"].tolist() == [0.4, 1.0]
+    assert "(1.3× the unknown-force bound)" in verdict(summary)[0]
