@@ -15,7 +15,8 @@ A track is the tracker's estimate ω̂ᵢ(t_j) at its own times t_j (each a samp
   efficient unbiased tracker's |e|/σ has median 0.67 (the half-normal's), so ``err_ufbound_median`` ≈ 0.67
   is at the bound and 1.35 is twice it.
 * **late error**: the same error over the second half of the record whether or not the tracker converged
-  (``err_rel_median_late``, ``err_rel_p90_late``): it ranks trackers that never hold all four modes.
+  (``err_rel_median_late``, ``err_rel_p90_late``; × the unknown-force bound ``err_ufbound_median_late``): it
+  ranks trackers that never hold all four modes.
 * **share within 1 %**: the fraction of the track's times at which every mode is within ``tol``.
 * **lag under a drift**: the delay τ ≥ 0 that best explains the estimate as a late copy of the truth,
   argmin_τ median_t |ω̂ᵢ(t) − ωᵢ(t − τ)| over the drifting span after convergence, per mode; the median
@@ -139,6 +140,11 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
                 out[f"{key}_{name}"] = math.nan
     late = t_s >= t_s[0] + 0.5 * (t_s[-1] - t_s[0])
     out["err_rel_median_late"] = float(np.percentile(rel[late], 50, method="inverted_cdf"))
+    out["err_ufbound_median_late"] = math.nan
+    if bound_unknown_force is not None:
+        ratio = err[late] / np.asarray(bound_unknown_force)[k][late]
+        out["err_ufbound_median_late"] = float(np.percentile(np.where(np.isfinite(ratio), ratio, np.inf), 50,
+                                                             method="inverted_cdf"))
     out["err_rel_p90_late"] = float(np.percentile(rel[late], 90, method="inverted_cdf"))
     for i in range(m):
         out[f"err_rel_median_mode{i + 1}"] = float(np.median(rel[after, i])) if after.any() else math.nan
@@ -160,7 +166,7 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
 
 SUMMARY_MEDIANS = ("t_converge_s", "t_reconverge_s", "err_rel_median", "err_rel_p90", "err_bound_median",
                    "err_bound_p90", "err_ufbound_median", "err_ufbound_p90", "err_rel_median_late", "err_rel_p90_late",
-                   "share_within_1pct", "lag_s", "cpu_per_sample_s")
+                   "err_ufbound_median_late", "share_within_1pct", "lag_s", "cpu_per_sample_s")
 
 
 def summarize_cell(rows: pd.DataFrame, *, has_step: bool = False) -> dict:

@@ -48,6 +48,7 @@ def test_error_is_scored_against_both_bounds_each_in_its_own_column():
     s = score(est, truth, bound=0.001 * truth, bound_unknown_force=0.004 * truth)
     assert s["err_bound_median"] == pytest.approx(2.0)          # × the genie bound
     assert s["err_ufbound_median"] == pytest.approx(0.5)        # × the unknown-force bound
+    assert s["err_ufbound_median_late"] == pytest.approx(0.5)   # the second half, converged or not
     assert np.isnan(score(est, truth, bound=0.001 * truth)["err_ufbound_median"])
 
 
