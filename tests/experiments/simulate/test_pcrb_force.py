@@ -185,3 +185,13 @@ def test_a_cell_under_a_white_force_has_both_bounds_and_the_genie_is_the_lower()
     assert genie.shape == unknown.shape == (2, 500, 4)
     assert np.all(unknown >= genie * (1 - 1e-9))
     assert np.median(unknown[:, -100:] / genie[:, -100:]) > 4          # 8.9 on this 10 s cell
+
+
+def test_pulses_are_known_to_both_bounds_so_a_pulse_cell_has_one_bound():
+    from experiments.simulate.tracking_data import TrackingCellConfig, make_cell
+
+    cfg = TrackingCellConfig(schedule={"step": [0.0, 0.0, 0.05, 0.0], "step_time_s": 5.0},
+                             excitation={"thruster_torque_n_m": 100.0, "thruster_rate_hz": 0.5}, noise_ug=1000.0,
+                             duration_s=10.0, replicates=2)
+    cell = make_cell(cfg)
+    np.testing.assert_allclose(cell["pcrb_unknown_force_std_rad_s"], cell["pcrb_std_rad_s"], rtol=1e-9)
