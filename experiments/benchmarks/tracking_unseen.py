@@ -1,6 +1,7 @@
 """Does ``gated_pencil`` still halve the naive NExT-ERA tracker's error on records unlike the grid's?
 
     python -m experiments.benchmarks.tracking_unseen [--seed 4711] [--replicates 2] [--trackers next_era,gated_pencil]
+        [--records all|pulses|ambient]
 
 Nine cells that no tracker option was chosen on: drifts of other sizes and signs and over other spans,
 steps on other modes and at other times, pulses of other torques and rates (at random times every 3.3–15 s
@@ -9,7 +10,7 @@ on average, or periodic every 7 s), noise
 120 s records from ``experiments.simulate.tracking_data`` (seed ``--seed``; not a grid's scoring seed).
 And six under continuing random excitation (``AMBIENT_CELLS``: a white body force of 3–6 N alone or with
 sparse pulses, drifts, a step, slosh modulations of 2–5 % at 0.06–0.1 Hz, one on a drift, two other plants;
-``--no-ambient`` leaves them out), scored also against the unknown-force PCRB (× bound).
+``--records pulses`` or ``ambient`` runs one kind), scored also against the unknown-force PCRB (× bound).
 Scores as ``tracking_beats`` (its ``score_record``, ``summary``): the median over replicates of the error
 after the first convergence (% of ω), the re-convergence after a step, and the ratio to next_era ("halves" =
 ratio ≤ 0.5 and, on a step, re-converged within 20 s; nan where next_era never held every mode within 1 %),
@@ -34,7 +35,7 @@ from experiments.io import atomic_write_text  # noqa: E402
 from experiments.simulate.plant import PlantConfig  # noqa: E402
 from experiments.simulate.tracking_data import TrackingCellConfig, check_cell_config, make_cell  # noqa: E402
 
-__all__ = ["AMBIENT_CELLS", "CELLS", "configs", "run", "main"]
+__all__ = ["AMBIENT_CELLS", "CELLS", "RECORDS", "configs", "run", "main"]
 
 OUT = Path("results/bench/tracking_unseen.md")
 _PLANT_A = {"target_freq_rad_s": [2.5, 14.0, 17.0, 45.0], "damping": [0.01, 0.004, 0.006, 0.003]}
@@ -79,26 +80,29 @@ AMBIENT_CELLS = {
 }
 
 
-def configs(seed: int, replicates: int, *, ambient: bool = True) -> dict[str, TrackingCellConfig]:
-    """Every cell's config (the ambient ones too, unless ``ambient`` is false), each checked
-    (``check_cell_config``) before any cell is simulated."""
+RECORDS = ("all", "pulses", "ambient")
+
+
+def configs(seed: int, replicates: int, *, records: str = "all") -> dict[str, TrackingCellConfig]:
+    """The configs of ``records`` (all cells, only the thruster-pulse ones of ``CELLS``, or only
+    ``AMBIENT_CELLS``), each checked (``check_cell_config``) before any cell is simulated."""
     out = {}
-    for label, (schedule, (torque, rate), noise, plant) in CELLS.items():
+    for label, (schedule, (torque, rate), noise, plant) in (CELLS.items() if records != "ambient" else ()):
         pulses = {"thruster_period_s": rate} if rate > 1 else {"thruster_rate_hz": rate}   # > 1: a period (s)
         out[label] = TrackingCellConfig(
             schedule=schedule, excitation={"thruster_torque_n_m": torque, **pulses}, noise_ug=noise,
             duration_s=120.0, replicates=replicates, seed=seed, plant=PlantConfig(**plant))
         check_cell_config(out[label])
-    for label, (schedule, excitation, noise, plant) in (AMBIENT_CELLS.items() if ambient else ()):
+    for label, (schedule, excitation, noise, plant) in (AMBIENT_CELLS.items() if records != "pulses" else ()):
         out[label] = TrackingCellConfig(schedule=schedule, excitation=excitation, noise_ug=noise, duration_s=120.0,
                                         replicates=replicates, seed=seed, plant=PlantConfig(**plant))
         check_cell_config(out[label])
     return out
 
 
-def run(trackers: list[str], seed: int, replicates: int, *, ambient: bool = True) -> pd.DataFrame:
+def run(trackers: list[str], seed: int, replicates: int, *, records: str = "all") -> pd.DataFrame:
     rows = []
-    for label, cfg in configs(seed, replicates, ambient=ambient).items():
+    for label, cfg in configs(seed, replicates, records=records).items():
         cell = make_cell(cfg)
         dt = float(cell["dt_s"])
         for r in range(replicates):
@@ -116,7 +120,8 @@ def main(argv=None) -> None:
     parser.add_argument("--replicates", type=int, default=2)
     parser.add_argument("--trackers", default="next_era,gated_pencil")
     parser.add_argument("--out", default=str(OUT))
-    parser.add_argument("--no-ambient", action="store_true", help="only the thruster-pulse records")
+    parser.add_argument("--records", choices=RECORDS, default="all",
+                        help="all records, only the thruster-pulse ones, or only the ambient ones")
     args = parser.parse_args(argv)
     trackers = [t for t in args.trackers.split(",") if t]
     unknown = [t for t in trackers if t not in methods.track_names()]
@@ -127,9 +132,9 @@ def main(argv=None) -> None:
         configs(args.seed, args.replicates)
     except ValueError as exc:                  # a cell the simulator refuses: one line, before any work
         parser.exit(2, f"error: {exc}\n")
-    s = run(trackers, args.seed, args.replicates, ambient=not args.no_ambient)
+    s = run(trackers, args.seed, args.replicates, records=args.records)
     lines = [f"# Trackers on records unlike the grid's (`python -m experiments.benchmarks.tracking_unseen --seed "
-             f"{args.seed} --replicates {args.replicates}`)", "",
+             f"{args.seed} --replicates {args.replicates} --records {args.records}`)", "",
              "× bound: the median of |error| over the unknown-force PCRB's std (white force unknown, pulses "
              "known; an efficient tracker scores 0.67).", "",
              "| cell | tracker | error % of ω | × bound | ratio to next_era | late % | never | re-converge s | "
