@@ -163,12 +163,12 @@ def _digits(value: float, std: float) -> str:
 def log(record: dict, est, paths: list[Path], run_dir: Path, background: bool = True) -> None:
     """Log a run on a user's measurement in the MLflow experiment ``measurements`` (keyed like a cell's job).
 
-    The run is written into the run folder first (``mlflow_pending.json``, :mod:`experiments.tracking.pending`)
+    The run is written into the run folder first (``mlflow_pending.json``, :mod:`experiments.runlog.pending`)
     and queued; with ``background`` a detached process logs it (and any run left over) while the job ends,
     otherwise the job logs it here. Neither imports MLflow into the job until it logs."""
-    from experiments.tracking import pending
-    from experiments.tracking.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
-    from experiments.tracking.store import source_tags
+    from experiments.runlog import pending
+    from experiments.runlog.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
+    from experiments.runlog.store import source_tags
 
     record = {**record, "grid": "measurement"}
     key = run_key(record)
@@ -191,7 +191,7 @@ def log(record: dict, est, paths: list[Path], run_dir: Path, background: bool = 
     if background:
         pending.start_logger(run_dir)
         print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} is being logged by a background process "
-              f"(its output: {Path(run_dir) / pending.LOG}; `python -m experiments.tracking.pending` logs any run "
+              f"(its output: {Path(run_dir) / pending.LOG}; `python -m experiments.runlog.pending` logs any run "
               f"left waiting)")
         return
     out = pending.log_folder(run_dir)            # None: a logger of another job logged it meanwhile

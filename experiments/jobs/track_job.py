@@ -35,10 +35,10 @@ from experiments.cli import ArgumentParser
 from experiments.io import read_npz, write_json, write_npz
 from experiments.jobs.app import fail
 from experiments.jobs.track_variants import split, variant_options
+from experiments.provenance import digest, git_state
 from experiments.report.tracking_metrics import score_track
 from experiments.simulate.tracking_data import make_cell
 from experiments.simulate.tracking_grid import load_grid
-from experiments.tracking.provenance import digest, git_state
 
 __all__ = ["WARM_UP_SAMPLES", "check_tracker", "grid_trackers", "main", "rescore_tracker", "run_cell", "run_data",
            "run_tracker", "score_cell", "track_record", "tracker_names", "warm_up"]
@@ -230,7 +230,7 @@ def main(argv: list[str] | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     from threadpoolctl import threadpool_limits
 
-    # One BLAS thread, as under Snakemake (experiments/rules/common.smk) and as on board: with several, the
+    # One BLAS thread, as under Snakemake (experiments/workflow/rules/common.smk) and as on board: with several, the
     # CPU time per sample counts threads that wait on tiny matrices (measured: era 3.5 ms instead of 0.24 ms
     # per sample on a loaded 2-core machine).
     with threadpool_limits(limits=1):

@@ -30,7 +30,7 @@ from urllib.parse import unquote, urlparse
 
 from filelock import FileLock
 
-from experiments.tracking.provenance import digest, git_state
+from experiments.provenance import digest, git_state
 
 __all__ = ["DEFAULT_DB", "LOCK_TIMEOUT_S", "tracking_uri", "is_default_store", "lock_path", "store_lock", "client",
            "experiment_id", "log_run", "dataset_entity", "source_tags", "git_commit"]
@@ -90,7 +90,7 @@ def _check_sqlite(path: Path) -> None:
 
 def _check_sqlite_file(path: Path) -> None:
     way_out = (f"move it aside (mv {path} {path}.broken) to start a fresh store, point MLFLOW_TRACKING_URI to "
-               f"another store, or run with tracking.enabled=false")
+               f"another store, or run with runlog.enabled=false")
     size = path.stat().st_size
     if size == 0:
         raise ValueError(f"the MLflow store {path} is empty (0 bytes): it is not rebuilt silently, since the "

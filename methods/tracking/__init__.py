@@ -28,7 +28,6 @@ import time
 
 import numpy as np
 
-import methods
 from methods.estimate import check_inputs, check_prior
 from methods.tracking._track import Track, with_runtime
 
@@ -43,6 +42,13 @@ _NATIVE: dict[str, str] = {
 }
 _WINDOWED = "methods.tracking._windowed"
 
+
+def batch_names() -> list[str]:
+    """The batch methods (:func:`methods.names`). The registry lives in methods/__init__.py, which imports
+    this face and hands its ``names`` down here (replacing this function), so that the two do not import
+    each other; none before that."""
+    return []
+
 __all__ = ["Track", "check_track_options", "track", "track_names", "track_options_class"]
 
 
@@ -50,14 +56,14 @@ def track_names() -> list[str]:
     """Names of the trackers: the native ones, then every other batch method (plugins included) on a
     sliding window."""
     native = list(_NATIVE)
-    windowed = [n for n in methods.names() if n not in _NATIVE]
+    windowed = [n for n in batch_names() if n not in _NATIVE]
     return native[:3] + windowed + native[3:]
 
 
 def _module(name: str):
     if name in _NATIVE:
         return importlib.import_module(_NATIVE[name])
-    if name in methods.names():
+    if name in batch_names():
         return importlib.import_module(_WINDOWED)
     raise ValueError(f"unknown tracker '{name}'; known trackers: {', '.join(track_names())}")
 
