@@ -8,6 +8,7 @@ In the spirit of scikit-learn's import-consistency checks: the walls of the hous
   own modules and earlier stages'; stages of one rank do not import each other.
 - No module imports itself through others: the graph of imports among the project's modules (module level
   and inside functions) has no cycle.
+- An import inside a function says why, in a comment on its line, or above it or above its group of imports.
 - ``methods/`` imports nothing from ``experiments/`` and never Hydra, OmegaConf, MLflow or Snakemake.
 - Outside a method family package (``methods/<family>/``), nothing imports the family's private
   (underscore) modules: the family's ``__init__`` is its face. Tests are exempt: they test the insides.
@@ -245,3 +246,47 @@ def test_the_cycle_check_sees_a_cycle_and_only_a_cycle(files, expected, monkeypa
     monkeypatch.setitem(globals(), "ROOT", tmp_path)
     paths = sorted(tmp_path / w for w in files)
     assert cycles(import_graph(paths)) == expected
+
+
+# ---- an import inside a function says why -------------------------------------------------------------------
+
+
+def unexplained_function_imports(paths) -> list[str]:
+    """``file:line`` of each import inside a function with no comment on its line(s), on the line above, or
+    above the run of import lines it belongs to."""
+    found = []
+    for path in paths:
+        lines = path.read_text().splitlines()
+        for fn in ast.walk(ast.parse("\n".join(lines), filename=str(path))):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for node in ast.walk(fn):
+                if not isinstance(node, (ast.Import, ast.ImportFrom)):
+                    continue
+                own = lines[node.lineno - 1: node.end_lineno]
+                k = node.lineno - 2
+                while k >= 0 and lines[k].strip().startswith(("import ", "from ")) and "#" not in lines[k]:
+                    k -= 1          # up the run of imports this one belongs to
+                above = lines[k].strip() if k >= 0 else ""
+                if not any("#" in ln for ln in own) and not above.startswith("#") and "#" not in above:
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    return found
+
+
+def test_every_import_inside_a_function_says_why():
+    assert unexplained_function_imports(source_files("methods", "experiments")) == []
+
+
+@pytest.mark.parametrize("source, bad", [
+    ("def f():\n    import scipy\n", True),
+    ("def f():\n    x = 1\n    import scipy\n", True),
+    ("def f():\n    import scipy  # 0.3 s: one caller\n", False),
+    ("def f():\n    # 0.3 s: one caller\n    import scipy\n    from scipy import linalg\n", False),
+    ("import os\n\ndef f():\n    return os.sep\n", False),
+])
+def test_the_why_check_sees_a_bare_function_import(source, bad, monkeypatch, tmp_path):
+    path = tmp_path / "experiments" / "x.py"
+    path.parent.mkdir(parents=True)
+    path.write_text(source)
+    monkeypatch.setitem(globals(), "ROOT", tmp_path)
+    assert bool(unexplained_function_imports([path])) is bad

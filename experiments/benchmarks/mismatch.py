@@ -46,6 +46,7 @@ from experiments import paths
 from experiments.io import markdown_table, write_table
 from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, coverage
 from experiments.simulate import mismatch, scenarios
+from experiments.simulate.datasets import DatasetConfig, ScenarioConfig, make_cell
 
 __all__ = ["DEFAULT_GRID", "method_setup", "cell_label", "BEFORE", "run_method", "std_kinds", "drift_claims",
            "duffing_truth", "score", "cell_records", "run", "main"]
@@ -158,7 +159,6 @@ def score(estimates: list, truth: np.ndarray, claims=None, truths=None) -> list[
 
 def cell_records(grid: dict, cell: dict, replicates: int) -> dict:
     """The cell's dataset as the workflow makes it (``experiments.simulate.datasets.make_cell``)."""
-    from experiments.simulate.datasets import DatasetConfig, ScenarioConfig, make_cell
 
     axes = dict(cell["axes"])
     cfg = DatasetConfig(noise_ug=float(cell["noise_ug"]), n_samples=int(cell["n_samples"]), replicates=replicates,

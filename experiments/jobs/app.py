@@ -125,7 +125,7 @@ def _check_sweep(config_name: str, args: list[str]) -> None:
     would end the whole sweep with Hydra's error over many lines: each swept value is composed here first,
     with the other overrides, and the first that fails is one line. Values a job's own check refuses are
     left to the job (recorded in its ``error.txt``; the sweep goes on)."""
-    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.core.override_parser.overrides_parser import OverridesParser  # Hydra internals: sweeps only
 
     words = [a for a in args if not a.startswith("-")]
     try:

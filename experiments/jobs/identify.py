@@ -5,7 +5,7 @@
 
 On a dataset cell it writes the per-replicate results table (``out``, or ``results.csv`` in the run
 directory) and beside it ``<table>.json``, the job's record: its resolved config, the dataset's digest,
-the code version and package versions (what the workflow's tracking step reads). On a CSV it prints the
+the code version and package versions (what the workflow's runlog step reads). On a CSV it prints the
 estimates and writes ``estimate.json`` in the run directory. Either way the job is logged to MLflow unless
 ``runlog.enabled=false`` (the workflow logs in one serial step): a cell's job in the experiment
 ``runlog.experiment`` (default ``identify``), a user's CSV in the experiment ``measurements``.
@@ -209,15 +209,15 @@ def run_job(cfg, run_dir: Path, config_name: str | None, sweep: bool = False) ->
     record_path = write_json(out.with_suffix(".json"), record)
     print(f"wrote {out} and {record_path}")
     if cfg.runlog.enabled:
-        from experiments.runlog.identify_runs import log_job  # pandas (0.4 s): tracked jobs only
+        from experiments.runlog.identify_runs import log_job  # pandas (0.4 s): jobs logged to MLflow only
 
         key, _, created = log_job(cfg.runlog.experiment, record, out, record_path)
         print(f"MLflow experiment {cfg.runlog.experiment}: run {key} ({'logged' if created else 'already there'})")
     if cfg.runlog.enabled or sweep:
         import pandas as pd  # 0.4 s of start-up: only a tracked or swept job scores its cell here
 
-        from experiments.report.objective import cell_objective
-        from experiments.report.summary import summarize
+        from experiments.report.objective import cell_objective  # pandas, as above
+        from experiments.report.summary import summarize  # pandas, as above
 
         # A sweeper's objective (any Hydra sweeper minimises what the job returns): log10 of the median
         # RMSE/CRLB over modes + a failure penalty, as the tuning command (experiments/report/objective.py)
@@ -241,7 +241,7 @@ def rows_to_csv(rows: list[dict]) -> str:
 def _run_measurement(cfg, data: dict, run_dir: Path, config_name: str | None, options: dict) -> None:
     """A user's measurement: the notes on what was read and chosen, the modes (the prior, or the
     stabilisation diagram's), the method, then the answer, the figure and the MLflow run."""
-    from experiments.jobs import measurements
+    from experiments.jobs import measurements  # pandas and the readers: only for a user's file
 
     measurements.print_notes(data)
     diagram = None

@@ -176,7 +176,7 @@ def main(argv=None) -> int:
                     help="folders of paper reproductions to link from the page")
     ap.add_argument("--page", type=Path, default=None,
                     help="the summary page to write (default: <out>/README.md; the workflow writes "
-                         "<out>/summary.md and the tracking step makes README.md of it)")
+                         "<out>/summary.md and the runlog step makes README.md of it)")
     ap.add_argument("--yardstick", nargs="*", type=Path, default=[],
                     help="the grid's Bayesian yardstick table (experiments.jobs.yardstick), if it has one")
     ap.add_argument("results", nargs="+", type=Path, help="per-job result tables (CSV)")

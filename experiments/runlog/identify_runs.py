@@ -28,6 +28,7 @@ from experiments.cli import ArgumentParser
 from experiments.io import atomic_write_text, write_json
 from experiments.provenance import canonical_json, digest, git_state
 from experiments.report.summary import job_metrics, summarize
+from experiments.runlog.pending import log_all
 from experiments.runlog.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
 from experiments.runlog.store import check_store, dataset_entity, log_run, source_tags
 
@@ -121,7 +122,6 @@ def main(argv=None) -> int:
     except ValueError as exc:              # checked before anything is logged: one line, nothing written
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    from experiments.runlog.pending import log_all
 
     log_all()       # measurement runs a job left waiting (experiments/runlog/pending.py), if any
     child_keys = [run_key(rec) for _, _, rec in jobs]

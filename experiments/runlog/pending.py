@@ -16,7 +16,7 @@ key, under the store's lock), then renames the folder's ``mlflow_pending.json`` 
 Nothing is lost. Until a run is logged the marker ``mlflow_pending.json`` stays in its folder and the
 folder in the queue: a logger killed (even ``kill -9``) before or while logging leaves both, and a run it
 left RUNNING is replaced by the next logger (``log_run``'s cut-off rule). The next job's logger, this
-command, and the workflow's tracking step (``experiments.runlog.identify_runs``) log what is left. Two loggers at
+command, and the workflow's runlog step (``experiments.runlog.identify_runs``) log what is left. Two loggers at
 once (two jobs sharing a store) take turns on the store's lock, and a run key is logged once.
 """
 
@@ -31,7 +31,7 @@ from pathlib import Path
 
 from experiments.io import atomic_write_text
 from experiments.provenance import digest
-from experiments.runlog.store import lock_path, tracking_uri
+from experiments.runlog.store import check_store, dataset_entity, lock_path, log_run, tracking_uri
 
 __all__ = ["PENDING", "LOGGED", "LOG", "queue_dir", "enqueue", "start_logger", "waiting", "log_folder", "log_all",
            "main"]
@@ -106,7 +106,6 @@ def waiting(folders: list[Path] = (), uri: str | None = None) -> list[Path]:
 def log_folder(run_dir: Path) -> tuple[str, str, bool] | None:
     """Log the run waiting in ``run_dir``: (run key, run id, newly created), or None when another logger
     logged it meanwhile. Raises ``ValueError`` for a marker written for another store."""
-    from experiments.runlog.store import dataset_entity, log_run
 
     run_dir = Path(run_dir)
     try:
@@ -161,7 +160,6 @@ def main(argv=None) -> int:
         if not folder.is_dir():
             print(f"error: {folder}: no such folder", file=sys.stderr)
             return 2
-    from experiments.runlog.store import check_store
 
     try:
         check_store()

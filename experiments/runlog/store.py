@@ -1,4 +1,4 @@
-"""MLflow tracking with an embedded default, safe under concurrent processes, with idempotent runs.
+"""MLflow run logging with an embedded default, safe under concurrent processes, with idempotent runs.
 
 Default store: SQLite at ``results/mlflow.db`` with artifacts under ``results/mlartifacts/<experiment>``
 (no server); ``MLFLOW_TRACKING_URI`` in the environment wins (a server, PostgreSQL, ...). A run is
@@ -148,7 +148,7 @@ def client(uri: str | None = None):
     """
     uri = uri or tracking_uri()
     if uri not in _CLIENTS:
-        import mlflow  # imported here: ~2 s, and only the tracking steps need it
+        import mlflow  # imported here: ~2 s, and only the runlog steps need it
 
         with store_lock(uri):            # the client may open the store on construction (tracing)
             path = sqlite_path(uri)
@@ -196,7 +196,7 @@ def log_run(experiment: str, run_key: str, *, params: dict | None = None, metric
     ``mlflow.entities.Dataset`` logged as the run's input; ``parent_run_id`` makes it a child run (an
     existing run with the key is moved under that parent).
     """
-    from mlflow.entities import DatasetInput, InputTag, Metric, Param  # mlflow: ~2 s, tracking steps only
+    from mlflow.entities import DatasetInput, InputTag, Metric, Param  # mlflow: ~2 s, runlog steps only
 
     uri = tracking_uri()
     c = client(uri)
@@ -262,7 +262,7 @@ def _owner_gone(run) -> bool:
 
 def dataset_entity(name: str, digest_: str, source: str, *, kind: str, profile: dict | None = None):
     """An MLflow dataset (name, digest, source) for ``log_run(dataset=...)``."""
-    from mlflow.entities import Dataset  # mlflow: ~2 s, tracking steps only
+    from mlflow.entities import Dataset  # mlflow: ~2 s, runlog steps only
 
     return Dataset(name=name, digest=digest_[:36], source_type="local",
                    source=json.dumps({"uri": str(source)}),

@@ -14,7 +14,9 @@ from __future__ import annotations
 import itertools
 from pathlib import Path
 
+import jsonschema
 import yaml
+from omegaconf import OmegaConf
 
 from experiments import paths
 from experiments.simulate.plant import PlantConfig
@@ -38,7 +40,6 @@ def grid_path(name_or_path: str) -> Path:
 
 def paper_plant() -> PlantConfig:
     """The grids' plant, configs/plant/paper.yaml (read by OmegaConf, whose YAML reads ``70.0e9`` as a number)."""
-    from omegaconf import OmegaConf
 
     values = OmegaConf.to_container(OmegaConf.load(paths.PLANT_CONFIG))
     return PlantConfig(**{k: v for k, v in values.items() if k != "defaults"})
@@ -47,7 +48,6 @@ def paper_plant() -> PlantConfig:
 def load_grid(name_or_path: str, *, check_cells: bool = True) -> dict:
     """The grid, validated, with ``cells``: name -> :class:`TrackingCellConfig`. ``ValueError`` (one line,
     naming the file and the key or the cell) for a bad grid."""
-    import jsonschema
 
     path = grid_path(name_or_path)
     if not path.is_file():

@@ -19,6 +19,7 @@ optuna < 3, and a sweep of the identify job scores one cell per job, where a tri
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import sys
@@ -41,12 +42,17 @@ from experiments.io import atomic_write_text
 from experiments.jobs.app import run_app
 from experiments.jobs.config import register
 from experiments.jobs.identify import run_records
-from experiments.report.objective import objective
+from experiments.jobs.track_job import track_record
+from experiments.report.objective import mode_failed, objective, track_objective
 from experiments.report.scoring import COLUMNS, replicate_rows
 from experiments.report.summary import summarize
+from experiments.report.tracking_metrics import score_track
 from experiments.runlog.store import DEFAULT_DB, git_commit, log_run
 from experiments.simulate.datasets import DatasetConfig, make_cell
+from experiments.simulate.tracking_data import TrackingCellConfig, check_cell_config
+from experiments.simulate.tracking_data import make_cell as make_track_cell
 from experiments.simulate.tracking_grid import DEFAULTS as TRACKING_DEFAULTS
+from experiments.simulate.tracking_grid import paper_plant
 from experiments.tuning.space import base_params, check_space, suggest_options
 
 __all__ = ["CellConfig", "TrackCellConfig", "TuningConfig", "TuneApp", "scoring_seeds", "check",
@@ -143,15 +149,12 @@ def check(cfg) -> None:
 
 def track_base_options(t) -> dict:
     """A tracking study's starting point: the tracker's defaults (the grids' plain row) with ``fixed`` over."""
-    import dataclasses
 
     defaults = dataclasses.asdict(methods.track_options_class(t.method)())
     return {**defaults, **OmegaConf.to_container(t.fixed, resolve=True)}
 
 
 def track_cell_configs(t) -> list:
-    from experiments.simulate.tracking_data import TrackingCellConfig
-    from experiments.simulate.tracking_grid import paper_plant
 
     plant = paper_plant()
     return [TrackingCellConfig(schedule=OmegaConf.to_container(c.schedule, resolve=True),
@@ -163,7 +166,6 @@ def track_cell_configs(t) -> list:
 
 
 def check_track(t) -> None:
-    from experiments.simulate.tracking_data import check_cell_config
 
     if t.method not in methods.track_names():
         raise ValueError(f"tuning.method = '{t.method}' is not a tracker; known: {', '.join(methods.track_names())}")
@@ -229,7 +231,6 @@ def study_name(t) -> str:
 
 
 def simulate_track_cells(t) -> list[dict]:
-    from experiments.simulate.tracking_data import make_cell as make_track_cell
 
     return [make_track_cell(cfg, bounds=False) for cfg in track_cell_configs(t)]
 
@@ -240,9 +241,6 @@ def track_cell_label(c, i: int) -> str:
 
 def evaluate_track(name: str, options: dict, cells: list[dict], labels: list[str], penalty: float):
     """Run the tracker on every record of every cell; the objective's parts and the per-record table."""
-    from experiments.jobs.track_job import track_record
-    from experiments.report.objective import mode_failed, track_objective
-    from experiments.report.tracking_metrics import score_track
 
     rows = []
     for label, cell in zip(labels, cells, strict=True):

@@ -27,11 +27,13 @@ mode moves over the record: :func:`attach` adds it to the reported std of a drif
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.special
 
+from methods.pem import _chirp
 from methods.pem.predictor import modal_basis
 
 MIN_SEGMENT_SAMPLES = 64
@@ -248,7 +250,6 @@ def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts, fit):
     ``extra["drift_reported"]`` says which, per mode ("" for a mode whose segments agree: the frequency at
     the amplitude the record holds), and so does the message. A white residual, ``drift_segments = 0`` or a
     record too short for the segments: the estimate unchanged. ``fit``: pem's fit (see :func:`segment_drift`)."""
-    import dataclasses
 
     check = est.extra.get("residual_check")
     k = int(opts.drift_segments)
@@ -308,9 +309,7 @@ def _small_amplitude(est, y, dt, extra, report, drifting):
     std (its frequency at the amplitude the record holds). Reporting ω₀ for the drifting modes only mixed
     two quantities: a window whose drift test missed a drift answered its own average, many of its std
     from the other window's ω₀ (docs/uncertainty.md §5)."""
-    import dataclasses
 
-    from methods.pem import _chirp
 
     fit = _chirp.fit(y, dt, est.frequencies, np.asarray(est.extra["damping"], float))
     extra["backbone"] = fit

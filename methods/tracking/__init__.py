@@ -19,6 +19,11 @@ present by a local-linear-trend Kalman filter (:mod:`methods.tracking._trend`).
 Each tracker's options are a dataclass (:func:`track_options_class`) whose defaults are the tracker's;
 :func:`check_track_options` checks them without a record (with ``n_samples``: against the record's length too).
 Nothing here imports the experiments, Hydra, MLflow or files. See methods/tracking/README.md.
+
+Where the code lives: a method family keeps its numerics, batch or sample by sample (``methods.kalman.online``:
+the filters with a causal P0 and restarts; ``methods.pll``: the loop bank, online by design); this package
+holds every tracker, one private module each (``_kalman``, ``_pll``: adapters of the families' runs to
+:class:`Track`; ``_windowed``, ``_rls_ar``, ``_next_era``, ``_gated_pencil``: trackers of no family), and the face.
 """
 
 from __future__ import annotations

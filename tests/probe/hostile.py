@@ -601,9 +601,9 @@ def fault_cases(fix: Path) -> list[Case]:
     out.append(Case("fault", "tiny grid run", [], expect="accept", run=baseline, timeout=900,
                     setup=lambda w: run_sh_copy(w, TINY, "tiny")))
     out.append(Case("fault", "a deleted dataset, rerun", [], expect="accept", run=deleted_dataset, timeout=900))
-    out.append(Case("fault", "store truncated to half: a tracked job", [], run=truncated(0.5), timeout=300,
+    out.append(Case("fault", "store truncated to half: a job logged to MLflow", [], run=truncated(0.5), timeout=300,
                     check=lambda w, p: "run folder written" if ref.get("runs_0.5") else None))
-    out.append(Case("fault", "store truncated to zero: a tracked job", [], run=truncated(0.0), timeout=300,
+    out.append(Case("fault", "store truncated to zero: a job logged to MLflow", [], run=truncated(0.0), timeout=300,
                     check=lambda w, p: "run folder written" if ref.get("runs_0.0") else None))
     out.append(Case("fault", "store truncated to half: the workflow", [], run=truncated_workflow, timeout=900))
     out.append(Case("fault", "kill -9 and rerun", [], expect="accept", run=killed, timeout=1200,

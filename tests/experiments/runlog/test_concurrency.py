@@ -70,7 +70,7 @@ def test_racing_processes_log_every_run_exactly_once_on_a_fresh_then_a_used_stor
     assert sorted(r.data.tags["run_key"] for r in runs) == [f"key/{k}" for k in range(6)]
     assert all(r.info.status == "FINISHED" for r in runs)
 
-    # used store: the workflow's tracking step, 4 at once over the same two jobs
+    # used store: the workflow's runlog step, 4 at once over the same two jobs
     a, _ = cells
     tables = []
     for method in ("fft", "pll"):

@@ -130,7 +130,7 @@ def test_two_loggers_at_once_log_each_run_once(mlflow_uri, tmp_path):
 
 @pytest.mark.slow
 def test_the_job_answers_first_and_its_run_is_logged_in_the_background(measurement, tmp_path):
-    """The identify job on a CSV with tracking on (the default): the answer and the run folder are there
+    """The identify job on a CSV with MLflow logging on (the default): the answer and the run folder are there
     when it exits, the MLflow run follows; the command logs (or finds logged) the run."""
     out = identify(tmp_path, "method=fft", f"data.path={measurement}", "prior=[3.8,16,26,46]",
                    "hydra.run.dir=run")
