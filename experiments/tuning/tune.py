@@ -48,9 +48,9 @@ from experiments.report.scoring import COLUMNS, replicate_rows
 from experiments.report.summary import summarize
 from experiments.report.tracking_metrics import score_track
 from experiments.runlog.store import DEFAULT_DB, git_commit, log_run
+from experiments.simulate import tracking_data
 from experiments.simulate.datasets import DatasetConfig, make_cell
 from experiments.simulate.tracking_data import TrackingCellConfig, check_cell_config
-from experiments.simulate.tracking_data import make_cell as make_track_cell
 from experiments.simulate.tracking_grid import DEFAULTS as TRACKING_DEFAULTS
 from experiments.simulate.tracking_grid import paper_plant
 from experiments.tuning.space import base_params, check_space, suggest_options
@@ -232,7 +232,7 @@ def study_name(t) -> str:
 
 def simulate_track_cells(t) -> list[dict]:
 
-    return [make_track_cell(cfg, bounds=False) for cfg in track_cell_configs(t)]
+    return [tracking_data.make_cell(cfg, bounds=False) for cfg in track_cell_configs(t)]
 
 
 def track_cell_label(c, i: int) -> str:
