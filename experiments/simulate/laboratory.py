@@ -274,3 +274,37 @@ def make_lab_cell(cfg: LaboratoryCellConfig) -> dict[str, np.ndarray]:
             "rng": "numpy.random.default_rng([seed, round(noise_ug*1000), N, replicate, stream])",
             "decimation": "scipy.signal.resample_poly(x - mean, 1, decimate) + mean"}, sort_keys=True, default=float)),
     }
+
+
+def main(argv=None) -> None:
+    """``python -m experiments.simulate.laboratory rec.csv [--modes 1] [--seed 1] [--duration-s 12]``: one
+    laboratory record as a logger's CSV at the converter's rate (time stamps printed to 1 µs, the sensor's
+    output in g: volts / sensitivity, offset and quantisation included), the example of docs/measurements.md."""
+    from experiments.cli import ArgumentParser
+    from experiments.io import atomic_path
+
+    parser = ArgumentParser(description=main.__doc__.splitlines()[0])
+    parser.add_argument("out")
+    parser.add_argument("--modes", type=int, default=1)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--duration-s", type=float, default=12.0)
+    a = parser.parse_args(argv)
+    cfg = LaboratoryCellConfig(lab=LaboratoryConfig(n_modes=a.modes), duration_s=a.duration_s, replicates=1,
+                               seed=a.seed)
+    try:
+        check_laboratory(cfg)
+    except ValueError as exc:
+        parser.error(str(exc))
+    rec = lab_record(cfg, 0)
+    t = np.arange(rec.volts.size) / cfg.lab.fs_hz
+    with atomic_path(a.out) as tmp:
+        np.savetxt(tmp, np.column_stack([t, rec.volts / cfg.lab.sensitivity_v_per_g]), fmt=["%.6f", "%.7e"],
+                   delimiter=",", header="t,accel [g]", comments="")
+    moves = ", ".join(f"{k / cfg.lab.fs_hz:.3f}" for k in rec.steps)
+    levels = np.unique(rec.freq_rad_s[:, 0]).size
+    print(f"wrote {a.out}: {t.size} samples at {cfg.lab.fs_hz:g} Hz; mode 1 from "
+          f"{rec.freq_rad_s[0, 0] / (2 * np.pi):.4g} Hz over {levels} levels, moves at {moves} s")
+
+
+if __name__ == "__main__":
+    main()
