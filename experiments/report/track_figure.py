@@ -10,6 +10,7 @@ envelope per pixel column when denser than the plot).
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -51,8 +52,8 @@ def track_figure(stem, *, y, dt: float, t0: float, t_s, freq_rad_s, std_rad_s, c
     f_hz = np.asarray(freq_rad_s, float) / (2 * np.pi)
     s_hz = np.asarray(std_rad_s, float) / (2 * np.pi)
     conv = np.asarray(converged, bool)
-    with np.errstate(all="ignore"):
-        slowest = float(np.nanmin(np.nanmedian(np.where(np.isfinite(f_hz), f_hz, np.nan), axis=0))) * 2 * np.pi
+    with np.errstate(all="ignore"), warnings.catch_warnings(action="ignore", category=RuntimeWarning):
+        slowest = float(np.nanmin(np.nanmedian(f_hz, axis=0))) * 2 * np.pi      # a mode never tracked: NaN
     nperseg = spectrogram_window(y.size, dt, slowest if np.isfinite(slowest) and slowest > 0 else np.nan)
     # zero-padded to 8× the window: the same resolution, drawn smoothly (a line between bins is visible)
     f, tt, p = spectrogram(y - y.mean(), fs=1.0 / dt, window="hann", nperseg=nperseg, nfft=8 * nperseg,
@@ -74,18 +75,18 @@ def track_figure(stem, *, y, dt: float, t0: float, t_s, freq_rad_s, std_rad_s, c
         color = f"C{(i + 3) % 10}"
         lo, hi = f_hz[:, i] - 2 * s_hz[:, i], f_hz[:, i] + 2 * s_hz[:, i]
         ax.fill_between(t_s, lo, hi, where=np.isfinite(lo) & np.isfinite(hi), color=color, alpha=0.35, lw=0,
-                        step="post", label=f"mode {i + 1} ±2σ")
+                        step="post")
         ax.plot(t_s, np.where(conv[:, i], f_hz[:, i], np.nan), color=color, lw=1.2, drawstyle="steps-post",
-                label=f"mode {i + 1} (converged)")
+                label=f"mode {i + 1}" + ("" if np.isfinite(f_hz[:, i]).any() else " (never tracked)"))
         ax.plot(t_s, np.where(conv[:, i], np.nan, f_hz[:, i]), color=color, lw=0.8, ls=":",
                 drawstyle="steps-post")
     ax.set_ylim(0, fmax)
     ax.set_ylabel("frequency (Hz)")
     ax.set_title(title, fontsize=10)
-    ax.legend(loc="upper right", fontsize=7, ncol=2, framealpha=0.8)
+    ax.legend(loc="upper right", fontsize=7, ncol=min(3, f_hz.shape[1]), framealpha=0.8)
     ax.text(0.01, 0.02, f"spectrogram: Hann {nperseg} samples ({nperseg * dt:.3g} s, resolution "
                         f"{1 / (nperseg * dt):.3g} Hz), at window centres; "
-                        "track: at its last sample (causal); dotted: not converged",
+                        "track (±2σ shaded): at its last sample (causal); dotted: not converged",
             transform=ax.transAxes, fontsize=7, color="k", backgroundcolor=(1, 1, 1, 0.7))
     ax.tick_params(labelbottom=False)
     columns = int(np.ceil(ax_rec.get_position().width * fig.get_figwidth() * DPI))
