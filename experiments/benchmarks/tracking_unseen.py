@@ -207,7 +207,7 @@ def main(argv=None) -> None:
         other_configs(args.seed, args.replicates)
     except ValueError as exc:                  # a cell the simulator refuses: one line, before any work
         parser.exit(2, f"error: {exc}\n")
-    from threadpoolctl import threadpool_limits
+    from threadpoolctl import threadpool_limits  # only the command sets the thread pool
 
     # One BLAS thread (the OPENBLAS_NUM_THREADS above comes too late under `python -m`: the package's
     # __init__ has imported numpy by then); as the grid's jobs, experiments/jobs/track_job.py

@@ -15,13 +15,14 @@ variant file of ``configs/tracker/`` (``tracker=akf_tuned``), ``tracker.options.
 (checked by Hydra against the tracker's options dataclass, then by ``methods.check_track_options`` against
 the record); only the options given are passed, the rest are the tracker's own defaults.
 
-Written in the run folder (``results/runs/<time>_track_<tracker>/``, or ``hydra.run.dir=``): ``track.csv``
+Written in the run folder (``results/runs/<time>_track/``, or ``hydra.run.dir=``): ``track.csv``
 (file time, then per mode the frequency in Hz and rad/s, its 1σ and the tracker's converged flag),
 ``track.json`` (the same arrays, the prior and how it was found, the record, the segment, the tracker's
 options and message) and ``track.png``/``.svg`` (:mod:`experiments.report.track_figure`: the spectrogram with
 the tracked frequencies and their ±2σ band, the record below). The run is then logged to MLflow
-(experiment ``measurement-tracks``) by the identify job's background logger (:mod:`experiments.tracking.pending`)
-after the answer; ``mlflow.enabled=false`` skips it, ``mlflow.background=false`` logs in the job.
+(experiment ``measurement-tracks``) after the answer by a detached ``python -m experiments.runlog.file_tracks``,
+which queues it for the identify job's logger (:mod:`experiments.runlog.pending`) and logs it;
+``mlflow.enabled=false`` skips it, ``mlflow.background=false`` waits for it.
 
 Bad input — no such file, a bad format or channel, an unknown tracker or option, a bad prior, a window longer
 than the record — gets one line ``error: ...`` and exit status 2 before any work; nothing is written.
@@ -34,6 +35,7 @@ import dataclasses
 import functools
 import io
 import os
+import subprocess
 import sys
 from dataclasses import field
 from pathlib import Path
@@ -48,7 +50,7 @@ import methods
 from experiments.config_schema import DataConfig, TrackingConfig
 from experiments.io import atomic_write_text, write_json
 from experiments.jobs.app import fail, run_app
-from experiments.jobs.track_variants import VARIANT_DIR
+from experiments.paths import TRACKER_CONFIGS
 from methods.tracking import track_options_class
 
 __all__ = ["DEFAULT_TRACKER", "EXPERIMENT", "FIRST_STRETCH_FRACTION", "FIRST_STRETCH_MIN_SAMPLES", "SOURCE",
@@ -59,6 +61,8 @@ __all__ = ["DEFAULT_TRACKER", "EXPERIMENT", "FIRST_STRETCH_FRACTION", "FIRST_STR
 DEFAULT_TRACKER = "gated_pencil"
 EXPERIMENT = "measurement-tracks"
 SOURCE = "experiments/jobs/track_file.py"
+RUNLOG_MODULE = "experiments.runlog.file_tracks"     # logs this job's run (started as a command, not imported)
+RUN_FILE = "mlflow_track_run.json"                   # the run, ready to log (experiments/runlog/file_tracks.py)
 FIRST_STRETCH_FRACTION = 0.1      # without a prior, the modes come from this share of the record...
 FIRST_STRETCH_MIN_SAMPLES = 64    # ...but at least this many (a stabilisation diagram to order 15; a segment's least)
 
@@ -90,7 +94,7 @@ def tracker_named_on(argv: list[str]) -> str:
     exit 2 for an unknown one."""
     named = [a.split("=", 1)[1].strip("'\"") for a in argv if a.startswith("tracker=")]
     name = named[-1] if named else DEFAULT_TRACKER
-    variants = sorted(p.stem for p in VARIANT_DIR.glob("*.yaml"))
+    variants = sorted(p.stem for p in TRACKER_CONFIGS.glob("*.yaml"))
     if name not in methods.track_names() and name not in variants:
         fail(f"unknown tracker '{name}'; known trackers: {', '.join(methods.track_names())} "
              f"(variants: {', '.join(variants)})")
@@ -148,8 +152,8 @@ def load(cfg) -> dict:
 
 @functools.lru_cache(maxsize=4)
 def _load(path, _stamp, channel, units, dt, start_s, stop_s, band_hz, cover_hz) -> dict:
-    from experiments.jobs.measurements import INSTALL_HINT
-    from experiments.recordings import choose_segment, read_record
+    from experiments.jobs.modes_found import INSTALL_HINT  # the readers: only once the file is read
+    from experiments.recordings import choose_segment, read_record  # (cached per file, the pre-check and the task ask)
 
     try:
         rec = read_record(path, channel=channel, units=units, dt=dt)
@@ -196,14 +200,14 @@ def check(cfg) -> None:
         methods.check_track_options(name, prior, dt, changed_options(cfg), n_samples=y.size)
     except ValueError as exc:
         raise ValueError(f"tracker {label}: {exc}") from None
-    if cfg.mlflow.enabled:
-        from experiments.tracking.store import check_store
-
-        check_store()          # an empty or corrupt store: one line now, not after the work
+    if cfg.mlflow.enabled:     # an empty or corrupt store: one line now, not after the work
+        proc = subprocess.run([sys.executable, "-m", RUNLOG_MODULE, "--check"], capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise ValueError(proc.stderr.strip().removeprefix("error: ") or "the MLflow store cannot be checked")
 
 
 def task(cfg) -> None:
-    from threadpoolctl import threadpool_limits
+    from threadpoolctl import threadpool_limits  # the job only: a test of its parts needs none
 
     # One BLAS thread, as the tracking grid's jobs (experiments/jobs/track_job.py): the trackers' matrices are
     # small, and threads that wait on them cost more CPU than they save (era 3.5 ms instead of 0.24 ms per
@@ -221,7 +225,7 @@ def _task(cfg) -> None:
         print(f"{name}: {note}")
     how, short = f"the prior given ({label} from it)", "from the prior given"
     if cfg.prior is None:
-        from experiments.jobs.measurements import find_modes
+        from experiments.jobs.modes_found import find_modes  # pyOMA2 (0.4 s): only without a prior
 
         n0 = first_stretch(data, cfg.first_stretch_s)
         stretch = {**data, "segment": dataclasses.replace(data["segment"], y=data["y"][:n0])}
@@ -261,7 +265,7 @@ def track_csv(t_s: np.ndarray, freq: np.ndarray, std: np.ndarray, converged: np.
 
 def _report(label: str, data, prior, how, options, trk, run_dir: Path) -> list[Path]:
     """Print the track's summary; write track.csv, track.json and the figure; return the paths."""
-    from experiments.report.track_figure import track_figure
+    from experiments.report.track_figure import track_figure  # matplotlib and scipy.signal: after the answer
 
     how, short = how
     t_file = data["t0"] + trk.t_s
@@ -302,10 +306,10 @@ def _report(label: str, data, prior, how, options, trk, run_dir: Path) -> list[P
 
 
 def _log(cfg, label: str, data, prior, options, trk, paths: list[Path], run_dir: Path) -> None:
-    """Queue the run for MLflow and start the background logger (the identify job's,
-    :mod:`experiments.tracking.pending`): the job does not wait for MLflow."""
-    from experiments.tracking import pending, provenance
-    from experiments.tracking.store import source_tags
+    """Write the run, ready to log, and hand it to :mod:`experiments.runlog.file_tracks` (queued for MLflow
+    like the identify job's run, and logged by that process, detached: the job does not wait for MLflow).
+    A frequency-tracking module imports no MLflow logging (tests/test_names.py): it starts the command."""
+    from experiments import provenance  # the code and file digests: only a logged run needs them
 
     code = provenance.git_state()
     ds = {"name": Path(data["source"]).name, "digest": provenance.file_digest(data["source"])}
@@ -323,19 +327,27 @@ def _log(cfg, label: str, data, prior, options, trk, paths: list[Path], run_dir:
         last = np.flatnonzero(np.isfinite(trk.frequencies[:, i]))
         if last.size:
             metrics[f"final_freq_rad_s.mode{i + 1}"] = float(trk.frequencies[last[-1], i])
-    pending.enqueue(run_dir, cfg.mlflow.experiment, key, params=params, metrics=metrics, artifacts=paths,
-                    texts={"config.yaml": OmegaConf.to_yaml(OmegaConf.create(config))},
-                    dataset={"name": ds["name"], "digest_": ds["digest"], "source": data["source"],
-                             "kind": "measurement"},
-                    tags={**source_tags(SOURCE, code), "kind": "measurement-track", "tracker": label})
+    tags = {"mlflow.source.name": SOURCE, "mlflow.source.type": "LOCAL", "git_dirty": str(bool(code["dirty"])).lower(),
+            "kind": "measurement-track", "tracker": label}
+    if code.get("commit", "unknown") != "unknown":
+        tags["mlflow.source.git.commit"] = code["commit"]
+    write_json(run_dir / RUN_FILE, {
+        "experiment": cfg.mlflow.experiment, "run_key": key, "params": {k: str(v) for k, v in params.items()},
+        "metrics": metrics, "tags": tags, "texts": {"config.yaml": OmegaConf.to_yaml(OmegaConf.create(config))},
+        "dataset": {"name": ds["name"], "digest_": ds["digest"], "source": data["source"], "kind": "measurement"},
+        "artifacts": [p.name for p in paths]})
+    command = [sys.executable, "-m", RUNLOG_MODULE, str(run_dir)]
     if cfg.mlflow.background:
-        pending.start_logger(run_dir)
+        with open(run_dir / "mlflow_log.txt", "ab") as out:
+            subprocess.Popen(command, cwd=os.getcwd(), stdin=subprocess.DEVNULL, stdout=out,
+                             stderr=subprocess.STDOUT, start_new_session=True, close_fds=True)
         print(f"MLflow experiment {cfg.mlflow.experiment}: run {key} is being logged by a background process "
-              f"(its output: {run_dir / pending.LOG})")
+              f"(its output: {run_dir / 'mlflow_log.txt'})")
         return
-    out = pending.log_folder(run_dir)
-    print(f"MLflow experiment {cfg.mlflow.experiment}: run {key} "
-          f"({'logged' if out is not None and out[2] else 'already there'})")
+    proc = subprocess.run([*command, "--now"], capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"logging the run to MLflow failed: {proc.stderr.strip()[-500:]}")
+    print(f"MLflow experiment {cfg.mlflow.experiment}: {proc.stdout.strip()}")
 
 
 def main() -> None:

@@ -280,8 +280,8 @@ def main(argv=None) -> None:
     """``python -m experiments.simulate.laboratory rec.csv [--modes 1] [--seed 1] [--duration-s 12]``: one
     laboratory record as a logger's CSV at the converter's rate (time stamps printed to 1 µs, the sensor's
     output in g: volts / sensitivity, offset and quantisation included), the example of docs/measurements.md."""
-    from experiments.cli import ArgumentParser
-    from experiments.io import atomic_path
+    from experiments.cli import ArgumentParser  # the command only: the grids import this module
+    from experiments.io import atomic_path  # (as above)
 
     parser = ArgumentParser(description=main.__doc__.splitlines()[0])
     parser.add_argument("out")

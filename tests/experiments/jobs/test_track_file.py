@@ -86,7 +86,7 @@ def test_held_frequency_from_a_csv_is_tracked_and_logged(files, tmp_path):
     assert np.allclose(rows["mode1_freq_hz"] * 2 * np.pi, rows["mode1_freq_rad_s"], equal_nan=True)
     png = (run / "track.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000 and (run / "track.svg").is_file()
-    logged = json.loads((run / "mlflow_run.json").read_text())
+    logged = json.loads((run / "mlflow_run.json").read_text())          # the runlog stage logged it
     assert out["tracker"] == "gated_pencil" and out["options"] == {}
     assert logged["experiment"] == "measurement-tracks"
     assert logged["run_key"].startswith("measurement/track:gated_pencil/held.csv/")
