@@ -22,7 +22,7 @@ options and message) and ``track.png``/``.svg`` (:mod:`experiments.report.track_
 the tracked frequencies and their ±2σ band, the record below). The run is then logged to MLflow
 (experiment ``measurement-tracks``) after the answer by a detached ``python -m experiments.runlog.file_tracks``,
 which queues it for the identify job's logger (:mod:`experiments.runlog.pending`) and logs it;
-``mlflow.enabled=false`` skips it, ``mlflow.background=false`` waits for it.
+``runlog.enabled=false`` skips it, ``runlog.background=false`` waits for it.
 
 Bad input — no such file, a bad format or channel, an unknown tracker or option, a bad prior, a window longer
 than the record — gets one line ``error: ...`` and exit status 2 before any work; nothing is written.
@@ -47,7 +47,7 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import MISSING, OmegaConf
 
 import methods
-from experiments.config_schema import DataConfig, TrackingConfig
+from experiments.config_schema import DataConfig, RunlogConfig
 from experiments.io import atomic_write_text, write_json
 from experiments.jobs.app import fail, run_app
 from experiments.paths import TRACKER_CONFIGS
@@ -85,7 +85,7 @@ class TrackFileConfig:
     prior: list[float] | None = None          # rad/s; None: from a stabilisation diagram of the first stretch
     n_modes: int | None = None                # without a prior: at most this many modes
     first_stretch_s: float | None = None      # the stretch the modes are found on, s (None: module docstring)
-    mlflow: TrackingConfig = field(default_factory=lambda: TrackingConfig(experiment=EXPERIMENT))
+    runlog: RunlogConfig = field(default_factory=lambda: RunlogConfig(experiment=EXPERIMENT))
     progress: bool = True
 
 
@@ -200,7 +200,7 @@ def check(cfg) -> None:
         methods.check_track_options(name, prior, dt, changed_options(cfg), n_samples=y.size)
     except ValueError as exc:
         raise ValueError(f"tracker {label}: {exc}") from None
-    if cfg.mlflow.enabled:     # an empty or corrupt store: one line now, not after the work
+    if cfg.runlog.enabled:     # an empty or corrupt store: one line now, not after the work
         proc = subprocess.run([sys.executable, "-m", RUNLOG_MODULE, "--check"], capture_output=True, text=True)
         if proc.returncode != 0:
             raise ValueError(proc.stderr.strip().removeprefix("error: ") or "the MLflow store cannot be checked")
@@ -241,7 +241,7 @@ def _task(cfg) -> None:
               file=sys.stderr, flush=True)
     trk = methods.track(tracker, data["y"], data["dt"], prior, **options)
     paths = _report(label, data, prior, (how, short), options, trk, run_dir)
-    if cfg.mlflow.enabled:
+    if cfg.runlog.enabled:
         _log(cfg, label, data, prior, options, trk, paths, run_dir)
 
 
@@ -332,22 +332,22 @@ def _log(cfg, label: str, data, prior, options, trk, paths: list[Path], run_dir:
     if code.get("commit", "unknown") != "unknown":
         tags["mlflow.source.git.commit"] = code["commit"]
     write_json(run_dir / RUN_FILE, {
-        "experiment": cfg.mlflow.experiment, "run_key": key, "params": {k: str(v) for k, v in params.items()},
+        "experiment": cfg.runlog.experiment, "run_key": key, "params": {k: str(v) for k, v in params.items()},
         "metrics": metrics, "tags": tags, "texts": {"config.yaml": OmegaConf.to_yaml(OmegaConf.create(config))},
         "dataset": {"name": ds["name"], "digest_": ds["digest"], "source": data["source"], "kind": "measurement"},
         "artifacts": [p.name for p in paths]})
     command = [sys.executable, "-m", RUNLOG_MODULE, str(run_dir)]
-    if cfg.mlflow.background:
+    if cfg.runlog.background:
         with open(run_dir / "mlflow_log.txt", "ab") as out:
             subprocess.Popen(command, cwd=os.getcwd(), stdin=subprocess.DEVNULL, stdout=out,
                              stderr=subprocess.STDOUT, start_new_session=True, close_fds=True)
-        print(f"MLflow experiment {cfg.mlflow.experiment}: run {key} is being logged by a background process "
+        print(f"MLflow experiment {cfg.runlog.experiment}: run {key} is being logged by a background process "
               f"(its output: {run_dir / 'mlflow_log.txt'})")
         return
     proc = subprocess.run([*command, "--now"], capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"logging the run to MLflow failed: {proc.stderr.strip()[-500:]}")
-    print(f"MLflow experiment {cfg.mlflow.experiment}: {proc.stdout.strip()}")
+    print(f"MLflow experiment {cfg.runlog.experiment}: {proc.stdout.strip()}")
 
 
 def main() -> None:

@@ -67,7 +67,7 @@ def test_held_frequency_from_a_csv_is_tracked_and_logged(files, tmp_path):
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     prior = float(1.04 * held.freq_rad_s[0, 0])
     proc = _run(d, "data.path=held.csv", f"prior=[{prior!r}]", f"hydra.run.dir={tmp_path / 'run'}",
-                "mlflow.background=false", env={"MLFLOW_TRACKING_URI": uri, "GIT_PYTHON_REFRESH": "quiet"})
+                "runlog.background=false", env={"MLFLOW_TRACKING_URI": uri, "GIT_PYTHON_REFRESH": "quiet"})
     assert proc.returncode == 0, proc.stderr[-2000:]
     run = tmp_path / "run"
     out = json.loads((run / "track.json").read_text())
@@ -95,7 +95,7 @@ def test_held_frequency_from_a_csv_is_tracked_and_logged(files, tmp_path):
 def test_moving_support_from_a_uff_file_without_a_prior(files, tmp_path):
     d, _, moving = files
     proc = _run(d, "data.path=moving.uff", "tracker=era", "tracker.options.hop_samples=25",
-                f"hydra.run.dir={tmp_path / 'run'}", "mlflow.enabled=false")
+                f"hydra.run.dir={tmp_path / 'run'}", "runlog.enabled=false")
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "stabilisation diagram" in proc.stdout and "on the first" in proc.stdout
     out = json.loads((tmp_path / "run" / "track.json").read_text())
@@ -125,7 +125,7 @@ def test_moving_support_from_a_uff_file_without_a_prior(files, tmp_path):
 ])
 def test_bad_input_is_one_error_line_and_nothing_written(files, args, fragments):
     d = files[0]
-    proc = _run(d, *args, "hydra.run.dir=out", "mlflow.enabled=false")
+    proc = _run(d, *args, "hydra.run.dir=out", "runlog.enabled=false")
     assert proc.returncode == 2, proc.stderr[-2000:]
     lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
