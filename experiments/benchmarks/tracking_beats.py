@@ -26,13 +26,13 @@ import argparse  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_cpu import parse_row  # noqa: E402
 from experiments.io import atomic_write_text  # noqa: E402
-from experiments.report.tracking_metrics import score_track, summarize_cell  # noqa: E402
+from experiments.report import tracking_metrics  # noqa: E402
+from experiments.report.tracking_metrics import summarize_cell  # noqa: E402
 from experiments.simulate.tracking_data import TrackingCellConfig, make_cell  # noqa: E402
 
 __all__ = ["SCHEDULES", "EXCITATIONS", "NOISE_UG", "DEFAULT_TRACKERS", "OUT", "cells", "score_record", "run",
@@ -58,11 +58,7 @@ def cells(seed: int, replicates: int, duration_s: float):
 
 
 def score_record(t_s, freq, conv, runtime, cell, r):
-    st = float(cell["step_time_s"])
-    return score_track(t_s, freq, conv, runtime, cell["truth_freq_rad_s"], float(cell["dt_s"]),
-                       bound=cell["pcrb_std_rad_s"][r], bound_unknown_force=cell["pcrb_unknown_force_std_rad_s"][r],
-                       step_time_s=st if np.isfinite(st) else None,
-                       drift_span_s=cell["drift_span_s"])
+    return tracking_metrics.score_record(t_s, freq, conv, runtime, cell, r)
 
 
 def run(specs: list[str], seed: int, replicates: int, duration_s: float) -> pd.DataFrame:

@@ -9,6 +9,11 @@ excitation, a record too short), each failure one line naming the file, the cell
 A grid's ``exclude`` lists (schedule, excitation) pairs left out of the product (a class of excitation
 that only some schedules need); a pair that names no schedule or excitation of the grid is refused.
 Which trackers run is the job's business (``experiments.jobs.track_job``); this module knows no method.
+
+A grid may also list ``laboratory`` cells (:mod:`experiments.simulate.laboratory`): name -> settings (the
+fields of ``LaboratoryConfig``, and ``noise_ug``/``duration_s`` of the cell, defaults 300 µg and 12 s), one
+cell each, named ``<name>_laboratory_noise{x}ug_{T}s`` (schedule = the name, excitation = ``laboratory``),
+with the grid's replicates, seed and prior spread. :func:`make_grid_cell` simulates either kind.
 """
 
 from __future__ import annotations
@@ -21,11 +26,21 @@ import yaml
 from omegaconf import OmegaConf
 
 from experiments import paths
+from experiments.simulate.laboratory import LAB_KEYS, LaboratoryCellConfig, check_laboratory, make_lab_cell
 from experiments.simulate.plant import PlantConfig
 from experiments.simulate.schedules import ScheduleConfig
-from experiments.simulate.tracking_data import ExcitationConfig, TrackingCellConfig, cell_name, check_cell_config
+from experiments.simulate.tracking_data import (
+    ExcitationConfig,
+    TrackingCellConfig,
+    cell_name,
+    check_cell_config,
+    make_cell,
+)
 
-__all__ = ["SCHEMA", "DEFAULTS", "grid_path", "load_grid", "paper_plant"]
+__all__ = ["SCHEMA", "DEFAULTS", "LABORATORY", "grid_path", "load_grid", "make_grid_cell", "nominal_prior_rad_s",
+           "paper_plant"]
+
+LABORATORY = "laboratory"          # the excitation name of a laboratory cell (its moves ring the beam)
 
 SCHEMA = paths.GRID_SCHEMAS / "tracking_grid.yaml"
 # The schema's defaults (dt_s, prior_spread): their one home is the schema.
@@ -94,5 +109,31 @@ def load_grid(name_or_path: str, *, check_cells: bool = True) -> dict:
                 raise ValueError(f"{path}: cell {name}: {exc}") from None
         cells[name] = {"config": cfg, "schedule": sname, "excitation": ename, "noise_ug": float(noise),
                        "duration_s": float(duration)}
+    for lname, settings in (grid.get("laboratory") or {}).items():
+        settings = dict(settings or {})
+        noise, duration = float(settings.pop("noise_ug", 300.0)), float(settings.pop("duration_s", 12.0))
+        name = cell_name(lname, LABORATORY, noise, duration)
+        cfg = LaboratoryCellConfig(lab={k: v for k, v in settings.items() if k in LAB_KEYS}, noise_ug=noise,
+                                   duration_s=duration, replicates=int(grid["replicates"]), seed=int(grid["seed"]),
+                                   prior_spread=float(grid["prior_spread"]))
+        if check_cells:
+            try:
+                check_laboratory(cfg)
+            except ValueError as exc:
+                raise ValueError(f"{path}: cell {name}: {exc}") from None
+        cells[name] = {"config": cfg, "schedule": lname, "excitation": LABORATORY, "noise_ug": noise,
+                       "duration_s": duration}
     grid["cells"] = cells
     return grid
+
+
+def make_grid_cell(cfg) -> dict:
+    """The records of a grid's cell, either kind (a spacecraft cell or a laboratory cell)."""
+    return make_lab_cell(cfg) if isinstance(cfg, LaboratoryCellConfig) else make_cell(cfg)
+
+
+def nominal_prior_rad_s(cfg) -> list[float]:
+    """A prior typical of the cell, for checking tracker options before any record exists."""
+    if isinstance(cfg, LaboratoryCellConfig):
+        return [float(w) for w in cfg.nominal_prior_rad_s]
+    return [float(w) for w in cfg.plant.target_freq_rad_s]

@@ -11,7 +11,8 @@ from experiments.simulate.tracking_grid import load_grid
                                          ("tracking_full", 4 * 3 * 2)])
 def test_shipped_grids_validate(name, cells):
     grid = load_grid(name, check_cells=(name != "tracking_full"))
-    assert len(grid["cells"]) == cells
+    # the product of the axes, and one cell per laboratory entry
+    assert len(grid["cells"]) == cells + len(grid.get("laboratory") or {})
     assert all(c["config"].replicates == grid["replicates"] for c in grid["cells"].values())
 
 
