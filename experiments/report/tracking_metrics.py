@@ -158,7 +158,6 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
         out["err_ufbound_median_late"] = float(np.percentile(np.where(np.isfinite(ratio), ratio, np.inf), 50,
                                                              method="inverted_cdf"))
     out["err_rel_p90_late"] = float(np.percentile(rel[late], 90, method="inverted_cdf"))
-    out["err_ufbound_median_late"] = math.nan
     for i in range(m):
         out[f"err_rel_median_mode{i + 1}"] = float(np.median(rel[after, i])) if after.any() else math.nan
     out["t_reconverge_s"] = math.nan
