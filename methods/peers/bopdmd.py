@@ -48,7 +48,7 @@ def check_options(prior, dt, **options) -> Options:
 
 
 def _fit(y, dt, prior, opts: Options):
-    d, order = hdmd.delays_and_order(y.size, prior.size, opts)
+    d, order = hdmd.delays_and_order(y.size, prior, dt, opts)
     if order < 2 * prior.size:
         return too_short(prior, y.size, "BOPDMD")
     from pydmd import BOPDMD  # optional extra (.[peers])
