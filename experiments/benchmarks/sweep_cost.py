@@ -28,25 +28,23 @@ to ``results/bench/sweep_cost.md``. Compare runs by their ratios: the machine's 
 
 from __future__ import annotations
 
+import argparse
+import heapq
+import json
 import os
+import subprocess
+import sys
+import time
+from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")    # as the workflow's jobs (experiments/rules/common.smk)
+import numpy as np
+import yaml
+from threadpoolctl import threadpool_limits
 
-import argparse  # noqa: E402
-import heapq  # noqa: E402
-import json  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-import yaml  # noqa: E402
-
-import methods  # noqa: E402
-from experiments.io import atomic_write_text  # noqa: E402
-from experiments.simulate.datasets import DatasetConfig, make_cell  # noqa: E402
-from experiments.tracking import provenance  # noqa: E402
+import methods
+from experiments.io import atomic_write_text
+from experiments.simulate.datasets import DatasetConfig, make_cell
+from experiments.tracking import provenance
 
 __all__ = ["load_grid", "method_setup", "time_fits", "makespan", "predict", "main"]
 
@@ -180,7 +178,11 @@ def main(argv=None) -> int:
         return 2
     load0 = os.getloadavg()[0]
     t_wall = time.perf_counter()
-    fits, data_s = time_fits(grid, entries, args.replicates, min(args.batch_records, grid["replicates"]))
+    # one BLAS thread, as the workflow's jobs (experiments/rules/common.smk sets OPENBLAS_NUM_THREADS=1 before
+    # they start); numpy is loaded by now (this package's __init__), so the limit is set through threadpoolctl:
+    # OpenBLAS's idle threads spin on a busy machine and their CPU time counted 5-25x a peer's fit
+    with threadpool_limits(limits=1):
+        fits, data_s = time_fits(grid, entries, args.replicates, min(args.batch_records, grid["replicates"]))
     starts = {} if args.no_startup else {e: startup_s(e) for e in entries}
     pred = predict(grid, fits, data_s, starts, args.cores)
     ns, noises = list(grid["n_samples"]), list(grid["noise_ug"])
