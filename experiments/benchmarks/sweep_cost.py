@@ -87,14 +87,15 @@ def _one_fit(name, y, dt, prior, options):
     return (time.process_time() - t0) / (len(y) if batch is not None else 1)
 
 
-def time_fits(grid: dict, entries: list[str], replicates: int, batch_records: int, progress=print):
-    """Per (entry, noise, N): median CPU s per fit; and per cell the seconds to simulate it."""
+def time_fits(grid: dict, entries: list[str], replicates: int, batch_records: int, noises=None, progress=print):
+    """Per (entry, noise, N): median CPU s per fit; and per cell the seconds to simulate it. ``noises``: time
+    only these of the grid's noise levels (default all)."""
     setups = {e: method_setup(e, (grid.get("method_overrides") or {}).get(e, [])) for e in entries}
     fits, data_s = {}, {}
     warm = make_cell(DatasetConfig(noise_ug=100.0, n_samples=64, replicates=2, seed=1))["accel_m_s2"]
     for name, prior, options in setups.values():           # first-call costs (caches, JIT) are start-up
         _one_fit(name, warm if methods.get_batch(name) else warm[0], 0.02, prior, options)
-    for noise in grid["noise_ug"]:
+    for noise in noises or grid["noise_ug"]:
         for n in grid["n_samples"]:
             t0 = time.process_time()
             cell = make_cell(DatasetConfig(noise_ug=noise, n_samples=n, replicates=grid["replicates"],
@@ -137,12 +138,21 @@ def makespan(jobs: dict[str, float], cores: int) -> float:
     return max(loads)
 
 
+def nearest_noise(noise: float, timed) -> float:
+    """The timed noise level nearest to ``noise`` in log scale (a cell not timed is charged as it)."""
+    return min(timed, key=lambda x: abs(np.log(x / noise)))
+
+
 def predict(grid: dict, fits: dict, data_s: dict, starts: dict, cores: int) -> dict:
-    """CPU s per entry's batch, the datasets batch, and the predicted wall on ``cores``."""
+    """CPU s per entry's batch, the datasets batch, and the predicted wall on ``cores``; every cell of the
+    grid counted, each untimed noise level charged as the nearest timed one (:func:`nearest_noise`)."""
     r = grid["replicates"]
-    batch = {e: starts.get(e, 0.0) + sum(r * t for (e2, _, _), t in fits.items() if e2 == e)
-             for e in dict.fromkeys(k[0] for k in fits)}
-    data = sum(data_s.values())
+    timed = sorted({k[0] for k in data_s})
+    cells = [(nearest_noise(x, timed), n) for x in grid.get("noise_ug", timed) for n in grid.get("n_samples", [])]
+    cells = cells or list(data_s)
+    entries = list(dict.fromkeys(k[0] for k in fits))
+    batch = {e: starts.get(e, 0.0) + sum(r * fits[(e, x, n)] for x, n in cells) for e in entries}
+    data = sum(data_s[c] for c in cells)
     total = sum(batch.values())
     return {"batch_cpu_s": batch, "data_s": data, "identify_cpu_s": total,
             "wall_s": data + makespan(batch, cores), "bound_s": data + max(total / cores, max(batch.values()))}
@@ -160,6 +170,8 @@ def main(argv=None) -> int:
     ap.add_argument("--batch-records", type=int, default=10, help="records per lock-step batch call timed")
     ap.add_argument("--methods", nargs="*", help="entries of the grid's methods list (default: all)")
     ap.add_argument("--no-startup", action="store_true", help="do not measure each batch's process start-up")
+    ap.add_argument("--noise-ug", type=float, nargs="+",
+                    help="time only these of the grid's noise levels; the others are charged as the nearest")
     ap.add_argument("--label", default="", help="suffix of the CSV written (e.g. before, after)")
     args = ap.parse_args(argv)
     try:
@@ -171,6 +183,8 @@ def main(argv=None) -> int:
         unknown = [e for e in entries if e not in grid["methods"]]
         if unknown:
             raise ValueError(f"--methods {' '.join(unknown)}: not in grid {grid['name']}'s methods")
+        if args.noise_ug and not set(args.noise_ug) <= set(grid["noise_ug"]):
+            raise ValueError(f"--noise-ug {args.noise_ug}: not all among the grid's noise levels {grid['noise_ug']}")
         for e in entries:
             method_setup(e, [])
     except ValueError as exc:
@@ -182,13 +196,16 @@ def main(argv=None) -> int:
     # they start); numpy is loaded by now (this package's __init__), so the limit is set through threadpoolctl:
     # OpenBLAS's idle threads spin on a busy machine and their CPU time counted 5-25x a peer's fit
     with threadpool_limits(limits=1):
-        fits, data_s = time_fits(grid, entries, args.replicates, min(args.batch_records, grid["replicates"]))
+        fits, data_s = time_fits(grid, entries, args.replicates, min(args.batch_records, grid["replicates"]),
+                                 args.noise_ug)
     starts = {} if args.no_startup else {e: startup_s(e) for e in entries}
     pred = predict(grid, fits, data_s, starts, args.cores)
-    ns, noises = list(grid["n_samples"]), list(grid["noise_ug"])
+    ns, noises = list(grid["n_samples"]), list(args.noise_ug or grid["noise_ug"])
     print(f"\n## Cost model of grid `{grid['name']}`: {len(noises)} noise levels x {len(ns)} lengths x R = "
           f"{grid['replicates']} on {args.cores} cores (CPU time per fit, one BLAS thread; load average "
-          f"{load0:.1f} -> {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs while timing)\n")
+          f"{load0:.1f} -> {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs while timing)"
+          + (f"; timed at {', '.join(f'{x:g}' for x in noises)} µg only, each other level charged as the nearest"
+             if args.noise_ug else "") + "\n")
     show = [n for n in (256, 2048) if n in ns] or ns[-1:]
     print("| method | " + " | ".join(f"ms per fit, N = {n} (median over noise)" for n in show)
           + " | batch start-up s | batch CPU | share |")
