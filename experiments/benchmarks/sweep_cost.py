@@ -214,7 +214,8 @@ def main(argv=None) -> int:
         per_n = [1e3 * float(np.median([fits[(e, x, n)] for x in noises])) for n in show]
         cpu = pred["batch_cpu_s"][e]
         print(f"| `{e}` | " + " | ".join(f"{v:.3g}" for v in per_n)
-              + f" | {starts.get(e, float('nan')):.2g} | {_fmt_s(cpu)} | {cpu / pred['identify_cpu_s']:.1%} |")
+              + f" | {f'{starts[e]:.2g}' if e in starts else 'not measured'} | {_fmt_s(cpu)} | "
+              f"{cpu / pred['identify_cpu_s']:.1%} |")
     print(f"\n- datasets batch: {_fmt_s(pred['data_s'])}; identify batches: {_fmt_s(pred['identify_cpu_s'])} of CPU")
     print(f"- predicted wall on {args.cores} cores (datasets, then the batches longest first): "
           f"**{_fmt_s(pred['wall_s'])}** (lower bound {_fmt_s(pred['bound_s'])}); serial aggregate/track "
