@@ -42,19 +42,19 @@ import yaml
 from threadpoolctl import threadpool_limits
 
 import methods
+from experiments import provenance
 from experiments.io import atomic_write_text
+from experiments.paths import GRIDS, ROOT
 from experiments.simulate.datasets import DatasetConfig, make_cell
-from experiments.tracking import provenance
 
 __all__ = ["load_grid", "method_setup", "time_fits", "makespan", "predict", "main"]
 
-ROOT = Path(__file__).resolve().parents[2]
 GRID_KEYS = ("noise_ug", "n_samples", "replicates", "seed", "methods")
 
 
 def load_grid(grid: str) -> dict:
     """The grid file's values (``configs/grid/<grid>.yaml`` or a path); a noise × length grid only."""
-    path = Path(grid) if grid.endswith((".yaml", ".yml")) else ROOT / "configs" / "grid" / f"{grid}.yaml"
+    path = Path(grid) if grid.endswith((".yaml", ".yml")) else GRIDS / f"{grid}.yaml"
     if not path.is_file():
         raise ValueError(f"grid '{grid}': no file {path}")
     g = yaml.safe_load(path.read_text()) or {}
@@ -192,7 +192,7 @@ def main(argv=None) -> int:
         return 2
     load0 = os.getloadavg()[0]
     t_wall = time.perf_counter()
-    # one BLAS thread, as the workflow's jobs (experiments/rules/common.smk sets OPENBLAS_NUM_THREADS=1 before
+    # one BLAS thread, as the workflow's jobs (experiments/workflow/rules/common.smk sets OPENBLAS_NUM_THREADS=1 before
     # they start); numpy is loaded by now (this package's __init__), so the limit is set through threadpoolctl:
     # OpenBLAS's idle threads spin on a busy machine and their CPU time counted 5-25x a peer's fit
     with threadpool_limits(limits=1):
