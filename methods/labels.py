@@ -27,17 +27,20 @@ carry posterior probability ≥ 1 − ``alpha`` (0.99) and it lies within the se
 (|rⱼ| ≤ log(1 + band)); otherwise it is *not placed*: the caller flags the mode not determined instead of
 guessing. With k = m there is one injection (the sorted one), and every mode is placed unless out of band.
 
-The m ≤ 20 of this problem make the enumeration of the C(m, k) injections cheap (≤ 184 756); it is done by
-hand (itertools) because scipy's ``linear_sum_assignment`` has no order constraint and no common scale.
+With k = m the answer is closed: the sorted injection, probability 1, ĉ from its sums. Otherwise the m ≤ 20
+of this problem make the enumeration of the C(m, k) injections cheap (≤ 184 756; made once per (m, k)); it is
+done by hand (itertools) because scipy's ``linear_sum_assignment`` has no order constraint and no common scale,
+and the normalisation is a log-sum-exp with the winner's cost taken out (a call of
+``scipy.special.logsumexp`` per slot cost more than a whole pem fit on a 256-sample record).
 """
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.special
 
 __all__ = ["COMMON_LOG_STD", "INDEPENDENT_LOG_STD", "ALPHA", "MAX_MODES", "Labels", "assign"]
 
@@ -102,33 +105,52 @@ def assign(freq, prior, *, band: float = 0.5, prior_rel_std=None, common_log_std
         raise ValueError(f"{k} frequencies for {m} prior entries: at most one per entry")
     if m > MAX_MODES:
         raise ValueError(f"prior of {m} modes: at most {MAX_MODES} are supported by the enumeration")
-    if not (np.all(np.isfinite(w)) and np.all(w > 0)):
+    if not (np.isfinite(w).all() and (w > 0).all()):
         raise ValueError(f"freq = {w.tolist()} must be positive finite frequencies")
-    if np.any(np.diff(p) <= 0) or not np.all(p > 0):
+    if not ((p[1:] > p[:-1]).all() and (p > 0).all()):
         raise ValueError(f"prior = {p.tolist()} must be positive and strictly increasing")
-    tau = np.broadcast_to(np.asarray(INDEPENDENT_LOG_STD if prior_rel_std is None else prior_rel_std, float),
-                          (m,))
-    if not (np.all(tau > 0) and common_log_std >= 0 and band > 0 and 0 < alpha < 1):
+    tau = np.full(m, INDEPENDENT_LOG_STD) if prior_rel_std is None else \
+        np.broadcast_to(np.asarray(prior_rel_std, float), (m,))
+    if not ((tau > 0).all() and common_log_std >= 0 and band > 0 and 0 < alpha < 1):
         raise ValueError(f"prior_rel_std = {tau.tolist()}, common_log_std = {common_log_std}, band = {band}, "
                          f"alpha = {alpha}: spreads and band must be positive, 0 < alpha < 1")
+    t2 = tau**2
     if k == 0:
         return Labels(np.zeros(0, int), np.zeros(0, bool), np.zeros(0), 0.0)
     order = np.argsort(w, kind="stable")
     lw, lp = np.log(w[order]), np.log(p)
-    slots = np.array(list(itertools.combinations(range(m), k)), dtype=int)     # (n_injections, k), rows sorted
-    r = lw[None, :] - lp[slots]
-    t2 = tau[slots] ** 2
+    s2 = common_log_std**2
+    slot, placed, probability = np.empty(k, int), np.empty(k, bool), np.empty(k)
+    if k == m:
+        # closed form: one injection, the sorted one, with all the probability; only ĉ and the band remain
+        # (ĉ = s² a/b of the Sherman–Morrison sums below)
+        r = lw - lp
+        log_scale = float(s2 * (r / t2).sum() / (1.0 + s2 * (1.0 / t2).sum()))
+        slot[order], placed[order], probability[order] = np.arange(m), np.abs(r) <= np.log1p(band), 1.0
+        return Labels(slot, placed, probability, log_scale)
+    slots = _injections(m, k)                                           # (n_injections, k), rows sorted
+    r = lw - lp[slots]
+    t2 = t2[slots]
     # Σ = D + s² 11ᵀ, D = diag(τ²): Sherman–Morrison, rᵀΣ⁻¹r = Σr²/τ² − s²(Σr/τ²)²/(1 + s²Σ1/τ²), and
     # log det Σ = Σ log τ² + log(1 + s² Σ 1/τ²)
-    s2 = common_log_std**2
-    a = np.sum(r / t2, axis=1)
-    b = 1.0 + s2 * np.sum(1.0 / t2, axis=1)
-    cost = np.sum(r**2 / t2, axis=1) - s2 * a**2 / b + np.sum(np.log(t2), axis=1) + np.log(b)
-    best = int(np.argmin(cost))
-    log_post = -0.5 * cost - scipy.special.logsumexp(-0.5 * cost)
-    prob = np.array([np.exp(scipy.special.logsumexp(log_post[slots[:, j] == slots[best, j]])) for j in range(k)])
-    log_scale = float(s2 * a[best] / b[best])
+    a = (r / t2).sum(axis=1)
+    b = 1.0 + s2 * (1.0 / t2).sum(axis=1)
+    cost = (r**2 / t2).sum(axis=1) - s2 * a**2 / b + np.log(t2).sum(axis=1) + np.log(b)
+    best = int(cost.argmin())
+    # P(S | w) ∝ exp(−(cost − cost_min)/2): the log-sum-exp with its maximum taken out by hand (every weight
+    # ≤ 1, the winner's = 1: no overflow); scipy.special.logsumexp's array checks cost more than these sums.
+    # A frequency's probability sums the injections that give it the winner's slot.
+    weight = np.exp(-0.5 * (cost - cost[best]))
+    prob = (weight @ (slots == slots[best])) / weight.sum()
     in_band = np.abs(r[best]) <= np.log1p(band)
-    slot, placed, probability = np.empty(k, int), np.empty(k, bool), np.empty(k)
     slot[order], placed[order], probability[order] = slots[best], (prob >= 1.0 - alpha) & in_band, prob
-    return Labels(slot, placed, probability, log_scale)
+    return Labels(slot, placed, probability, float(s2 * a[best] / b[best]))
+
+
+@functools.lru_cache(maxsize=256)
+def _injections(m: int, k: int) -> np.ndarray:
+    """The C(m, k) order-preserving injections of k sorted frequencies into m entries, one per row (made
+    once per (m, k), read-only)."""
+    slots = np.array(list(itertools.combinations(range(m), k)), dtype=int).reshape(-1, k)
+    slots.flags.writeable = False
+    return slots

@@ -32,6 +32,7 @@ __all__ = ["Options", "check_options", "identify"]
 @dataclass
 class Options(hdmd.Options):
     # extra_order (1) and delays_fraction (0.5, delays d / N) as hdmd's, tuned on seed 1
+    rows_periods: float | None = 2.0  # delays capped at two of the prior's longest periods (_hankel)
     num_trials: int = 0              # BOPDMD bags; > 0 gives the library's eigenvalue std
     trial_size: float = 0.6          # fraction of the snapshots per bag
     seed: int = 0                    # numpy's global seed for the bags (pydmd draws from np.random)
@@ -48,7 +49,7 @@ def check_options(prior, dt, **options) -> Options:
 
 
 def _fit(y, dt, prior, opts: Options):
-    d, order = hdmd.delays_and_order(y.size, prior.size, opts)
+    d, order = hdmd.delays_and_order(y.size, prior, dt, opts)
     if order < 2 * prior.size:
         return too_short(prior, y.size, "BOPDMD")
     from pydmd import BOPDMD  # optional extra (.[peers])

@@ -8,14 +8,15 @@ record's start. Its phase is then ω_d t + κ g(t), g(t) = (1 − e^{−2σt})/(
 
 with σ = ζω, ω_d = ω√(1 − ζ²) and ω the frequency as the amplitude goes to zero: the same number whatever
 window of the record is fitted. The amplitudes (A, B, b) enter linearly and are projected out (variable
-projection); (ω, ζ, κ) per mode are found by ``scipy.optimize.least_squares`` (trust-region reflective,
-finite-difference Jacobian) from the constant-frequency fit (κ = 0), within bounds (ω within ×1.5^±1 of
-that fit's, ζ in ±0.8, |κ| ≤ 0.2ω; a mode that ends on a bound is not determined: NaN). Unlike the segments' line
-(:mod:`methods.pem._drift`), the fit sees the whole window at once: a close pair whose beat period is as
-long as a segment is resolved. The std is the robust one (:func:`methods.pem._residual.sandwich_std` and
-:func:`~methods.pem._residual.spectral_sandwich_std`, the larger) on the Jacobian of the projected residual.
-For a mode whose envelope hardly decays over the window, κ and ω are nearly the same direction (g(t) ≈ t)
-and ω's std is large: the record does not tell the frequency at another amplitude.
+projection); (ω, ζ, κ) per mode are found by ``scipy.optimize.least_squares`` (trust-region reflective, the
+projected residual's analytic Jacobian, :func:`_projected`) from the constant-frequency fit (κ = 0), within
+bounds (ω within ×1.5^±1 of that fit's, ζ in ±0.8, |κ| ≤ 0.2ω; a mode that ends on a bound is not determined:
+NaN). Unlike the segments' line (:mod:`methods.pem._drift`), the fit sees the whole window at once: a close pair
+whose beat period is as long as a segment is resolved. The std is the robust one
+(:func:`methods.pem._residual.sandwich_std` and :func:`~methods.pem._residual.spectral_sandwich_std`, the
+larger) on the Jacobian of the projected residual. For a mode whose envelope hardly decays over the window, κ
+and ω are nearly the same direction (g(t) ≈ t) and ω's std is large: the record does not tell the frequency at
+another amplitude.
 """
 
 from __future__ import annotations
@@ -28,28 +29,73 @@ from methods.pem import _residual
 MAX_SHIFT = 0.2          # |κ| ≤ 0.2ω: a frequency shift at the record's start of at most 20 %
 
 
-def basis(theta: np.ndarray, dt: float, n: int) -> np.ndarray:
-    """Φ (n × 2m + 1): e^{−σᵢt} cos/sin(ω_dᵢt + κᵢgᵢ(t)) per mode, then 1; θ = (ω, ζ, κ), m each."""
+def _columns(theta: np.ndarray, dt: float, n: int):
+    """The modal columns and what their derivatives need: t, g(t), ∂g/∂σ, e^{−σt}, the phase (rows: modes).
+
+    g = (1 − e^{−2σt})/(2σ) and ∂g/∂σ = (t e^{−2σt} − g)/σ; where 2σt stays below 10⁻⁴ over the record their
+    series, g = t − σt² + ⅔σ²t³ and ∂g/∂σ = −t² + (4/3)σt³, which the closed forms lose to cancellation."""
     m = theta.size // 3
     w, z, k = theta[:m], theta[m:2 * m], theta[2 * m:]
     t = dt * np.arange(n)
-    s = z * w
+    s = (z * w)[:, None]
     wd = w * np.sqrt(np.clip(1.0 - z * z, 0.0, None))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        g = np.where(np.abs(s[:, None]) > 1e-12, -np.expm1(-2.0 * s[:, None] * t) / (2.0 * s[:, None]), t)
+    small = np.abs(2.0 * s * t[-1]) < 1e-4
+    safe = np.where(small, 1.0, s)
+    e2 = np.exp(-2.0 * safe * t)
+    g = np.where(small, t - s * t**2 + (2.0 / 3.0) * s**2 * t**3, -np.expm1(-2.0 * safe * t) / (2.0 * safe))
+    dg = np.where(small, -t**2 + (4.0 / 3.0) * s * t**3, (t * e2 - g) / safe)
     phase = wd[:, None] * t + k[:, None] * g
-    env = np.exp(-s[:, None] * t)
+    env = np.exp(-s * t)
+    return t, g, dg, env * np.cos(phase), env * np.sin(phase)
+
+
+def basis(theta: np.ndarray, dt: float, n: int) -> np.ndarray:
+    """Φ (n × 2m + 1): e^{−σᵢt} cos/sin(ω_dᵢt + κᵢgᵢ(t)) per mode, then 1; θ = (ω, ζ, κ), m each."""
+    m = theta.size // 3
+    _, _, _, c, s = _columns(theta, dt, n)
     phi = np.empty((n, 2 * m + 1))
-    phi[:, 0:2 * m:2] = (env * np.cos(phase)).T
-    phi[:, 1:2 * m:2] = (env * np.sin(phase)).T
+    phi[:, 0:2 * m:2] = c.T
+    phi[:, 1:2 * m:2] = s.T
     phi[:, 2 * m] = 1.0
     return phi
 
 
-def _residual_of(theta, y, dt):
-    phi = basis(theta, dt, y.size)
-    c = np.linalg.lstsq(phi, y, rcond=None)[0]
-    return y - phi @ c
+def _projected(theta, y, dt):
+    """The variable-projection residual r = y − ΦΦ⁺y and its Jacobian (Golub & Pereyra 1973, the full form):
+
+        ∂r/∂θⱼ = −(I − ΦΦ⁺)(∂Φ/∂θⱼ)c − Φ⁺ᵀ(∂Φ/∂θⱼ)ᵀr,    c = Φ⁺y,
+
+    with Φ = QR (its thin QR), Φ⁺ = R⁻¹Qᵀ. θⱼ moves the two columns of its mode only: with σ = ζω,
+    ω_d = ω√(1 − ζ²) and the phase φ = ω_d t + κg(t), ∂(cos, sin)/∂φ = (−sin, cos), ∂φ/∂ω_d = t, ∂φ/∂κ = g,
+    ∂φ/∂σ = κ ∂g/∂σ, and the envelope adds −t per unit of σ; the chain to (ω, ζ) is ∂σ/∂ω = ζ, ∂σ/∂ζ = ω,
+    ∂ω_d/∂ω = √(1 − ζ²), ∂ω_d/∂ζ = −ωζ/√(1 − ζ²). Written by hand: least_squares' finite differences
+    solved one least-squares problem per unknown and step (13 for 4 modes), most of the drift test's cost."""
+    n = y.size
+    m = theta.size // 3
+    w, z, k = theta[:m], theta[m:2 * m], theta[2 * m:]
+    t, g, dg, cos_, sin_ = _columns(theta, dt, n)
+    phi = np.empty((n, 2 * m + 1))
+    phi[:, 0:2 * m:2], phi[:, 1:2 * m:2], phi[:, 2 * m] = cos_.T, sin_.T, 1.0
+    q, rr = np.linalg.qr(phi)
+    c = np.linalg.solve(rr, q.T @ y)            # R is (2m + 1)²: a general solve is as cheap here
+    r = y - phi @ c
+    a, b = c[0:2 * m:2, None], c[1:2 * m:2, None]
+    # per mode, the derivative of its column pair along σ, ω_d and κ: (∂cos, ∂sin)
+    d_cos = {"s": -t * cos_ - sin_ * k[:, None] * dg, "wd": -sin_ * t, "k": -sin_ * g}
+    d_sin = {"s": -t * sin_ + cos_ * k[:, None] * dg, "wd": cos_ * t, "k": cos_ * g}
+    root = np.sqrt(np.clip(1.0 - z * z, 1e-12, None))[:, None]
+    chain = {"w": (("s", z[:, None]), ("wd", root)), "z": (("s", w[:, None]), ("wd", -w[:, None] * z[:, None] / root)),
+             "k": (("k", 1.0),)}
+    dphi_c, e = np.empty((n, 3 * m)), np.zeros((2 * m + 1, 3 * m))
+    for block, name in enumerate(("w", "z", "k")):
+        dc = sum(f * d_cos[key] for key, f in chain[name])              # (m, n): ∂cos/∂θ of each mode
+        ds = sum(f * d_sin[key] for key, f in chain[name])
+        cols = block * m + np.arange(m)
+        dphi_c[:, cols] = (a * dc + b * ds).T                           # (∂Φ/∂θⱼ)c
+        e[2 * np.arange(m), cols] = dc @ r                              # (∂Φ/∂θⱼ)ᵀr
+        e[2 * np.arange(m) + 1, cols] = ds @ r
+    jac = -(dphi_c - q @ (q.T @ dphi_c)) - q @ np.linalg.solve(rr.T, e)
+    return r, jac
 
 
 def fit(y, dt: float, w: np.ndarray, z: np.ndarray) -> dict:
@@ -77,9 +123,16 @@ def fit(y, dt: float, w: np.ndarray, z: np.ndarray) -> dict:
     hi = np.concatenate([w * 1.5, np.full(m, 0.8), MAX_SHIFT * w])
     theta0 = np.clip(np.concatenate([w, z, np.zeros(m)]), lo, hi)
     scale = np.concatenate([np.maximum(1e-3 * w, 1e-6), np.full(m, 1e-3), np.maximum(1e-3 * w, 1e-6)])
+    last = {}
+
+    def evaluate(theta):            # least_squares asks for r and J at the same θ in turn: one QR for both
+        if "theta" not in last or not np.array_equal(last["theta"], theta):
+            last["theta"], (last["r"], last["jac"]) = theta.copy(), _projected(theta, y, dt)
+        return last
+
     try:
-        res = scipy.optimize.least_squares(_residual_of, theta0, args=(y, dt), bounds=(lo, hi), method="trf",
-                                           x_scale=scale, diff_step=1e-7, max_nfev=200 * (3 * m + 1))
+        res = scipy.optimize.least_squares(lambda th: evaluate(th)["r"], theta0, jac=lambda th: evaluate(th)["jac"],
+                                           bounds=(lo, hi), method="trf", x_scale=scale, max_nfev=200 * (3 * m + 1))
     except (ValueError, np.linalg.LinAlgError):
         return out
     e = res.fun

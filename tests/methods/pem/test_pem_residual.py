@@ -276,3 +276,19 @@ def test_pem_option_whiteness_band_reaches_the_residual_check():
     assert est.extra["residual_check"]["band_rad_s"] == pytest.approx(0.8 * np.pi / dt, rel=0.01)
     with pytest.raises(ValueError, match="whiteness_band_rad_s"):
         pem.identify(y, dt, [310.0], whiteness_band_rad_s=-1.0)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e6])
+def test_fitted_autocorrelation_is_the_projection_s_lagged_diagonal_sums(scale):
+    # E[ρ̂ₖ] = −Σᵢ Pᵢ,ᵢ₊ₖ/(N − p) against the dense projector P = B B⁺ (numpy.linalg.pinv), on a modal basis
+    # with derivative-like columns t·(…) of another scale
+    from methods.pem._residual import fitted_autocorrelation
+    from methods.pem.predictor import modal_basis
+
+    n, dt = 300, 0.02
+    t = dt * np.arange(n)[:, None]
+    phi = modal_basis(np.array([3.1, 20.0, 23.0]), np.array([0.01, 0.02, 0.005]), dt, n)
+    basis = np.column_stack([phi, scale * t * phi[:, :4]])
+    proj = basis @ np.linalg.pinv(basis)
+    expected = -np.array([np.trace(proj, offset=k) for k in range(1, 11)]) / (n - basis.shape[1])
+    np.testing.assert_allclose(fitted_autocorrelation(basis, 10), expected, rtol=1e-6, atol=1e-10)
