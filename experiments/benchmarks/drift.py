@@ -8,8 +8,8 @@ noise (``ar1``) at 1000 µg, made by ``experiments.simulate.datasets.make_cell``
 halves; the table gives, per mode, the share of records whose halves differ by at most 3 of their combined
 reported σ, √(σ_a² + σ_b²), next to the same with the white-noise σ. ``drift.png`` shows one whole record's
 drift report: the segments' frequency against their amplitude (±1 reported std), the fitted line
-ω₀ + βa², the backbone fit's ω₀ ± 1σ at a = 0 (what pem answers where the record determines it), the
-whole record's average at the amplitude it refers to, and the true backbone ω√(1 + 2δ(a/a₀)²).
+ω₀ + βa², the backbone fit's ω₀ ± its reported 1σ at a = 0 (what pem answers where the record determines
+it), the whole record's average at the amplitude it refers to, and the true backbone ω√(1 + 2δ(a/a₀)²).
 """
 
 from __future__ import annotations
@@ -65,8 +65,8 @@ def figure(y: np.ndarray, dt: float, truth: np.ndarray, amplitude: np.ndarray, d
                     lw=1, label="ω₀ + βa²")
         backbone = est.extra.get("backbone")
         if backbone is not None and np.isfinite(backbone["frequencies"][i]):
-            ax.errorbar([0.0], [backbone["frequencies"][i]], yerr=[backbone["std"][i]], fmt="D", ms=5, color="C2",
-                        capsize=2, label="ω₀ of the backbone fit ±1σ"
+            ax.errorbar([0.0], [backbone["frequencies"][i]], yerr=[backbone.get("reported_std", backbone["std"])[i]],
+                        fmt="D", ms=5, color="C2", capsize=2, label="ω₀ of the backbone fit ±1σ (reported)"
                         + ("" if est.extra["drift_reported"][i] == "small_amplitude" else " (not reported)"))
         if np.isfinite(drift["reference_amplitude_m_s2"][i]):
             ax.plot(drift["reference_amplitude_m_s2"][i], drift["whole_record"][i], "C3s", ms=6, label="whole record")

@@ -42,3 +42,21 @@ def test_label_outcome_tells_a_crossed_label_from_an_inaccurate_mode_and_an_hone
     assert basin.label_outcome(s, [10.0, 5.0, 20.0], [True] * 3) == (True, False, True)      # swapped
     assert basin.label_outcome(s, [5.0, 10.0, 23.0], [True] * 3) == (True, False, False)     # inaccurate
     assert basin.label_outcome(s, [5.0, np.nan, 23.0], [True, False, False]) == (False, True, False)
+
+
+def test_independent_errors_with_a_least_error_stay_within_it_and_the_spread():
+    """--spread-min 0.15 --spread 0.25: every prior frequency is 15–25 % off (before sorting: the draw of each
+    mode's error, its sign u's), and spread_min = 0 gives the ±spread·u draw unchanged."""
+    s = basin.draw_structure(7, 3, 512, 0.01)
+    for (_, _, prior, i), (_, _, plain, _) in zip(basin.trials(s, [], 0.25, 4, 7, 0.15),
+                                                  basin.trials(s, [], 0.25, 4, 7), strict=True):
+        u = np.random.default_rng([7, 0x4241, 3, 1000 + i]).uniform(-1, 1, s["freq"].size)
+        error = np.sign(u) * (0.15 + 0.10 * np.abs(u))
+        assert np.all((np.abs(error) >= 0.15) & (np.abs(error) <= 0.25))
+        np.testing.assert_allclose(prior, np.sort(s["freq"] * (1 + error)))
+        np.testing.assert_allclose(plain, np.sort(s["freq"] * (1 + 0.25 * u)))
+
+
+def test_a_least_error_above_the_spread_is_refused(capsys):
+    assert basin.main(["--spread", "0.2", "--spread-min", "0.3", "--structures", "1"]) == 2
+    assert "--spread-min" in capsys.readouterr().err

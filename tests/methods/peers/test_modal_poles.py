@@ -162,3 +162,34 @@ def test_the_slot_check_only_withdraws():
     assert same_slots(np.array([3.0, 20.0, 26.0]), np.array([True, True, False]), prior, 0.5).tolist() == \
         [True, False, False]
     assert not same_slots(np.array([3.0, 14.5, 20.2]), np.zeros(3, bool), prior, 0.5).any()
+
+
+# A record whose frequencies the noise blurs to a few hundredths of a rad/s: 6σ of mode 2 exceeds 0.5 % of 20 rad/s,
+# so the confirmation's threshold is the record's own σ, not the success rule's floor.
+BLURRED = Y + 0.5 * np.random.default_rng(5).standard_normal(T.size)
+
+
+def test_the_confirmation_threshold_follows_the_records_sigma():
+    """confirm_tolerance = max(3σ, 0.005ω − 3σ), by hand at both ends."""
+    from methods.peers._mode_picker import confirm_tolerance
+
+    np.testing.assert_allclose(confirm_tolerance([20.0, 20.0, 56.0], [0.05, 0.001, 0.01]),
+                               [0.15, 0.1 - 0.003, 0.28 - 0.03], rtol=1e-12)
+
+
+def test_a_pole_within_its_sigma_is_confirmed_and_a_far_one_is_not():
+    """Mode 2's library pole moved to the record's ML frequency + 2σ is confirmed (the same mode, within what the
+    record can tell); moved to + 6σ it is not, though 6σ is still within 1 % of ω. σ is the ML fit's own std."""
+    exact = pick_modes(MODES, BLURRED, DT, PRIOR)
+    assert exact.determined.all()
+    w2, s2 = exact.record_fit[1], exact.record_fit_std[1]
+    assert 6 * s2 > 0.005 * w2 and s2 < 0.01 * w2                   # the σ-dominated regime, a located mode
+    verdicts = {}
+    for k in (2.0, 6.0):
+        moved = MODES.copy()
+        moved[1] = pole(w2 + k * s2)
+        got = pick_modes(moved, BLURRED, DT, PRIOR)
+        assert got.found.all() and got.record_white
+        verdicts[k] = got.determined.tolist()
+    assert verdicts[2.0] == [True, True, True, True]
+    assert verdicts[6.0] == [True, False, True, True]

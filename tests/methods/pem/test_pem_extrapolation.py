@@ -1,0 +1,63 @@
+"""The std of pem's small-amplitude frequency ω₀ (methods/pem/_drift.py): the amplitude line's std at zero
+amplitude against numpy's own weighted fit, the model error of a bent backbone, and their combination."""
+
+import dataclasses
+
+import numpy as np
+
+from methods.pem import _drift
+
+X = np.array([0.05, 0.2, 0.5, 1.0])          # envelope amplitude² of four segments, (m/s²)²
+S = np.full(4, 0.01)
+
+
+def test_line_std_at_zero_is_numpys_weighted_fit_scaled_by_the_scatter():
+    """σ₀ is √cov[1, 1] of ``numpy.polyfit(x, f, 1, w=1/s, cov=True)`` (numpy scales by χ²/(K − 2)) where the
+    points scatter more than their s, and the unscaled covariance (their s alone) where they scatter less."""
+    rng = np.random.default_rng(1)
+    wide = 20.0 - 0.2 * X + 3 * S * rng.standard_normal(4)
+    _, std0, _ = _drift._backbone_check(X, wide, S)
+    _, cov = np.polyfit(X, wide, 1, w=1 / S, cov=True)
+    chi2 = np.sum(((wide - np.polyval(np.polyfit(X, wide, 1, w=1 / S), X)) / S) ** 2)
+    assert chi2 / 2 > 1
+    np.testing.assert_allclose(std0, np.sqrt(cov[1, 1]), rtol=1e-9)
+    tight = 20.0 - 0.2 * X + 0.1 * S * rng.standard_normal(4)
+    _, std0, delta = _drift._backbone_check(X, tight, S)
+    _, cov = np.polyfit(X, tight, 1, w=1 / S, cov="unscaled")
+    np.testing.assert_allclose(std0, np.sqrt(cov[1, 1]), rtol=1e-9)
+    assert delta == 0.0                                   # a straight backbone: no model error
+
+
+def test_a_backbone_bent_like_a_loose_clamp_gets_the_model_error_it_misses():
+    """Points on ω = ω₀ − c·a (a shift ∝ a, not a²) with small s: the straight line in a² is rejected and
+    misses ω₀; δ is the larger change of ω₀ to a quadratic in a² or a line in a (by ``numpy.linalg.lstsq``
+    here), and the line's ω₀ ± δ reaches the true ω₀."""
+    w0, c = 20.0, 0.05
+    f = w0 - c * np.sqrt(X)
+    p, std0, delta = _drift._backbone_check(X, f, S * 0.01)
+    assert p < 1e-6
+    v = np.vander(X, 2)
+    line = np.linalg.lstsq(v, f, rcond=None)[0][-1]
+    quad = np.linalg.lstsq(np.vander(X, 3), f, rcond=None)[0][-1]
+    in_a = np.linalg.lstsq(np.vander(np.sqrt(X), 2), f, rcond=None)[0][-1]
+    np.testing.assert_allclose(delta, max(abs(quad - line), abs(in_a - line)), rtol=1e-6)
+    assert abs(line - w0) > 3 * std0                       # beyond even the scatter-scaled std of the line
+    assert abs(line - w0) <= delta * (1 + 1e-9)
+
+
+def _report(p, std0, delta):
+    m = len(p)
+    nan = np.full(m, np.nan)
+    report = _drift._report(np.zeros(3), np.full((3, m), np.nan), np.full((3, m), np.nan),
+                            np.full((3, m), np.nan), np.zeros(m), 0.05)
+    return dataclasses.replace(report, lack_of_fit_p=np.asarray(p, float), line_std_at_zero=np.asarray(std0, float),
+                               small_amplitude_model_error=np.asarray(delta, float), small_amplitude_std=nan)
+
+
+def test_the_reported_std_adds_the_line_and_the_model_error_only_where_the_line_is_rejected():
+    """σ² = σ_x² + δ², σ_x = σ_chirp, or max(σ_chirp, σ₀) where the lack of fit rejects (p < 0.05); a mode
+    without a line (NaN) keeps σ_chirp."""
+    chirp = np.array([1.0, 1.0, 1.0, 1.0])
+    report = _report([0.5, 0.01, 0.01, np.nan], [3.0, 3.0, 0.5, np.nan], [0.0, 4.0, 4.0, np.nan])
+    got = _drift.extrapolation_std(chirp, report)
+    np.testing.assert_allclose(got, [1.0, 5.0, np.hypot(1.0, 4.0), 1.0], rtol=1e-12)
