@@ -40,6 +40,8 @@ _NATIVE: dict[str, str] = {
     "rls_ar": "methods.tracking._rls_ar",
     "next_era": "methods.tracking._next_era",
     "gated_pencil": "methods.tracking._gated_pencil",
+    "akf_ambient": "methods.tracking._ambient",
+    "rpem_ambient": "methods.tracking._rpem",
 }
 _WINDOWED = "methods.tracking._windowed"
 
