@@ -53,16 +53,16 @@ DETERMINED_REL_STD = 0.02
 
 
 @dataclass
-class Options:
-    """Options of ``akf_ambient`` (module docstring); every default follows from Δt and the prior.
+class SharedOptions:
+    """The options ``akf_ambient`` and ``rpem_ambient`` share; every default follows from Δt and the prior.
 
     Attributes
     ----------
     damping_ratio : float
-        ζ assumed for every mode (not estimated), as ``akf``'s.
+        ζ assumed for every mode (``akf_ambient``: not estimated, as ``akf``'s; ``rpem_ambient``: its start).
     rate_rel_per_s : float
-        How fast a frequency may move, relative per s (0.002: 0.2 %/s). With ``horizon_s`` it sets the walk:
-        ν = rate·√horizon per √s, i.e. a walk whose spread over the horizon equals the drift over it.
+        How fast a frequency may move, relative per s (0.001: 0.1 %/s). With ``horizon_s`` it sets the walk:
+        ν = rate·√horizon per √s, a walk whose spread over the horizon equals the drift over it.
     horizon_s : float or None
         The horizon of that match; None: the window.
     window_s : float or None
@@ -70,14 +70,12 @@ class Options:
     hop_s : float or None
         How often the periodogram is taken; None: a tenth of the window.
     band : float
-        Half-width of a mode's search band, relative, also capped at half the distance to its neighbours.
+        Half-width of a mode's search band, relative, cut at the geometric midpoints to its neighbours.
     restart_gate, restart_after : float, int
-        A mode restarts at the window's peak when its disagreement exceeds ``restart_gate`` running scales on
-        ``restart_after`` checks in a row.
+        A mode restarts at the window's peak when its disagreement exceeds ``restart_gate`` running robust
+        scales (and the window's resolution) on ``restart_after`` looks in a row.
     pulse_gate : float
-        e²/S above this (χ², 1 dof) is a pulse: the sample is not used and the modal covariance inflated.
-    pulse_inflation : float
-        The inflation: each mode's acceleration variance grows by this × e².
+        e²/S above this (χ², 1 dof) is a pulse: the sample does not update the frequencies.
     """
 
     damping_ratio: float = 0.005
@@ -89,22 +87,39 @@ class Options:
     restart_gate: float = 4.0
     restart_after: int = 2
     pulse_gate: float = 25.0
+
+
+@dataclass
+class Options(SharedOptions):
+    """Options of ``akf_ambient``: :class:`SharedOptions` and
+
+    Attributes
+    ----------
+    pulse_inflation : float
+        At a pulse, each mode's state covariance grows by this × e² in acceleration units.
+    force_model : str
+        ``"diagonal"`` (one force per mode, no direct term) or ``"single"`` (one force, signed gains, a direct
+        term; module docstring).
+    refit_looks : int
+        ``"single"``: the Whittle fit of signs and direct term every this many looks (magnitudes every look).
+    """
+
     pulse_inflation: float = 10.0
     force_model: str = "diagonal"
     refit_looks: int = 10
 
 
-def _window_samples(opts: Options, dt: float, prior: np.ndarray) -> tuple[int, int]:
+def _window_samples(opts: SharedOptions, dt: float, prior: np.ndarray) -> tuple[int, int]:
     window_s = opts.window_s if opts.window_s is not None else 5 * 2 * math.pi / float(prior[0])
     hop_s = opts.hop_s if opts.hop_s is not None else window_s / 10
     return max(8, int(round(window_s / dt))), max(1, int(round(hop_s / dt)))
 
 
-def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
-    opts = make_options(Options, options, name)
-    if not 0 <= opts.damping_ratio < 1:
-        raise ValueError(f"{name}: damping_ratio = {opts.damping_ratio} must be in [0, 1)")
-    for key in ("rate_rel_per_s", "band", "restart_gate", "pulse_gate", "pulse_inflation"):
+def check_shared(name: str, opts: SharedOptions, prior, dt: float, n_samples: int | None) -> None:
+    """``ValueError`` (one line naming the option) for an impossible shared option."""
+    if not (isinstance(opts.damping_ratio, (int, float)) and 0 <= opts.damping_ratio < 1):
+        raise ValueError(f"{name}: damping_ratio = {opts.damping_ratio!r} must be in [0, 1)")
+    for key in ("rate_rel_per_s", "band", "restart_gate", "pulse_gate"):
         value = getattr(opts, key)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise ValueError(f"{name}: {key} = {value!r} must be a positive number")
@@ -112,15 +127,23 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         value = getattr(opts, key)
         if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value >= dt):
             raise ValueError(f"{name}: {key} = {value!r} must be None or at least one sample ({dt} s)")
-    if opts.force_model not in ("single", "diagonal"):
-        raise ValueError(f"{name}: force_model = {opts.force_model!r} must be 'single' or 'diagonal'")
-    if isinstance(opts.refit_looks, bool) or not isinstance(opts.refit_looks, int) or opts.refit_looks < 1:
-        raise ValueError(f"{name}: refit_looks = {opts.refit_looks!r} must be an integer ≥ 1")
     if isinstance(opts.restart_after, bool) or not isinstance(opts.restart_after, int) or opts.restart_after < 1:
         raise ValueError(f"{name}: restart_after = {opts.restart_after!r} must be an integer ≥ 1")
     W, _ = _window_samples(opts, dt, np.asarray(prior, float))
     if n_samples is not None and W > n_samples:
         raise ValueError(f"{name}: the window ({W} samples) is longer than the record ({n_samples} samples)")
+
+
+def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
+    opts = make_options(Options, options, name)
+    check_shared(name, opts, prior, dt, n_samples)
+    if not (isinstance(opts.pulse_inflation, (int, float)) and math.isfinite(opts.pulse_inflation)
+            and opts.pulse_inflation > 0):
+        raise ValueError(f"{name}: pulse_inflation = {opts.pulse_inflation!r} must be a positive number")
+    if opts.force_model not in ("single", "diagonal"):
+        raise ValueError(f"{name}: force_model = {opts.force_model!r} must be 'single' or 'diagonal'")
+    if isinstance(opts.refit_looks, bool) or not isinstance(opts.refit_looks, int) or opts.refit_looks < 1:
+        raise ValueError(f"{name}: refit_looks = {opts.refit_looks!r} must be an integer ≥ 1")
     return opts
 
 

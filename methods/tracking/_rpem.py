@@ -49,22 +49,21 @@ from methods.tracking._track import Track
 
 
 @dataclass
-class Options(_ambient.Options):
-    """Options of ``rpem_ambient``: those of ``akf_ambient`` (:class:`methods.tracking._ambient.Options`) and
+class Options(_ambient.SharedOptions):
+    """Options of ``rpem_ambient``: :class:`methods.tracking._ambient.SharedOptions` and
 
     Attributes
     ----------
     estimate_damping : bool
-        ζᵢ are parameters (True) or held at ``damping_ratio``.
+        ζᵢ are parameters (True, started at ``damping_ratio``) or held at ``damping_ratio``.
     """
 
     estimate_damping: bool = True
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
-    base = {k: v for k, v in options.items() if k != "estimate_damping"}
-    _ambient.check_options(name, prior, dt, base, n_samples)
     opts = make_options(Options, options, name)
+    _ambient.check_shared(name, opts, prior, dt, n_samples)
     if not isinstance(opts.estimate_damping, bool):
         raise ValueError(f"{name}: estimate_damping = {opts.estimate_damping!r} must be true or false")
     return opts
