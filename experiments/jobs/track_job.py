@@ -30,22 +30,23 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
+import methods
 from experiments.cli import ArgumentParser
 from experiments.io import read_npz, write_json, write_npz
 from experiments.jobs.app import fail
 from experiments.jobs.track_variants import split, variant_options
+from experiments.provenance import digest, git_state
 from experiments.report.tracking_metrics import score_track
 from experiments.simulate.tracking_data import make_cell
 from experiments.simulate.tracking_grid import load_grid
-from experiments.tracking.provenance import digest, git_state
 
 __all__ = ["WARM_UP_SAMPLES", "check_tracker", "grid_trackers", "main", "rescore_tracker", "run_cell", "run_data",
            "run_tracker", "score_cell", "track_record", "tracker_names", "warm_up"]
 
 
 def tracker_names() -> list[str]:
-    import methods
 
     face = getattr(methods, "track_names", None)
     if face is None:
@@ -79,7 +80,6 @@ def grid_trackers(grid: dict) -> list[str]:
 def check_tracker(grid: dict, tracker: str) -> dict:
     """The tracker's options (a variant's over the defaults, then the grid's ``tracker_options``), checked
     against every cell (prior, Δt and record length)."""
-    import methods
 
     options = {**variant_options(tracker), **dict((grid.get("tracker_options") or {}).get(tracker, {}))}
     check = methods.check_track_options
@@ -107,7 +107,6 @@ def run_data(grid: dict, out: Path) -> None:
 def track_record(tracker: str, y: np.ndarray, dt_s: float, prior: np.ndarray, options: dict):
     """One record through ``methods.track`` (``tracker`` a name or a ``name:variant`` label whose options are
     already in ``options``); a tracker's exception becomes a failed track (None, message)."""
-    import methods
 
     try:
         return methods.track(split(tracker)[0], y, dt_s, prior, **options), ""
@@ -228,9 +227,8 @@ def main(argv: list[str] | None = None) -> None:
         fail(" ".join(str(exc).split()))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    from threadpoolctl import threadpool_limits
 
-    # One BLAS thread, as under Snakemake (experiments/rules/common.smk) and as on board: with several, the
+    # One BLAS thread, as under Snakemake (experiments/workflow/rules/common.smk) and as on board: with several, the
     # CPU time per sample counts threads that wait on tiny matrices (measured: era 3.5 ms instead of 0.24 ms
     # per sample on a loaded 2-core machine).
     with threadpool_limits(limits=1):

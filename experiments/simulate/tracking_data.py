@@ -48,7 +48,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from experiments.io import write_npz
-from experiments.simulate import schedules
+from experiments.simulate import pcrb, schedules
 from experiments.simulate.plant import PlantConfig, build_plant
 from experiments.simulate.schedules import ScheduleConfig
 from experiments.simulate.timevarying import INPUTS, modal_model, simulate
@@ -191,7 +191,6 @@ def make_cell(cfg: TrackingCellConfig, *, bounds: bool = True) -> dict[str, np.n
             sort_keys=True, default=float)),
     }
     if bounds:
-        from experiments.simulate import pcrb
 
         out["pcrb_std_rad_s"] = pcrb.cell_pcrb(model, w, states, cfg.dt_s, sigma, prior,
                                                rw_rel=cfg.pcrb_rw_rel, u=u)

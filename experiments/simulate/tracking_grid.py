@@ -3,7 +3,7 @@
 A grid names schedules and excitations (each a mapping of settings, see ``schedules.ScheduleConfig`` and
 ``tracking_data.ExcitationConfig``) and lists ``noise_ug`` and ``duration_s``; its cells are the product
 schedule × excitation × noise × duration, named ``<schedule>_<excitation>_noise{x}ug_{T}s``. The grid is
-checked whole before any work: the schema (``configs/grid/schema_tracking.yaml``), then every cell
+checked whole before any work: the schema (``experiments/workflow/schemas/tracking_grid.yaml``), then every cell
 (``tracking_data.check_cell_config``: a schedule that crosses modes or reaches Nyquist, an empty
 excitation, a record too short), each failure one line naming the file, the cell and the value.
 Which trackers run is the job's business (``experiments.jobs.track_job``); this module knows no method.
@@ -14,16 +14,20 @@ from __future__ import annotations
 import itertools
 from pathlib import Path
 
+import jsonschema
 import yaml
+from omegaconf import OmegaConf
 
+from experiments import paths
 from experiments.simulate.plant import PlantConfig
 from experiments.simulate.schedules import ScheduleConfig
 from experiments.simulate.tracking_data import ExcitationConfig, TrackingCellConfig, cell_name, check_cell_config
 
-__all__ = ["CONFIGS", "SCHEMA", "grid_path", "load_grid", "paper_plant"]
+__all__ = ["SCHEMA", "DEFAULTS", "grid_path", "load_grid", "paper_plant"]
 
-CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-SCHEMA = CONFIGS / "grid" / "schema_tracking.yaml"
+SCHEMA = paths.GRID_SCHEMAS / "tracking_grid.yaml"
+# The schema's defaults (dt_s, prior_spread): their one home is the schema.
+DEFAULTS = {k: v["default"] for k, v in yaml.safe_load(SCHEMA.read_text())["properties"].items() if "default" in v}
 
 
 def grid_path(name_or_path: str) -> Path:
@@ -31,21 +35,19 @@ def grid_path(name_or_path: str) -> Path:
     p = Path(name_or_path)
     if p.suffix in (".yaml", ".yml"):
         return p
-    return CONFIGS / "grid" / f"{name_or_path}.yaml"
+    return paths.GRIDS / f"{name_or_path}.yaml"
 
 
 def paper_plant() -> PlantConfig:
     """The grids' plant, configs/plant/paper.yaml (read by OmegaConf, whose YAML reads ``70.0e9`` as a number)."""
-    from omegaconf import OmegaConf
 
-    values = OmegaConf.to_container(OmegaConf.load(CONFIGS / "plant" / "paper.yaml"))
+    values = OmegaConf.to_container(OmegaConf.load(paths.PLANT_CONFIG))
     return PlantConfig(**{k: v for k, v in values.items() if k != "defaults"})
 
 
 def load_grid(name_or_path: str, *, check_cells: bool = True) -> dict:
     """The grid, validated, with ``cells``: name -> :class:`TrackingCellConfig`. ``ValueError`` (one line,
     naming the file and the key or the cell) for a bad grid."""
-    import jsonschema
 
     path = grid_path(name_or_path)
     if not path.is_file():
@@ -60,10 +62,10 @@ def load_grid(name_or_path: str, *, check_cells: bool = True) -> dict:
         raise ValueError(f"{path}: {key}: {' '.join(exc.message.split())}") from None
     except yaml.YAMLError as exc:
         raise ValueError(f"{path}: {' '.join(str(exc).split())}") from None
-    if path.stem != grid["name"] and path.parent == CONFIGS / "grid":
+    if path.stem != grid["name"] and path.parent == paths.GRIDS:
         raise ValueError(f"{path}: name: '{grid['name']}' must match the file name '{path.stem}'")
-    grid.setdefault("dt_s", 0.02)
-    grid.setdefault("prior_spread", 0.05)
+    for key, value in DEFAULTS.items():
+        grid.setdefault(key, value)
     grid.setdefault("tracker_options", {})
     plant = paper_plant()
     cells = {}

@@ -3,7 +3,8 @@
 import pytest
 import yaml
 
-from experiments.simulate.tracking_grid import CONFIGS, load_grid
+from experiments.paths import GRIDS
+from experiments.simulate.tracking_grid import load_grid
 
 
 @pytest.mark.parametrize("name, cells", [("tracking", 4 * 2 * 2), ("tracking_smoke", 2), ("tracking_full", 4 * 3 * 2)])
@@ -22,7 +23,7 @@ def test_the_default_grid_has_every_schedule_kind_and_the_paper_plant():
 
 
 def test_a_typo_in_a_schedule_key_names_the_key(tmp_path):
-    grid = yaml.safe_load((CONFIGS / "grid" / "tracking_smoke.yaml").read_text())
+    grid = yaml.safe_load((GRIDS / "tracking_smoke.yaml").read_text())
     grid["schedules"]["step"]["step_tme_s"] = 3.0
     path = tmp_path / "g.yaml"
     path.write_text(yaml.safe_dump(grid))

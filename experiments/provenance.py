@@ -25,12 +25,13 @@ from hydra.initialize import get_gh_backup, restore_gh_from_backup
 from omegaconf import OmegaConf
 
 import methods
+from experiments import paths
 from experiments.config_schema import IdentifyConfig, method_of_config, method_schema
 
 __all__ = ["ROOT", "canonical_json", "digest", "resolved_method_config", "method_code_files", "package_versions",
            "code_digest", "file_digest", "git_state"]
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = paths.ROOT
 
 
 def canonical_json(obj) -> str:

@@ -1,7 +1,7 @@
 """MLflow runs logged after the job: a run folder holds everything its run needs, until it is logged.
 
-    python -m experiments.tracking.pending                 # log every run waiting for this store
-    python -m experiments.tracking.pending results/runs    # ...and any waiting in run folders under a folder
+    python -m experiments.runlog.pending                 # log every run waiting for this store
+    python -m experiments.runlog.pending results/runs    # ...and any waiting in run folders under a folder
 
 Importing MLflow and opening its store cost a measurement job more than its answer (2–4 s against 2 s,
 ``results/bench/measurement.md``). So the job writes its run's description into its run folder —
@@ -9,14 +9,14 @@ Importing MLflow and opening its store cost a measurement job more than its answ
 artifacts (files of that folder) — adds the folder to the store's queue (a folder ``<store>.pending`` beside
 the SQLite file, or beside its lock file for other stores: :func:`queue_dir`), prints its answer and starts
 this module as a detached process that it does not wait for. That process logs every run in the queue,
-the job's own and any left over, each with :func:`experiments.tracking.store.log_run` (idempotent by run
+the job's own and any left over, each with :func:`experiments.runlog.store.log_run` (idempotent by run
 key, under the store's lock), then renames the folder's ``mlflow_pending.json`` to ``mlflow_run.json``
 (with the run's id) and takes the folder off the queue, in that order.
 
 Nothing is lost. Until a run is logged the marker ``mlflow_pending.json`` stays in its folder and the
 folder in the queue: a logger killed (even ``kill -9``) before or while logging leaves both, and a run it
 left RUNNING is replaced by the next logger (``log_run``'s cut-off rule). The next job's logger, this
-command, and the workflow's tracking step (``experiments.tracking.track``) log what is left. Two loggers at
+command, and the workflow's runlog step (``experiments.runlog.identify_runs``) log what is left. Two loggers at
 once (two jobs sharing a store) take turns on the store's lock, and a run key is logged once.
 """
 
@@ -30,8 +30,8 @@ import sys
 from pathlib import Path
 
 from experiments.io import atomic_write_text
-from experiments.tracking.provenance import digest
-from experiments.tracking.store import lock_path, tracking_uri
+from experiments.provenance import digest
+from experiments.runlog.store import check_store, dataset_entity, lock_path, log_run, tracking_uri
 
 __all__ = ["PENDING", "LOGGED", "LOG", "queue_dir", "enqueue", "start_logger", "waiting", "log_folder", "log_all",
            "main"]
@@ -49,7 +49,7 @@ def queue_dir(uri: str | None = None) -> Path:
 def enqueue(run_dir: Path, experiment: str, run_key: str, *, params: dict, metrics: dict, tags: dict,
             texts: dict, dataset: dict, artifacts: list[Path]) -> Path:
     """Write ``run_dir/mlflow_pending.json`` (the run, ready to log; ``dataset``: the keyword arguments of
-    :func:`experiments.tracking.store.dataset_entity`; ``artifacts``: files in ``run_dir``) and queue the
+    :func:`experiments.runlog.store.dataset_entity`; ``artifacts``: files in ``run_dir``) and queue the
     folder for the store. Returns the marker's path."""
     run_dir = Path(run_dir).resolve()
     uri = tracking_uri()
@@ -74,7 +74,7 @@ def start_logger(run_dir: Path) -> subprocess.Popen:
     """Start this module as a detached process (own session, output to ``run_dir/mlflow_log.txt``) that logs
     every queued run; the caller does not wait for it."""
     with open(Path(run_dir) / LOG, "ab") as out:
-        return subprocess.Popen([sys.executable, "-m", "experiments.tracking.pending"], cwd=os.getcwd(),
+        return subprocess.Popen([sys.executable, "-m", "experiments.runlog.pending"], cwd=os.getcwd(),
                                 stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
                                 start_new_session=True, close_fds=True)
 
@@ -106,7 +106,6 @@ def waiting(folders: list[Path] = (), uri: str | None = None) -> list[Path]:
 def log_folder(run_dir: Path) -> tuple[str, str, bool] | None:
     """Log the run waiting in ``run_dir``: (run key, run id, newly created), or None when another logger
     logged it meanwhile. Raises ``ValueError`` for a marker written for another store."""
-    from experiments.tracking.store import dataset_entity, log_run
 
     run_dir = Path(run_dir)
     try:
@@ -161,7 +160,6 @@ def main(argv=None) -> int:
         if not folder.is_dir():
             print(f"error: {folder}: no such folder", file=sys.stderr)
             return 2
-    from experiments.tracking.store import check_store
 
     try:
         check_store()

@@ -1,8 +1,10 @@
 """Log a grid's finished jobs to MLflow in one serial step, then write the grid's page.
 
-    python -m experiments.tracking.track --grid smoke --out results/smoke/mlflow_runs.json \
+    python -m experiments.runlog.identify_runs --grid smoke --out results/smoke/mlflow_runs.json \
         --summary results/smoke/summary.md --page results/smoke/README.md \
         --aggregate results/smoke/tables results/smoke/figures -- results/smoke/identify/*/*.csv
+
+(the workflow's ``runlog`` rule; installed, the command ``modal-id-runlog``).
 
 One MLflow experiment per grid (``grid-<name>``). The grid is a parent run carrying the tables, figures and
 page; each (method, cell) job is a child run: parameters and provenance from the job's own record
@@ -11,7 +13,7 @@ versions), metrics from its table, the dataset as an MLflow dataset input, the r
 as artifacts. Run keys cover the dataset's content, the resolved options and the code version, so a changed
 result is a new run and running this again (or after a kill, or from another process at the same time)
 logs nothing twice. Only the files named on the command line are read, and first any measurement run a
-job left waiting for the store (:mod:`experiments.tracking.pending`) is logged.
+job left waiting for the store (:mod:`experiments.runlog.pending`) is logged.
 """
 
 from __future__ import annotations
@@ -24,12 +26,14 @@ import pandas as pd
 
 from experiments.cli import ArgumentParser
 from experiments.io import atomic_write_text, write_json
+from experiments.provenance import canonical_json, digest, git_state
 from experiments.report.summary import job_metrics, summarize
-from experiments.tracking.provenance import canonical_json, digest, git_state
-from experiments.tracking.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
-from experiments.tracking.store import check_store, dataset_entity, log_run, source_tags
+from experiments.runlog.pending import log_all
+from experiments.runlog.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
+from experiments.runlog.store import check_store, dataset_entity, log_run, source_tags
 
-__all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job", "grid_run", "aggregate_files", "main"]
+__all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job", "grid_run", "aggregate_files", "main",
+           "main_as_track"]
 
 def log_job(experiment: str, record: dict, table_path: Path, record_path: Path | None = None,
             parent_run_id: str | None = None) -> tuple[str, str, bool]:
@@ -118,9 +122,8 @@ def main(argv=None) -> int:
     except ValueError as exc:              # checked before anything is logged: one line, nothing written
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    from experiments.tracking.pending import log_all
 
-    log_all()       # measurement runs a job left waiting (experiments/tracking/pending.py), if any
+    log_all()       # measurement runs a job left waiting (experiments/runlog/pending.py), if any
     child_keys = [run_key(rec) for _, _, rec in jobs]
     files = aggregate_files(args.aggregate) + ([args.summary] if args.summary else [])
     parent_key, parent_id, created = grid_run(args.grid, child_keys, files)
@@ -139,6 +142,12 @@ def main(argv=None) -> int:
                           f"[{args.out.name}]({args.out.name}).\n")
     print(message)
     return 0
+
+
+def main_as_track() -> int:
+    """The console script's old name ``modal-id-track``, until the next release: a note, then :func:`main`."""
+    print("note: modal-id-track is now modal-id-runlog; the old name works until the next release", file=sys.stderr)
+    return main()
 
 
 if __name__ == "__main__":

@@ -4,8 +4,8 @@ import mlflow
 import pytest
 from _procs import identify
 
-from experiments.tracking.store import log_run, tracking_uri
-from experiments.tracking.track import run_key
+from experiments.runlog.identify_runs import run_key
+from experiments.runlog.store import log_run, tracking_uri
 
 
 def test_tracking_uri_defaults_to_sqlite_and_environment_wins(monkeypatch, tmp_path):
@@ -98,7 +98,7 @@ def test_identify_logs_each_distinct_result_once_and_user_measurements_too(cells
     for overrides in ([f"data.dataset={a}"], [f"data.dataset={a}"], [f"data.dataset={b}"],
                       [f"data.dataset={a}", "method.options.zero_pad_factor=8"]):
         identify(tmp_path, "method=fft", *overrides)
-    identify(tmp_path, "method=fft", f"data.path={measurement}", "prior=[3.8,16,26,46]", "tracking.background=false")
+    identify(tmp_path, "method=fft", f"data.path={measurement}", "prior=[3.8,16,26,46]", "runlog.background=false")
     client = mlflow.MlflowClient(f"sqlite:///{tmp_path / 'results' / 'mlflow.db'}")
     runs = client.search_runs([client.get_experiment_by_name("identify").experiment_id])
     assert len(runs) == 3

@@ -1,5 +1,6 @@
-"""The workflow's Python (experiments/jobs/workflow.py) without Snakemake: a grid's cells, its jobs' command
-lines, and every refusal as one ``error:`` line naming the grid file and the value, before any job runs."""
+"""The workflow's Python (experiments/workflow/: grids, targets, command_line) without Snakemake: a grid's
+cells, its jobs' command lines, and every refusal as one ``error:`` line naming the grid file and the value,
+before any job runs."""
 
 from __future__ import annotations
 
@@ -8,7 +9,16 @@ from pathlib import Path
 
 import pytest
 
-from experiments.jobs.workflow import GridError, Workflow, method_config, requested_grids
+from experiments.workflow import targets
+from experiments.workflow.command_line import (
+    check_target,
+    command_line_targets,
+    renamed_rules,
+    requested_grids,
+    unknown_rule_targets,
+)
+from experiments.workflow.grids import GridError, Grids, method_config
+from experiments.workflow.triggers import resolved_config
 
 ROOT = Path(__file__).resolve().parents[3]
 GRID = "name: {name}\nnoise_ug: [10, 1000]\nn_samples: [64]\nreplicates: 2\nseed: 5\nmethods: [fft, akf]\n"
@@ -20,26 +30,26 @@ def root(tmp_path_factory):
     root = tmp_path_factory.mktemp("checkout")
     shutil.copytree(ROOT / "configs", root / "configs", ignore=shutil.ignore_patterns("grid"))
     (root / "configs" / "grid").mkdir()
-    shutil.copy(ROOT / "configs" / "grid" / "schema.yaml", root / "configs" / "grid")
     return root
 
 
-def workflow_with(root, name, text) -> Workflow:
+def workflow_with(root, name, text) -> Grids:
     (root / "configs" / "grid" / f"{name}.yaml").write_text(text)
-    return Workflow(root)
+    return Grids(root)
 
 
 def test_a_plain_grid_gives_one_dataset_and_one_table_per_cell_and_method(root):
     wf = workflow_with(root, "plain", GRID.format(name="plain"))
     assert wf.cells("plain") == ["noise10ug_n64", "noise1000ug_n64"]
-    assert wf.result_files("plain") == [f"results/plain/identify/{m}/noise{u}ug_n64.csv"
+    assert targets.result_files(wf, "plain") == [f"results/plain/identify/{m}/noise{u}ug_n64.csv"
                                         for m in ("fft", "akf") for u in (10, 1000)]
-    assert wf.dataset_jobs("plain")[1] == ["noise_ug=1000", "n_samples=64", "replicates=2", "seed=5", "dt_s=0.02",
-                                           "bias_m_s2=0.0", "out=results/plain/data/noise1000ug_n64.npz"]
-    assert wf.identify_jobs("plain", "akf")[0] == [
+    assert targets.dataset_jobs(wf, "plain")[1] == ["noise_ug=1000", "n_samples=64", "replicates=2", "seed=5",
+                                                    "dt_s=0.02", "bias_m_s2=0.0",
+                                                    "out=results/plain/data/noise1000ug_n64.npz"]
+    assert targets.identify_jobs(wf, "plain", "akf")[0] == [
         "method=akf", "data.dataset=results/plain/data/noise10ug_n64.npz",
-        "out=results/plain/identify/akf/noise10ug_n64.csv", "grid_name=plain", "tracking.enabled=false"]
-    assert wf.grid_targets("plain") == ["results/plain/README.md", "results/plain/mlflow_runs.json"]
+        "out=results/plain/identify/akf/noise10ug_n64.csv", "grid_name=plain", "runlog.enabled=false"]
+    assert targets.grid_targets("plain") == ["results/plain/README.md", "results/plain/mlflow_runs.json"]
 
 
 def test_a_measurement_cell_runs_only_the_methods_whose_options_have_it(root):
@@ -48,11 +58,11 @@ def test_a_measurement_cell_runs_only_the_methods_whose_options_have_it(root):
                        + "scenarios:\n  - {measurement: [acceleration]}\n")
     cell = "noise10ug_n64_acceleration"
     assert cell in wf.cells("meas")
-    assert wf.method_cells("meas", "akf") == wf.cells("meas")
-    assert wf.method_cells("meas", "fft") == [] == wf.method_cells("meas", method_config("pem:paper"))
-    assert wf.cell_overrides("meas", "akf", cell)[-1] == "method.options.measurement=acceleration"
+    assert targets.method_cells(wf, "meas", "akf") == wf.cells("meas")
+    assert targets.method_cells(wf, "meas", "fft") == [] == targets.method_cells(wf, "meas", method_config("pem:paper"))
+    assert targets.cell_overrides(wf, "meas", "akf", cell)[-1] == "method.options.measurement=acceleration"
     with pytest.raises(GridError, match="runs on none of its cells"):
-        wf.identify_jobs("meas", "fft")
+        targets.identify_jobs(wf, "meas", "fft")
 
 
 @pytest.mark.parametrize(("change", "message"), [
@@ -95,11 +105,11 @@ def test_the_yardstick_prior_is_the_named_configs_prior_and_its_spread(root):
     pem = yaml.safe_load((root / "configs" / "method" / "pem.yaml").read_text())
     mu, std = wf.yardstick_prior("pem_map")
     assert list(mu) == pem["prior_rad_s"] and list(std) == cfg["options"]["prior_std_rad_s"]
-    assert wf.yardstick_args("bayes") == ("--prior-rad-s " + " ".join(f"{v:g}" for v in mu)
+    assert targets.yardstick_args(wf, "bayes") == ("--prior-rad-s " + " ".join(f"{v:g}" for v in mu)
                                           + " --prior-std-rad-s " + " ".join(f"{v:g}" for v in std))
-    assert wf.yardstick_files("bayes") == ["results/bayes/yardstick.csv"]
-    assert wf.yardstick_cells("bayes") == [f"results/bayes/data/noise{u}ug_n64.npz" for u in (10, 1000)]
-    assert workflow_with(root, "plain", GRID.format(name="plain")).yardstick_files("plain") == []
+    assert targets.yardstick_files(wf, "bayes") == ["results/bayes/yardstick.csv"]
+    assert targets.yardstick_cells(wf, "bayes") == [f"results/bayes/data/noise{u}ug_n64.npz" for u in (10, 1000)]
+    assert targets.yardstick_files(workflow_with(root, "plain", GRID.format(name="plain")), "plain") == []
 
 
 def test_an_option_a_method_refuses_is_named_before_any_job(root):
@@ -110,8 +120,8 @@ def test_an_option_a_method_refuses_is_named_before_any_job(root):
         wf.load_grid("starts")
     ok = workflow_with(root, "starts_ok", GRID.format(name="starts_ok").replace("[fft, akf]", "[pem]")
                        + "method_overrides: {pem: [method.options.n_starts=2]}\n")
-    assert ok.identify_jobs("starts_ok", "pem")[0][-1] == "method.options.n_starts=2"
-    assert '"n_starts":2' in ok.resolved_config("pem", ("method.options.n_starts=2",))
+    assert targets.identify_jobs(ok, "starts_ok", "pem")[0][-1] == "method.options.n_starts=2"
+    assert '"n_starts":2' in resolved_config(ok.root, "pem", ("method.options.n_starts=2",))
 
 
 def test_an_unknown_grid_is_refused_with_the_known_ones(root):
@@ -148,20 +158,30 @@ def test_a_target_outside_the_grids_is_refused_in_one_line(target, message):
 def test_a_target_inside_a_grid_names_its_cells_or_methods(root, target, message):
     wf = workflow_with(root, "plain", GRID.format(name="plain"))
     with pytest.raises(GridError, match=message) as info:
-        wf.check_target(target)
+        check_target(wf, target)
     assert str(info.value).startswith(f"error: {target}: ")
     for fine in ("results/plain/data/noise10ug_n64.npz", "results/plain/identify/akf", "results/plain/README.md",
                  "smoke", "--cores"):
-        wf.check_target(fine)
+        check_target(wf, fine)
 
 
 def test_a_bare_word_that_names_no_rule_is_found_and_option_values_are_not(tmp_path):
-    from experiments.jobs.workflow import command_line_targets, unknown_rule_targets
-
     argv = ["-n", "--cores", "2", "--executor", "slurm", "papr", "smoke", "results/smoke/README.md", "notes",
             "--forcerun", "identify"]
-    targets = command_line_targets(argv)
-    assert targets == ["papr", "smoke", "results/smoke/README.md", "notes"]     # "2", "slurm" are values
+    words = command_line_targets(argv)
+    assert words == ["papr", "smoke", "results/smoke/README.md", "notes"]     # "2", "slurm" are values
     (tmp_path / "notes").write_text("a file in the workflow's folder is a file target")
-    assert unknown_rule_targets(targets, {"paper", "smoke"}, tmp_path) == ["papr"]
+    assert unknown_rule_targets(words, {"paper", "smoke"}, tmp_path) == ["papr"]
     assert command_line_targets(["--no-such-option"]) == []          # Snakemake's own refusal, not ours
+
+
+def test_an_old_rule_name_is_found_with_one_note_naming_the_new_one(capsys):
+    """``track`` and ``tracking_mlflow`` (MLflow run logging) are ``runlog`` and ``tracking_runlog`` now."""
+    argv = ["--cores", "2", "--forcerun", "track", "--until", "tracking_mlflow,identify", "--set-threads",
+            "track=1", "tracking", "results/tracking/track/akf"]
+    assert renamed_rules(argv) == ["track", "tracking_mlflow"]
+    notes = capsys.readouterr().err.splitlines()
+    assert notes == ["note: rule 'track' is now 'runlog'; the old name works until the next release",
+                     "note: rule 'tracking_mlflow' is now 'tracking_runlog'; the old name works until the next "
+                     "release"]
+    assert renamed_rules(["--forcerun", "runlog", "tracking", "tracking_runlog"]) == []

@@ -24,12 +24,12 @@ while not pathlib.Path(sys.argv[2]).exists():
     time.sleep(0.01)
 """
 LOG_KEYS = BARRIER + """
-from experiments.tracking.store import log_run
+from experiments.runlog.store import log_run
 for k in range(int(sys.argv[3])):
     log_run("race", f"key/{k}", params={"k": k}, metrics={"x": float(k)})
 """
 TRACK = BARRIER + """
-from experiments.tracking.track import main
+from experiments.runlog.identify_runs import main
 sys.exit(main(sys.argv[3:]))
 """
 
@@ -70,13 +70,13 @@ def test_racing_processes_log_every_run_exactly_once_on_a_fresh_then_a_used_stor
     assert sorted(r.data.tags["run_key"] for r in runs) == [f"key/{k}" for k in range(6)]
     assert all(r.info.status == "FINISHED" for r in runs)
 
-    # used store: the workflow's tracking step, 4 at once over the same two jobs
+    # used store: the workflow's runlog step, 4 at once over the same two jobs
     a, _ = cells
     tables = []
     for method in ("fft", "pll"):
         out = tmp_path / "results" / "race" / "identify" / method / "noise1000ug_n64.csv"
         identify(tmp_path, f"method={method}", f"data.dataset={a}", f"out={out}", "grid_name=race",
-                 "tracking.enabled=false", f"hydra.run.dir={tmp_path / 'runs' / method}")
+                 "runlog.enabled=false", f"hydra.run.dir={tmp_path / 'runs' / method}")
         tables.append(str(out))
     results = race(tmp_path, TRACK, lambda i: ["--grid", "race", "--out", f"record{i}.json", "--", *tables])
     for code, err in results:

@@ -1,4 +1,4 @@
-"""Runs logged after the job (experiments/tracking/pending.py): never lost, each logged once."""
+"""Runs logged after the job (experiments/runlog/pending.py): never lost, each logged once."""
 
 import json
 import os
@@ -12,8 +12,8 @@ import pytest
 from _procs import identify, run
 from filelock import FileLock
 
-from experiments.tracking import pending
-from experiments.tracking.store import lock_path
+from experiments.runlog import pending
+from experiments.runlog.store import lock_path
 
 
 def _run_folder(root, name, value=1.0):
@@ -83,7 +83,7 @@ def test_a_run_with_a_missing_file_is_refused_and_stays_waiting(mlflow_uri, tmp_
 
 def _logger(cwd, uri):
     env = os.environ | {"MLFLOW_TRACKING_URI": uri, "OPENBLAS_NUM_THREADS": "1"}
-    return subprocess.Popen([sys.executable, "-m", "experiments.tracking.pending"], cwd=cwd, env=env,
+    return subprocess.Popen([sys.executable, "-m", "experiments.runlog.pending"], cwd=cwd, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -107,7 +107,7 @@ def test_kill_9_of_the_logger_loses_nothing(mlflow_uri, tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert (d / pending.PENDING).exists() or len(_finished(mlflow_uri, key)) == 1
-    out = run("-m", "experiments.tracking.pending", cwd=tmp_path, env_extra={"MLFLOW_TRACKING_URI": mlflow_uri})
+    out = run("-m", "experiments.runlog.pending", cwd=tmp_path, env_extra={"MLFLOW_TRACKING_URI": mlflow_uri})
     assert key in out.stdout or "no MLflow run waiting" in out.stdout
     assert len(_finished(mlflow_uri, key)) == 1
     assert not (d / pending.PENDING).exists() and pending.waiting() == []
@@ -130,14 +130,14 @@ def test_two_loggers_at_once_log_each_run_once(mlflow_uri, tmp_path):
 
 @pytest.mark.slow
 def test_the_job_answers_first_and_its_run_is_logged_in_the_background(measurement, tmp_path):
-    """The identify job on a CSV with tracking on (the default): the answer and the run folder are there
+    """The identify job on a CSV with MLflow logging on (the default): the answer and the run folder are there
     when it exits, the MLflow run follows; the command logs (or finds logged) the run."""
     out = identify(tmp_path, "method=fft", f"data.path={measurement}", "prior=[3.8,16,26,46]",
                    "hydra.run.dir=run")
     assert "being logged by a background process" in out.stdout
     assert (tmp_path / "run" / "estimate.json").exists()
     db = tmp_path / "results" / "mlflow.db"
-    done = run("-m", "experiments.tracking.pending", cwd=tmp_path)     # waits for the job's logger's lock
+    done = run("-m", "experiments.runlog.pending", cwd=tmp_path)     # waits for the job's logger's lock
     assert done.returncode == 0
     deadline = time.time() + 120
     while (tmp_path / "run" / pending.PENDING).exists() and time.time() < deadline:
@@ -147,10 +147,10 @@ def test_the_job_answers_first_and_its_run_is_logged_in_the_background(measureme
     assert r.info.status == "FINISHED" and "freq_rad_s.mode1" in r.data.metrics
     assert json.loads((tmp_path / "run" / pending.LOGGED).read_text())["run_id"] == r.info.run_id
     sync = identify(tmp_path, "method=fft", f"data.path={measurement}", "prior=[3.8,16,26,46]",
-                    "hydra.run.dir=run2", "tracking.background=false")
+                    "hydra.run.dir=run2", "runlog.background=false")
     assert "(already there)" in sync.stdout
 
 
 def test_the_command_refuses_a_missing_folder(tmp_path):
-    out = run("-m", "experiments.tracking.pending", str(tmp_path / "nope"), cwd=tmp_path, check=False)
+    out = run("-m", "experiments.runlog.pending", str(tmp_path / "nope"), cwd=tmp_path, check=False)
     assert out.returncode == 2 and out.stderr.startswith("error: ") and len(out.stderr.splitlines()) == 1

@@ -1,12 +1,12 @@
-# aggregate -> track: the grid's page results/<grid>/README.md is written last, by the tracking step, so
-# one target gives the tables, the figures and the MLflow runs (results/<grid>/summary.md is the same page
-# before tracking).
+# aggregate -> runlog: the grid's page results/<grid>/README.md is written last, by the runlog step (MLflow
+# run logging), so one target gives the tables, the figures and the MLflow runs (results/<grid>/summary.md is
+# the same page before the runs are logged).
 #
-# aggregate and track are light and serial (track is the one writer of the MLflow store): they run on the
+# aggregate and runlog are light and serial (runlog is the one writer of the MLflow store): they run on the
 # machine that runs Snakemake, never as cluster jobs.
 localrules:
     aggregate,
-    track,
+    runlog,
 
 
 # The HTML report (`snakemake --report report.html <grid target>`): every figure and table of a grid, in
@@ -17,7 +17,7 @@ localrules:
 # a label with two values for an on/off toggle and a category of two results fails to open.
 from experiments.report import catalog
 
-report: "../report/captions/workflow.rst"
+report: "../../report/captions/workflow.rst"
 
 
 # The Bayesian yardstick of a grid that names a prior (yardstick_prior: docs/prior.md): one job per grid,
@@ -60,14 +60,14 @@ rule aggregate:
         figures=report(
             directory("results/{grid}/figures"),
             patterns=["{name}.png"],
-            caption="../report/captions/_figure.rst",
+            caption="../../report/captions/_figure.rst",
             category=lambda wc: catalog.category_of(wc.name),
             labels=lambda wc: {"result": f"{catalog.title_of(wc.name)} ({wc.name}.png)"},
         ),
         tables=report(
             directory("results/{grid}/tables"),
             patterns=["{name}.html"],
-            caption="../report/captions/_table.rst",
+            caption="../../report/captions/_table.rst",
             category=lambda wc: catalog.category_of(wc.name),
             labels=lambda wc: {"result": f"{catalog.title_of(wc.name)} ({wc.name}.html)"},
         ),
@@ -83,9 +83,9 @@ rule aggregate:
         " -- {params.tables} > {log} 2>&1"
 
 
-rule track:
+rule runlog:
     message:
-        "track: MLflow runs and page of grid {wildcards.grid} -> {output.page}"
+        "runlog: MLflow runs and page of grid {wildcards.grid} -> {output.page}"
     input:
         results=lambda wc: identify_dirs(wc.grid),
         summary="results/{grid}/summary.md",
@@ -99,9 +99,9 @@ rule track:
     params:
         tables=lambda wc: result_files(wc.grid),
     log:
-        "results/{grid}/logs/track.log",
+        "results/{grid}/logs/runlog.log",
     shell:
-        "python -m experiments.tracking.track --grid {wildcards.grid} --out {output.record}"
+        "python -m experiments.runlog.identify_runs --grid {wildcards.grid} --out {output.record}"
         " --summary {input.summary} --page {output.page} --aggregate {input.tables} {input.figures}"
         " -- {params.tables} > {log} 2>&1"
 
@@ -113,7 +113,7 @@ rule reproduce:
         report(
             directory("results/{grid}/paper/{experiment}"),
             patterns=["{name}.png"],
-            caption="../report/captions/_paper_experiment.rst",
+            caption="../../report/captions/_paper_experiment.rst",
             category="paper reproductions",
             subcategory="{experiment}",
         ),
@@ -127,4 +127,4 @@ rule reproduce:
         "results/{grid}/logs/paper/{experiment}.log",
     shell:
         "python -m experiments.jobs.reproduce experiment={wildcards.experiment} out_dir={output}"
-        " tracking.enabled=false > {log} 2>&1"
+        " runlog.enabled=false > {log} 2>&1"

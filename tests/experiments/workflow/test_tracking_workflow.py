@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 ROOT = Path(__file__).resolve().parents[3]
-SITE = Path(__file__).resolve().parent / "stand_in_site"
+SITE = Path(__file__).resolve().parents[1] / "jobs" / "stand_in_site"   # the stand-in tracker, beside its tests
 pytestmark = pytest.mark.slow
 
 

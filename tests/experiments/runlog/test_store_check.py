@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from experiments.tracking.store import check_store
+from experiments.runlog.store import check_store
 
 
 def _real_store(path):
@@ -37,7 +37,7 @@ def test_an_empty_truncated_or_foreign_store_is_one_line_naming_it_and_the_way_o
     with pytest.raises(ValueError) as err:
         check_store(f"sqlite:///{path}")
     message = str(err.value)
-    assert words in message and str(path) in message and "tracking.enabled=false" in message
+    assert words in message and str(path) in message and "runlog.enabled=false" in message
     assert "\n" not in message
     assert path.read_bytes() == before                          # left as it was, never rebuilt
 
@@ -55,7 +55,7 @@ def test_a_page_damaged_inside_is_caught_by_sqlites_own_check(tmp_path):
 def test_the_track_step_refuses_a_truncated_store_in_one_line(tmp_path):
     path = _real_store(tmp_path / "mlflow.db")
     path.write_bytes(path.read_bytes()[:4096])
-    proc = subprocess.run([sys.executable, "-m", "experiments.tracking.track", "--grid", "g", "--out",
+    proc = subprocess.run([sys.executable, "-m", "experiments.runlog.identify_runs", "--grid", "g", "--out",
                            str(tmp_path / "runs.json"), str(tmp_path / "x.csv")],
                           capture_output=True, text=True, env={"MLFLOW_TRACKING_URI": f"sqlite:///{path}",
                                                                "PATH": "/usr/bin:/bin"})
@@ -75,7 +75,7 @@ def test_the_track_step_refuses_a_file_that_is_no_job_table_in_one_line(tmp_path
         table.write_text(content)
     elif content is not None:
         table.write_bytes(content)
-    proc = subprocess.run([sys.executable, "-m", "experiments.tracking.track", "--grid", "g", "--out",
+    proc = subprocess.run([sys.executable, "-m", "experiments.runlog.identify_runs", "--grid", "g", "--out",
                            str(tmp_path / "runs.json"), str(table)], capture_output=True, text=True,
                           env={"MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path / 'm.db'}", "PATH": "/usr/bin:/bin"})
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and words in proc.stderr, proc.stderr

@@ -1,11 +1,11 @@
 """Log a tracking grid to MLflow in one serial step, then write its page.
 
-    python -m experiments.tracking.tracking_runs --grid tracking --out results/tracking/mlflow_runs.json \
+    python -m experiments.runlog.tracker_runs --grid tracking --out results/tracking/mlflow_runs.json \
         --summary results/tracking/summary.md --page results/tracking/README.md \
         --aggregate results/tracking/tables results/tracking/figures -- results/tracking/track/*
 
 One MLflow experiment per grid (``grid-<name>``), as for the identification grids
-(``experiments.tracking.track``): the grid is a parent run carrying the tables, figures and page; each
+(``experiments.runlog.identify_runs``): the grid is a parent run carrying the tables, figures and page; each
 (tracker, cell) is a child run with the tracker's options and the cell's settings as parameters, the cell's
 summary (``tracking_metrics.summarize_cell``) as metrics, its scores table as an artifact and the records as
 its dataset input. A run's key covers the records' content, the options and the code version, so running
@@ -22,10 +22,10 @@ import pandas as pd
 
 from experiments.cli import ArgumentParser
 from experiments.io import atomic_write_text, write_json
+from experiments.provenance import canonical_json, digest, git_state
 from experiments.report.tracking_metrics import summarize_cell
-from experiments.tracking.provenance import canonical_json, digest, git_state
-from experiments.tracking.store import dataset_entity, log_run, source_tags
-from experiments.tracking.track import aggregate_files
+from experiments.runlog.identify_runs import aggregate_files
+from experiments.runlog.store import dataset_entity, log_run, source_tags
 
 __all__ = ["SOURCE", "log_cell", "main", "run_key"]
 

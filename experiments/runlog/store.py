@@ -1,4 +1,4 @@
-"""MLflow tracking with an embedded default, safe under concurrent processes, with idempotent runs.
+"""MLflow run logging with an embedded default, safe under concurrent processes, with idempotent runs.
 
 Default store: SQLite at ``results/mlflow.db`` with artifacts under ``results/mlartifacts/<experiment>``
 (no server); ``MLFLOW_TRACKING_URI`` in the environment wins (a server, PostgreSQL, ...). A run is
@@ -30,7 +30,7 @@ from urllib.parse import unquote, urlparse
 
 from filelock import FileLock
 
-from experiments.tracking.provenance import digest, git_state
+from experiments.provenance import digest, git_state
 
 __all__ = ["DEFAULT_DB", "LOCK_TIMEOUT_S", "tracking_uri", "is_default_store", "lock_path", "store_lock", "client",
            "experiment_id", "log_run", "dataset_entity", "source_tags", "git_commit"]
@@ -90,7 +90,7 @@ def _check_sqlite(path: Path) -> None:
 
 def _check_sqlite_file(path: Path) -> None:
     way_out = (f"move it aside (mv {path} {path}.broken) to start a fresh store, point MLFLOW_TRACKING_URI to "
-               f"another store, or run with tracking.enabled=false")
+               f"another store, or run with runlog.enabled=false")
     size = path.stat().st_size
     if size == 0:
         raise ValueError(f"the MLflow store {path} is empty (0 bytes): it is not rebuilt silently, since the "
@@ -148,7 +148,7 @@ def client(uri: str | None = None):
     """
     uri = uri or tracking_uri()
     if uri not in _CLIENTS:
-        import mlflow  # imported here: ~2 s, and only the tracking steps need it
+        import mlflow  # imported here: ~2 s, and only the runlog steps need it
 
         with store_lock(uri):            # the client may open the store on construction (tracing)
             path = sqlite_path(uri)
@@ -196,7 +196,7 @@ def log_run(experiment: str, run_key: str, *, params: dict | None = None, metric
     ``mlflow.entities.Dataset`` logged as the run's input; ``parent_run_id`` makes it a child run (an
     existing run with the key is moved under that parent).
     """
-    from mlflow.entities import DatasetInput, InputTag, Metric, Param  # mlflow: ~2 s, tracking steps only
+    from mlflow.entities import DatasetInput, InputTag, Metric, Param  # mlflow: ~2 s, runlog steps only
 
     uri = tracking_uri()
     c = client(uri)
@@ -262,7 +262,7 @@ def _owner_gone(run) -> bool:
 
 def dataset_entity(name: str, digest_: str, source: str, *, kind: str, profile: dict | None = None):
     """An MLflow dataset (name, digest, source) for ``log_run(dataset=...)``."""
-    from mlflow.entities import Dataset  # mlflow: ~2 s, tracking steps only
+    from mlflow.entities import Dataset  # mlflow: ~2 s, runlog steps only
 
     return Dataset(name=name, digest=digest_[:36], source_type="local",
                    source=json.dumps({"uri": str(source)}),

@@ -1,10 +1,10 @@
 # The tracking grids (configs/grid/tracking*.yaml, docs/tracking.md): the records of every cell in one job,
-# one job per tracker over every cell, then the report and the MLflow step (serial, local), as for the
-# identification grids. Every step is a command a user can type:
+# one job per tracker over every cell, then the report and the MLflow run logging (tracking_runlog: serial,
+# local), as for the identification grids. Every step is a command a user can type:
 #   python -m experiments.jobs.track_job data tracking --out results/tracking/data
 #   python -m experiments.jobs.track_job run tracking --tracker akf --data results/tracking/data --out ...
-#   python -m experiments.report.tracking_report ... ;  python -m experiments.tracking.tracking_runs ...
-from experiments.jobs.tracking_targets import (TRACKING_GRIDS, check_requested_tracking_grids, tracker_dirs,
+#   python -m experiments.report.tracking_report ... ;  python -m experiments.runlog.tracker_runs ...
+from experiments.workflow.tracking import (TRACKING_GRIDS, check_requested_tracking_grids, tracker_dirs,
                                                tracking_runtime)
 
 check_requested_tracking_grids(sys.argv[1:])
@@ -16,7 +16,7 @@ TRACKING_GRID_RE = "|".join(TRACKING_GRIDS) or "(?!)"
 localrules:
     tracking,
     tracking_report,
-    tracking_mlflow,
+    tracking_runlog,
 
 
 rule tracking:
@@ -75,14 +75,14 @@ rule tracking_report:
         figures=report(
             directory("results/{tgrid}/figures"),
             patterns=["{name}.png"],
-            caption="../report/captions/_figure.rst",
+            caption="../../report/captions/_figure.rst",
             category=lambda wc: catalog.category_of(wc.name),
             labels=lambda wc: {"result": f"{catalog.title_of(wc.name)} ({wc.name}.png)"},
         ),
         tables=report(
             directory("results/{tgrid}/tables"),
             patterns=["{name}.html"],
-            caption="../report/captions/_table.rst",
+            caption="../../report/captions/_table.rst",
             category=lambda wc: catalog.category_of(wc.name),
             labels=lambda wc: {"result": f"{catalog.title_of(wc.name)} ({wc.name}.html)"},
         ),
@@ -97,7 +97,7 @@ rule tracking_report:
         " --out results/{wildcards.tgrid} --page {output.page} -- {input.results} > {log} 2>&1"
 
 
-rule tracking_mlflow:
+rule tracking_runlog:
     input:
         results=lambda wc: tracker_dirs(wc.tgrid),
         summary="results/{tgrid}/summary.md",
@@ -111,8 +111,8 @@ rule tracking_mlflow:
     conda:
         CONDA_ENV
     log:
-        "results/{tgrid}/logs/mlflow.log",
+        "results/{tgrid}/logs/runlog.log",
     shell:
-        "python -m experiments.tracking.tracking_runs --grid {wildcards.tgrid} --out {output.record}"
+        "python -m experiments.runlog.tracker_runs --grid {wildcards.tgrid} --out {output.record}"
         " --summary {input.summary} --page {output.page} --aggregate {input.tables} {input.figures}"
         " -- {input.results} > {log} 2>&1"

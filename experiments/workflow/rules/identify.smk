@@ -1,8 +1,8 @@
 # One job per (grid, method) runs the method on every cell of the grid, all replicates, in one process
 # (experiments.jobs.batch: identify's job for each cell; a process per cell spent a third of the job time
 # starting up). Its folder is the output: results/<grid>/identify/<method>/<cell>.csv and, beside each table,
-# <cell>.json: the cell's resolved config, the dataset's digest and the code version, which is all the track
-# step reads besides the table. MLflow logging is left to the serial `track` step. The batch's cells are
+# <cell>.json: the cell's resolved config, the dataset's digest and the code version, which is all the runlog
+# step reads besides the table. MLflow logging is left to the serial `runlog` step. The batch's cells are
 # shared by IDENTIFY_THREADS worker processes (common.smk: 1; `--set-threads identify=N` changes it).
 rule identify:
     message:

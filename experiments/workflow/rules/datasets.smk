@@ -21,7 +21,7 @@ for _grid_name in GRID_NAMES:
         output:
             [f"results/{_grid_name}/data/{c}.npz" for c in _cells],
         params:
-            jobs=shlex.quote(json.dumps(WF.dataset_jobs(_grid_name))),
+            jobs=shlex.quote(json.dumps(targets.dataset_jobs(WF, _grid_name))),
         threads: 1
         resources:
             mem_mb=MEM_MB_JOB,

@@ -1,12 +1,12 @@
 """What keys and describes a job's MLflow run, without pandas or MLflow: the run key, the flat parameters and
 the resolved config as YAML (a measurement job builds its run here and leaves the logging to
-:mod:`experiments.tracking.pending`; :mod:`experiments.tracking.track` logs a grid's jobs with them)."""
+:mod:`experiments.runlog.pending`; :mod:`experiments.runlog.identify_runs` logs a grid's jobs with them)."""
 
 from __future__ import annotations
 
 from omegaconf import OmegaConf
 
-from experiments.tracking.provenance import canonical_json, digest
+from experiments.provenance import canonical_json, digest
 
 __all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml"]
 

@@ -1,4 +1,4 @@
-"""What the tracking rules (experiments/rules/tracking.smk) need to know of a tracking grid: its name, its
+"""What the tracking rules (experiments/workflow/rules/tracking.smk) need to know of a tracking grid: its name, its
 trackers' folders, a runtime request, and the check of a requested grid before the DAG is built (one
 ``error:`` line and exit status 2 for a bad grid, a bad cell or a bad tracker option)."""
 
@@ -9,13 +9,14 @@ import math
 import os
 import sys
 
+from experiments import paths
 from experiments.jobs.track_job import check_tracker, grid_trackers
-from experiments.simulate.tracking_grid import CONFIGS, load_grid
+from experiments.simulate.tracking_grid import load_grid
 
 __all__ = ["CPU_S_PER_SAMPLE", "TRACKING_GRIDS", "check_requested_tracking_grids", "requested", "tracker_dirs",
            "tracking_grid", "tracking_runtime"]
 
-TRACKING_GRIDS = sorted(f[: -len(".yaml")] for f in os.listdir(CONFIGS / "grid")
+TRACKING_GRIDS = sorted(f[: -len(".yaml")] for f in os.listdir(paths.GRIDS)
                         if f.startswith("tracking") and f.endswith(".yaml"))
 # A cluster's request per tracker job: 4x a pessimistic 2 ms of CPU per sample, at least 5 minutes (a local
 # run ignores it). The measured costs are in each grid's benchmarks/track/<tracker>.tsv.
