@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.io import write_json
+from experiments.jobs.modes_found import INSTALL_HINT, find_modes
 from experiments.recordings import choose_segment, read_record
 from experiments.recordings.modal_fit import fit_modes
 from experiments.recordings.spectral import flat_band
@@ -30,7 +31,6 @@ __all__ = ["G_M_S2", "MEASUREMENTS_EXPERIMENT", "INSTALL_HINT", "load", "load_cs
            "print_notes", "report", "log"]
 
 MEASUREMENTS_EXPERIMENT = "measurements"
-INSTALL_HINT = "pip install -e '.[measurements]'"
 
 
 def load(d, prior=None) -> dict:
@@ -62,23 +62,6 @@ def load_csv(path) -> tuple[np.ndarray, float]:
 
     rec = read_record(path)
     return rec.accel_m_s2, rec.dt_s
-
-
-def find_modes(data: dict, n_modes: int | None):
-    """The modes of the segment from a stabilisation diagram: (prior in rad/s, the diagram)."""
-    try:
-        from methods.peers.stabilisation import stabilisation_diagram  # optional extra (pyOMA2): refused below
-        diagram = stabilisation_diagram(data["segment"].y, data["dt"],
-                                        band_rad_s=tuple(2 * np.pi * np.asarray(data["segment"].band_hz)),
-                                        n_modes=n_modes)
-    except ModuleNotFoundError as exc:
-        raise ValueError(f"finding the modes without a prior needs the package '{exc.name}': {INSTALL_HINT}"
-                         ) from None
-    if diagram.modes_rad_s.size == 0:
-        lo, hi = data["segment"].band_hz
-        raise ValueError(f"{data['source']}: no mode stands out of the noise between {lo:.4g} and {hi:.4g} Hz "
-                         f"({diagram.n_clusters} stable clusters on the stabilisation diagram); give a prior")
-    return diagram.modes_rad_s, diagram
 
 
 def method_options(options: dict, data: dict) -> dict:

@@ -38,9 +38,8 @@ from experiments.io import read_npz, write_json, write_npz
 from experiments.jobs.app import fail
 from experiments.jobs.track_variants import split, variant_options
 from experiments.provenance import digest, git_state
-from experiments.report.tracking_metrics import score_track
-from experiments.simulate.tracking_data import make_cell
-from experiments.simulate.tracking_grid import load_grid
+from experiments.report.tracking_metrics import score_record
+from experiments.simulate.tracking_grid import load_grid, make_grid_cell, nominal_prior_rad_s
 
 __all__ = ["WARM_UP_SAMPLES", "check_tracker", "grid_trackers", "main", "rescore_tracker", "run_cell", "run_data",
            "run_tracker", "score_cell", "track_record", "tracker_names", "warm_up"]
@@ -86,7 +85,7 @@ def check_tracker(grid: dict, tracker: str) -> dict:
     takes_length = "n_samples" in inspect.signature(check).parameters
     for name, cell in grid["cells"].items():
         cfg = cell["config"]
-        nominal = np.asarray(cfg.plant.target_freq_rad_s, dtype=float)
+        nominal = np.asarray(nominal_prior_rad_s(cfg), dtype=float)
         try:
             if takes_length:
                 check(split(tracker)[0], nominal, cfg.dt_s, options, n_samples=cfg.n_samples)
@@ -100,7 +99,7 @@ def check_tracker(grid: dict, tracker: str) -> dict:
 def run_data(grid: dict, out: Path) -> None:
     for i, (name, cell) in enumerate(grid["cells"].items()):
         t0 = time.process_time()
-        write_npz(out / f"{name}.npz", make_cell(cell["config"]))
+        write_npz(out / f"{name}.npz", make_grid_cell(cell["config"]))
         print(f"cell {i + 1} of {len(grid['cells'])} ({name}) in {time.process_time() - t0:.3g} s CPU", flush=True)
 
 
@@ -138,15 +137,11 @@ def run_cell(tracker: str, options: dict, data: dict, cell_meta: dict) -> tuple[
 
 
 def score_cell(tracker: str, tracks: dict, data: dict, cell_meta: dict, messages: list[str]) -> pd.DataFrame:
-    """The scores of every replicate's track (``experiments.report.tracking_metrics.score_track``)."""
-    step = float(data["step_time_s"])
-    span = data["drift_span_s"]
+    """The scores of every replicate's track (``experiments.report.tracking_metrics.score_record``)."""
     rows = []
     for r in range(tracks["frequencies"].shape[0]):
-        s = score_track(tracks["t_s"], tracks["frequencies"][r], tracks["converged"][r], tracks["runtime_s"][r],
-                        data["truth_freq_rad_s"], float(data["dt_s"]), bound=data["pcrb_std_rad_s"][r],
-                        step_time_s=step if np.isfinite(step) else None,
-                        drift_span_s=span if np.all(np.isfinite(span)) else None)
+        s = score_record(tracks["t_s"], tracks["frequencies"][r], tracks["converged"][r], tracks["runtime_s"][r],
+                         data, r)
         rows.append({"tracker": tracker, **cell_meta, "replicate": r, **s, "message": str(messages[r])[:300]})
     return pd.DataFrame(rows)
 
