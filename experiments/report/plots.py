@@ -26,7 +26,8 @@ METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab
                 "ssi_data": ("tab:pink", ">"), "lsce": ("tab:olive", "h"), "hdmd": ("gold", "*"),
                 "bopdmd": ("navy", "p"),
                 # the trackers that are not also identifiers (methods/tracking/README.md)
-                "rls_ar": ("maroon", "H"), "next_era": ("teal", "d"), "gated_pencil": ("black", "8")}
+                "rls_ar": ("maroon", "H"), "next_era": ("teal", "d"), "gated_pencil": ("black", "8"),
+                "akf_ambient": ("darkblue", "s"), "rpem_ambient": ("firebrick", "H")}
 # Any other method (a plugin) gets a colour from this list by a hash of its name, and the marker x.
 EXTRA_COLOURS = ["darkgreen", "teal", "maroon", "indigo", "darkorange", "slategray", "crimson", "olive"]
 MAX_FAILURE_RATE = 0.5   # a (method, cell) that failed more often than this is not drawn as a point

@@ -7,7 +7,8 @@ Two methods, one module each, both registered by name:
 
 Behind them: ``_filter`` (the model, filterpy's EKF loop, the divergence test: the reference) and
 ``_lockstep`` (a cell's R filters stepped together on stacked arrays, each record getting what it gets
-alone). See methods/kalman/README.md.
+alone). ``modal_transition`` (the exact oscillator transition and its ω-derivative) is public: the tracking
+family's force-driven filters (methods/tracking/_ambient.py, _rpem.py) share it. See methods/kalman/README.md.
 
 >>> import numpy as np
 >>> from methods.kalman import akf
@@ -19,5 +20,6 @@ True
 """
 
 from methods.kalman import akf, wkf
+from methods.kalman._filter import modal_transition
 
-__all__ = ["akf", "wkf"]
+__all__ = ["akf", "modal_transition", "wkf"]

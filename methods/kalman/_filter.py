@@ -49,8 +49,9 @@ def modal_transition(omega, zeta: float, dt: float) -> tuple[np.ndarray, np.ndar
     ----------
     omega : array_like, shape (m,)
         Undamped natural frequencies in rad/s (positive).
-    zeta : float
-        Damping ratio, 0 ≤ ζ < 1.
+    zeta : float or array_like, shape (m,)
+        Damping ratio, 0 ≤ ζ < 1, one for all modes or one per mode (complex values are carried through,
+        for a complex-step derivative in ζ).
     dt : float
         Sample interval in s.
 
@@ -60,18 +61,19 @@ def modal_transition(omega, zeta: float, dt: float) -> tuple[np.ndarray, np.ndar
         Φ_n and ∂Φ_n/∂ω_n for each mode n.
     """
     w = np.asarray(omega, dtype=float)
+    zeta = np.asarray(zeta)          # one ζ, or one per mode (complex: a complex-step derivative in ζ)
     r = np.sqrt(1.0 - zeta * zeta)
     e = np.exp(-zeta * w * dt)
     c = np.cos(w * r * dt)
     s = np.sin(w * r * dt)
     zr = zeta / r
-    phi = np.empty(w.shape + (2, 2))
+    phi = np.empty(np.broadcast_shapes(w.shape, zeta.shape) + (2, 2), dtype=np.result_type(w, zeta))
     phi[..., 0, 0] = e * (c + zr * s)
     phi[..., 0, 1] = e * s / (w * r)
     phi[..., 1, 0] = -e * w * s / r
     phi[..., 1, 1] = e * (c - zr * s)
     # d/dω of e = −ζΔt·e, of c = −rΔt·s, of s = rΔt·c
-    dphi = -zeta * dt * phi
+    dphi = -zeta[..., None, None] * dt * phi
     dphi[..., 0, 0] += e * dt * (zeta * c - r * s)
     dphi[..., 0, 1] += e * (dt * c / w - s / (w * w * r))
     dphi[..., 1, 0] -= e * (s / r + w * dt * c)

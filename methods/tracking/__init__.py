@@ -11,7 +11,10 @@ Every tracker gets the samples, the sample interval, a prior and its options (ne
   of ``window_samples`` every ``hop_samples``, warm-started from the previous window;
 * ``rls_ar`` — recursive least squares (Ljung's RPEM for an AR model) with forgetting, modes from its poles;
 * ``next_era`` — the naive baseline: NExT autocorrelation of a sliding window through ERA;
-* ``gated_pencil`` — a matrix pencil on the Hankel columns no thruster pulse crosses, then the trend stage.
+* ``gated_pencil`` — a matrix pencil on the Hankel columns no thruster pulse crosses, then the trend stage;
+* ``akf_ambient`` — the augmented EKF formulated for a random force (process noise on the modal velocities, the
+  acceleration's direct term), its noise intensities, restarts and pulses from a periodogram every hop;
+* ``rpem_ambient`` — Ljung's recursive prediction-error method on the innovation form of the same oscillators.
 
 Every windowed tracker takes ``trend=True``: its estimates put at the window's centre and carried to the
 present by a local-linear-trend Kalman filter (:mod:`methods.tracking._trend`).
@@ -23,7 +26,8 @@ Nothing here imports the experiments, Hydra, MLflow or files. See methods/tracki
 Where the code lives: a method family keeps its numerics, batch or sample by sample (``methods.kalman.online``:
 the filters with a causal P0 and restarts; ``methods.pll``: the loop bank, online by design); this package
 holds every tracker, one private module each (``_kalman``, ``_pll``: adapters of the families' runs to
-:class:`Track`; ``_windowed``, ``_rls_ar``, ``_next_era``, ``_gated_pencil``: trackers of no family), and the face.
+:class:`Track`; ``_windowed``, ``_rls_ar``, ``_next_era``, ``_gated_pencil``, ``_ambient``, ``_rpem``:
+trackers of no family), and the face.
 """
 
 from __future__ import annotations
@@ -44,6 +48,8 @@ _NATIVE: dict[str, str] = {
     "rls_ar": "methods.tracking._rls_ar",
     "next_era": "methods.tracking._next_era",
     "gated_pencil": "methods.tracking._gated_pencil",
+    "akf_ambient": "methods.tracking._ambient",
+    "rpem_ambient": "methods.tracking._rpem",
 }
 _WINDOWED = "methods.tracking._windowed"
 

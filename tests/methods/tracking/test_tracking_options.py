@@ -76,7 +76,7 @@ def test_an_all_zero_record_is_never_tracked_as_converged(name):
     assert not np.any(tr.std == 0.0)
 
 
-@pytest.mark.parametrize("name", ["akf", "wkf", "pll", "rls_ar"])
+@pytest.mark.parametrize("name", ["akf", "wkf", "pll", "rls_ar", "akf_ambient", "rpem_ambient"])
 def test_white_noise_is_never_tracked_as_converged_by_the_recursive_trackers(name):
     y = 0.01 * np.random.default_rng(11).standard_normal(1500)          # ≈ 1000 µg, no mode
     assert not methods.track(name, y, DT, PRIOR).converged.any()

@@ -27,7 +27,7 @@ def record():
 
 
 def _windowed():
-    native = {"akf", "wkf", "pll", "rls_ar", "next_era", "gated_pencil"}
+    native = {"akf", "wkf", "pll", "rls_ar", "next_era", "gated_pencil", "akf_ambient", "rpem_ambient"}
     return [n for n in methods.track_names() if n not in native]
 
 

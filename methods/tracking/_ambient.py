@@ -1,0 +1,400 @@
+"""``akf_ambient``: the augmented filter reformulated for continuing random excitation.
+
+Per mode i the state is (ξᵢ, ξ̇ᵢ, ωᵢ): ξᵢ the tip displacement of mode i (unit tip gain, as in ``akf``), ωᵢ its
+natural frequency. An unknown white force, held over each sample, drives the modes' velocities; the
+frequencies walk at random; the accelerometer reads acceleration with its direct term:
+
+    ξᵢ(k+1) = Φᵢ(ωᵢ) ξᵢ(k) + Γᵢ(ωᵢ) Σⱼ bᵢⱼ uⱼ(k),     uⱼ(k) ~ N(0, 1) white
+    ωᵢ(k+1) = ωᵢ(k) + ηᵢ(k),                          ηᵢ(k) ~ N(0, (ν ωᵢ)² Δt),  ν = rate·√horizon
+    y(k)    = Σᵢ (−ωᵢ² ξᵢ − 2ζωᵢ ξ̇ᵢ) + Σⱼ dⱼ uⱼ(k) + v(k),       v(k) ~ N(0, r)
+
+Φᵢ = expm(AᵢΔt), Aᵢ = [[0, 1], [−ωᵢ², −2ζωᵢ]], Γᵢ = Aᵢ⁻¹(Φᵢ − I)[0, 1]ᵀ: exact for a force held over the
+sample (zero-order hold; tested against ``scipy.signal.cont2discrete``). The forces of the current sample
+are states (predicted 0 with variance 1), so their direct term and its correlation with the drive need no
+cross-covariance. ``force_model``: ``"diagonal"`` (default) one force per mode, bᵢᵢ = √qᵢ, no direct term
+(it is in r); ``"single"`` one force behind every mode, signed gains bᵢ and a direct term d (Whittle fit,
+:func:`fit_single_force`). The extended Kalman filter linearises the transition in ω with the exact ∂Φ/∂ω
+(``methods.kalman.modal_transition``) and the measurement with ∂h/∂ωᵢ = −2ωᵢξᵢ − 2ζξ̇ᵢ.
+
+What the paper's filter does not do, each an established technique:
+
+* **noise intensities from the data** (covariance matching in the frequency domain): every hop the Hann
+  periodogram of the last window gives the floor r̂ (median bin away from the modes / ln 2) and each mode's
+  acceleration variance σᵢ² (the PSD above the floor over its band), whence qᵢ = bᵢᵢ² = 4ζσᵢ²/(ωᵢΔt) (the
+  stationary acceleration variance of an oscillator under a white force of intensity qᵢΔt is ωᵢqᵢΔt/(4ζ));
+* **re-acquisition** (a change detector): the periodogram's peak near each mode is a window estimate; when it
+  is further from the filter's ω̂ᵢ than ``restart_gate`` × the running scale of that disagreement (median
+  absolute value / 0.6745) and than the window's resolution 2π/T, on ``restart_after`` looks in a row, ωᵢ
+  restarts at the peak with 1σ max(1 % ω, resolution/4) — a step the filter alone cannot leave its basin for;
+* **impulsive process noise** (thruster pulses): a sample whose normalised innovation e²/S exceeds
+  ``pulse_gate`` is not used; instead each mode's state covariance grows by ``pulse_inflation``·e² in
+  acceleration units (its amplitude and phase re-learnt, its frequency kept).
+
+Written by hand: filterpy's ``ExtendedKalmanFilter`` has the same arithmetic, but the adaptation, restarts
+and pulse inflation act on P between its calls, and its per-call overhead would take the cost past the
+on-board budget (0.2 ms per sample here).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.signal
+
+from methods.estimate import make_options
+from methods.kalman import modal_transition
+from methods.tracking._track import Track
+
+# A mode counts as converged while its 1σ is at most this share of its frequency (2 %: inside the ±30 % band,
+# and below the 1 % tolerance's scale only once the filter has accumulated a few periods of data).
+DETERMINED_REL_STD = 0.02
+
+
+@dataclass
+class SharedOptions:
+    """The options ``akf_ambient`` and ``rpem_ambient`` share; every default follows from Δt and the prior.
+
+    Attributes
+    ----------
+    damping_ratio : float
+        ζ assumed for every mode (``akf_ambient``: not estimated, as ``akf``'s; ``rpem_ambient``: its start).
+    rate_rel_per_s : float
+        How fast a frequency may move, relative per s (0.001: 0.1 %/s). With ``horizon_s`` it sets the walk:
+        ν = rate·√horizon per √s, a walk whose spread over the horizon equals the drift over it.
+    horizon_s : float or None
+        The horizon of that match; None: the window.
+    window_s : float or None
+        The periodogram's window; None: five periods of the slowest prior mode (10 s for 3.2 rad/s).
+    hop_s : float or None
+        How often the periodogram is taken; None: a tenth of the window.
+    band : float
+        Half-width of a mode's search band, relative, cut at the geometric midpoints to its neighbours.
+    restart_gate, restart_after : float, int
+        A mode restarts at the window's peak when its disagreement exceeds ``restart_gate`` running robust
+        scales (and the window's resolution) on ``restart_after`` looks in a row.
+    pulse_gate : float
+        e²/S above this (χ², 1 dof) is a pulse: the sample does not update the frequencies.
+    """
+
+    damping_ratio: float = 0.005
+    rate_rel_per_s: float = 0.001
+    horizon_s: float | None = None
+    window_s: float | None = None
+    hop_s: float | None = None
+    band: float = 0.3
+    restart_gate: float = 4.0
+    restart_after: int = 2
+    pulse_gate: float = 25.0
+
+
+@dataclass
+class Options(SharedOptions):
+    """Options of ``akf_ambient``: :class:`SharedOptions` and
+
+    Attributes
+    ----------
+    pulse_inflation : float
+        At a pulse, each mode's state covariance grows by this × e² in acceleration units.
+    force_model : str
+        ``"diagonal"`` (one force per mode, no direct term) or ``"single"`` (one force, signed gains, a direct
+        term; module docstring).
+    refit_looks : int
+        ``"single"``: the Whittle fit of signs and direct term every this many looks (magnitudes every look).
+    """
+
+    pulse_inflation: float = 10.0
+    force_model: str = "diagonal"
+    refit_looks: int = 10
+
+
+def _window_samples(opts: SharedOptions, dt: float, prior: np.ndarray) -> tuple[int, int]:
+    window_s = opts.window_s if opts.window_s is not None else 5 * 2 * math.pi / float(prior[0])
+    hop_s = opts.hop_s if opts.hop_s is not None else window_s / 10
+    return max(8, int(round(window_s / dt))), max(1, int(round(hop_s / dt)))
+
+
+def check_shared(name: str, opts: SharedOptions, prior, dt: float, n_samples: int | None) -> None:
+    """``ValueError`` (one line naming the option) for an impossible shared option."""
+    if not (isinstance(opts.damping_ratio, (int, float)) and 0 <= opts.damping_ratio < 1):
+        raise ValueError(f"{name}: damping_ratio = {opts.damping_ratio!r} must be in [0, 1)")
+    for key in ("rate_rel_per_s", "band", "restart_gate", "pulse_gate"):
+        value = getattr(opts, key)
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ValueError(f"{name}: {key} = {value!r} must be a positive number")
+    for key in ("horizon_s", "window_s", "hop_s"):
+        value = getattr(opts, key)
+        if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value >= dt):
+            raise ValueError(f"{name}: {key} = {value!r} must be None or at least one sample ({dt} s)")
+    if isinstance(opts.restart_after, bool) or not isinstance(opts.restart_after, int) or opts.restart_after < 1:
+        raise ValueError(f"{name}: restart_after = {opts.restart_after!r} must be an integer ≥ 1")
+    W, _ = _window_samples(opts, dt, np.asarray(prior, float))
+    if n_samples is not None and W > n_samples:
+        raise ValueError(f"{name}: the window ({W} samples) is longer than the record ({n_samples} samples)")
+
+
+def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
+    opts = make_options(Options, options, name)
+    check_shared(name, opts, prior, dt, n_samples)
+    if not (isinstance(opts.pulse_inflation, (int, float)) and math.isfinite(opts.pulse_inflation)
+            and opts.pulse_inflation > 0):
+        raise ValueError(f"{name}: pulse_inflation = {opts.pulse_inflation!r} must be a positive number")
+    if opts.force_model not in ("single", "diagonal"):
+        raise ValueError(f"{name}: force_model = {opts.force_model!r} must be 'single' or 'diagonal'")
+    if isinstance(opts.refit_looks, bool) or not isinstance(opts.refit_looks, int) or opts.refit_looks < 1:
+        raise ValueError(f"{name}: refit_looks = {opts.refit_looks!r} must be an integer ≥ 1")
+    return opts
+
+
+def _bands(ref: np.ndarray, band: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per mode the search interval: ±band, capped at the geometric midpoints to its neighbours."""
+    lo, hi = ref / (1 + band), ref * (1 + band)
+    mid = np.sqrt(ref[1:] * ref[:-1])
+    lo[1:] = np.maximum(lo[1:], mid)
+    hi[:-1] = np.minimum(hi[:-1], mid)
+    return lo, hi
+
+
+def periodogram_look(seg: np.ndarray, dt: float, ref: np.ndarray, band: float, zeta: float):
+    """Peaks, floor and per-mode acceleration variances from the Hann periodogram of ``seg``.
+
+    Returns (peak rad/s (m,), r̂ (m/s²)², σ² (m,) (m/s²)², (f Hz, one-sided PSD)); a peak NaN where the band
+    holds no interior maximum.
+    """
+    n = seg.size
+    nfft = 4 * int(2 ** math.ceil(math.log2(n)))
+    f, p = scipy.signal.periodogram(seg, fs=1.0 / dt, window="hann", nfft=nfft, detrend="constant")
+    w = 2 * math.pi * f
+    lo, hi = _bands(ref, band)
+    outside = np.ones(w.size, dtype=bool)
+    for a, b in zip(lo, hi, strict=True):
+        outside &= ~((w >= a) & (w <= b))
+    # a periodogram bin of white noise is its PSD × an exponential variable, whose median is ln 2 × its mean
+    floor = (float(np.median(p[outside & (w > 0)])) if np.any(outside & (w > 0)) else float(np.median(p))) / math.log(2)
+    r = floor / (2 * dt)                    # one-sided PSD of white noise of variance r: 2rΔt
+    m = ref.size
+    peak = np.full(m, np.nan)
+    var = np.zeros(m)
+    df = f[1] - f[0]
+    lp = np.log(np.maximum(p, 1e-300))
+    for i in range(m):
+        sel = np.flatnonzero((w >= lo[i]) & (w <= hi[i]))
+        if sel.size < 3:
+            continue
+        var[i] = max(float(np.sum(p[sel] - floor) * df), 0.0)
+        j = sel[np.argmax(p[sel])]
+        if j in (sel[0], sel[-1]):
+            continue
+        a, b, c = lp[j - 1], lp[j], lp[j + 1]
+        den = a - 2 * b + c
+        off = 0.5 * (a - c) / den if den < 0 else 0.0
+        peak[i] = 2 * math.pi * (f[j] + off * df)
+    return peak, r, var, (f, p)
+
+
+def visible(var: np.ndarray, r: float, ref: np.ndarray, band: float, dt: float) -> np.ndarray:
+    """Per mode: its variance above the floor exceeds the white floor's own variance in its band (a mode the
+    window can see; white noise alone or a zero record shows none)."""
+    lo, hi = _bands(ref, band)
+    return var > r * 2 * dt * (hi - lo) / (2 * math.pi)
+
+
+def _gamma(phi: np.ndarray, w: np.ndarray, zeta: float) -> np.ndarray:
+    """Γᵢ = Aᵢ⁻¹(Φᵢ − I)[0, 1]ᵀ, shape (m, 2): the held unit force's effect over one sample."""
+    g = np.empty((w.size, 2))
+    g[:, 0] = -2 * zeta / w * phi[:, 0, 1] - (phi[:, 1, 1] - 1.0) / (w * w)
+    g[:, 1] = phi[:, 0, 1]
+    return g
+
+
+def _modal_response(f: np.ndarray, w: np.ndarray, zeta: float, dt: float) -> np.ndarray:
+    """G_i(e^{j2πfΔt}) = C_i(zI − Φ_i)⁻¹Γ_i: a unit held force's way to mode i's acceleration, (len(f), m)."""
+    phi, _ = modal_transition(w, zeta, dt)
+    g = _gamma(phi, w, zeta)
+    z = np.exp(2j * math.pi * f * dt)[:, None]
+    a, b, c, d = phi[:, 0, 0], phi[:, 0, 1], phi[:, 1, 0], phi[:, 1, 1]
+    det = (z - a) * (z - d) - b * c
+    x0 = ((z - d) * g[:, 0] + b * g[:, 1]) / det           # (zI − Φ)⁻¹Γ, adjugate over determinant
+    x1 = (c * g[:, 0] + (z - a) * g[:, 1]) / det
+    return -(w * w) * x0 - 2 * zeta * w * x1
+
+
+def fit_single_force(spectrum, w: np.ndarray, zeta: float, dt: float, var: np.ndarray, r: float):
+    """One white force behind every mode: signed gains b (m,), direct term d and sensor variance r_v.
+
+    Whittle's likelihood Σ log M + p/M of the periodogram p under M(f) = 2Δt(|Σᵢ bᵢGᵢ + d|² + r_v), with
+    |bᵢ| from each mode's band variance (σᵢ² = ωᵢ|bᵢ|²/(4ζ) per unit force), maximised over the signs of
+    b₂…bₘ relative to b₁ and over d² = α r̂, r_v = (1 − α) r̂, α on a grid of 11, d of either sign (the floor
+    r̂ holds the direct term and the sensor noise). The signs decide where the spectrum has its zeros between
+    modes, which a sum of independent modes does not have.
+    """
+    f, p = spectrum
+    keep = f > 0
+    f, p = f[keep], p[keep]
+    G = _modal_response(f, w, zeta, dt)
+    mag = np.sqrt(np.maximum(4 * zeta * var / (w * dt), 0.0))
+    m = w.size
+    best = (np.inf, mag, 0.0, r)
+    for code in range(2 ** (m - 1)):
+        sign = np.array([1.0] + [-1.0 if (code >> i) & 1 else 1.0 for i in range(m - 1)])
+        B = G @ (sign * mag)
+        for alpha in np.linspace(0.0, 1.0, 11):
+            for dsign in (1.0, -1.0):
+                d = dsign * math.sqrt(alpha * r)
+                M = 2 * dt * (np.abs(B + d) ** 2 + max((1 - alpha) * r, 1e-12 * r))
+                loss = float(np.sum(np.log(M) + p / M))
+                if loss < best[0]:
+                    best = (loss, sign * mag, d, max((1 - alpha) * r, 1e-12 * r))
+                if alpha == 0.0:
+                    break
+    return best[1], best[2], best[3]
+
+
+@dataclass
+class _Run:
+    freq: np.ndarray
+    var: np.ndarray
+    started: np.ndarray
+    n_restarts: int
+    n_pulses: int
+    seen: np.ndarray
+
+
+def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
+    """The filter of the module docstring over the record; per sample the frequency states and variances.
+
+    State [ξ₁, ξ̇₁, …, ξₘ, ξ̇ₘ, ω₁…ωₘ, u₁…u_f]: the forces u of the current sample are states (white, so
+    they are predicted as 0 with their variance), which carries the direct term and its correlation with
+    the oscillators' drive without a cross-covariance: ``single``: one force, mode gains b, direct term d;
+    ``diagonal``: one force per mode, no direct term (it is then in r).
+    """
+    m, n = prior.size, y.size
+    zeta = float(opts.damping_ratio)
+    W, hop = _window_samples(opts, dt, prior)
+    horizon = opts.horizon_s if opts.horizon_s is not None else W * dt
+    nu2 = opts.rate_rel_per_s ** 2 * horizon
+    resolution = 2 * math.pi / (W * dt)       # the window's Fourier resolution, rad/s
+    single = opts.force_model == "single"
+    nf = 1 if single else m
+    iq, iv, iw = 2 * np.arange(m), 2 * np.arange(m) + 1, 2 * m + np.arange(m)
+    iu = 3 * m + np.arange(nf)
+    ns = 3 * m + nf
+    x = np.zeros(ns)
+    x[iw] = prior
+    scale = float(np.std(y[:W])) or 1.0
+    P = np.zeros((ns, ns))
+    P[iq, iq] = (scale / prior ** 2) ** 2
+    P[iv, iv] = (scale / prior) ** 2
+    P[iw, iw] = (0.1 * prior) ** 2
+    gains = np.zeros((m, nf))            # force j's per-sample drive of mode i, tip acceleration units
+    direct = np.zeros(nf)
+    gains[np.arange(m), np.arange(m) if not single else 0] = scale * np.sqrt(4 * zeta / (prior * dt) / m)
+    r = scale ** 2
+    P[iu, iu] = 1.0
+    F = np.eye(ns)
+    F[iu, iu] = 0.0
+    Q = np.zeros((ns, ns))
+    Q[iu, iu] = 1.0
+    Hrow = np.zeros(ns)
+    freq = np.full((n, m), np.nan)
+    var = np.full((n, m), np.nan)
+    started = np.zeros(n, dtype=bool)
+    seen = np.zeros((n, m), dtype=bool)
+    seen_now = np.zeros(m, dtype=bool)
+    hist_d: list[list[float]] = [[] for _ in range(m)]
+    strikes = np.zeros(m, dtype=int)
+    n_restarts = n_pulses = looks = 0
+    on = False
+    for k in range(n):
+        if k > 0:
+            w = x[iw]
+            phi, dphi = modal_transition(w, zeta, dt)
+            g = _gamma(phi, w, zeta)
+            xi = x[:2 * m].reshape(m, 2)
+            F[iq, iq], F[iq, iv], F[iv, iq], F[iv, iv] = phi[:, 0, 0], phi[:, 0, 1], phi[:, 1, 0], phi[:, 1, 1]
+            dx = np.einsum("mab,mb->ma", dphi, xi)
+            F[iq, iw], F[iv, iw] = dx[:, 0], dx[:, 1]
+            drive = gains @ x[iu]
+            F[iq[:, None], iu] = g[:, :1] * gains
+            F[iv[:, None], iu] = g[:, 1:] * gains
+            x[:2 * m] = (np.einsum("mab,mb->ma", phi, xi) + g * drive[:, None]).ravel()
+            x[iu] = 0.0
+            Q[iw, iw] = nu2 * dt * w * w
+            P = F @ P @ F.T + Q
+        w = x[iw]
+        Hrow[iq] = -w * w
+        Hrow[iv] = -2 * zeta * w
+        Hrow[iw] = -2 * w * x[iq] - 2 * zeta * x[iv]
+        Hrow[iu] = direct
+        h = float(Hrow[iq] @ x[iq] + Hrow[iv] @ x[iv] + direct @ x[iu])
+        PH = P @ Hrow
+        S = float(Hrow @ PH) + r
+        e = y[k] - h
+        if on and e * e > opts.pulse_gate * S:
+            n_pulses += 1
+            infl = opts.pulse_inflation * e * e
+            P[iq, iq] += infl / w ** 4
+            P[iv, iv] += infl / w ** 2
+        else:
+            K = PH / S
+            x = x + K * e
+            P = P - np.outer(K, PH)
+            P = 0.5 * (P + P.T)
+        if k + 1 >= W and (k + 1 - W) % hop == 0:
+            ref = x[iw] if on else prior
+            peak, r_floor, var_i, spec = periodogram_look(y[k + 1 - W:k + 1], dt, ref, opts.band, zeta)
+            ok = np.isfinite(peak)
+            seen_now = ok & visible(var_i, r_floor, ref, opts.band, dt)
+            w_now = np.where(ok, peak, ref) if not on else x[iw]
+            mag = np.sqrt(np.maximum(4 * zeta * var_i / (w_now * dt), 0.0))
+            if single:
+                if looks % opts.refit_looks == 0:
+                    b, d, r = fit_single_force(spec, w_now, zeta, dt, var_i, max(r_floor, 1e-30))
+                    signs = np.sign(b)
+                    signs[signs == 0] = 1.0
+                    direct[0] = d
+                else:
+                    r = max(r_floor - direct[0] ** 2, 1e-12 * r_floor)
+                gains[:, 0] = np.where(mag > 0, signs * mag, gains[:, 0])
+            else:
+                gains[np.arange(m), np.arange(m)] = np.where(mag > 0, mag, gains[np.arange(m), np.arange(m)])
+                r = max(r_floor, 1e-30)
+            looks += 1
+            if not on:
+                x[iw] = w_now
+                P[iw, :] = 0.0
+                P[:, iw] = 0.0
+                P[iw, iw] = np.maximum(0.01 * x[iw], resolution / 4) ** 2
+                on = True
+            else:
+                d_log = np.log(peak / x[iw])
+                for i in np.flatnonzero(ok):
+                    s_i = np.median(np.abs(hist_d[i])) / 0.6745 if len(hist_d[i]) >= 3 else np.inf
+                    if abs(peak[i] - x[iw[i]]) > max(opts.restart_gate * s_i * x[iw[i]], resolution):
+                        strikes[i] += 1
+                    else:
+                        strikes[i] = 0
+                        hist_d[i] = (hist_d[i] + [float(d_log[i])])[-30:]
+                    if strikes[i] >= opts.restart_after:
+                        x[iw[i]] = peak[i]
+                        P[iw[i], :] = 0.0
+                        P[:, iw[i]] = 0.0
+                        P[iw[i], iw[i]] = max(0.01 * peak[i], resolution / 4) ** 2
+                        strikes[i] = 0
+                        n_restarts += 1
+        started[k] = on
+        seen[k] = seen_now
+        freq[k] = x[iw]
+        var[k] = np.diag(P)[iw]
+    return _Run(freq, var, started, n_restarts, n_pulses, seen)
+
+
+def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
+    opts = make_options(Options, options, name)
+    out = ambient_filter(y, dt, prior, opts)
+    k = np.flatnonzero(out.started)
+    std = np.sqrt(np.clip(out.var[k], 0.0, None))
+    return Track(k * dt, out.freq[k], std, out.seen[k] & (std <= DETERMINED_REL_STD * out.freq[k]),
+                 message=f"{name}: {out.n_restarts} restarts, {out.n_pulses} pulse samples",
+                 extra={"n_restarts": out.n_restarts, "n_pulses": out.n_pulses})
