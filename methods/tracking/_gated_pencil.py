@@ -225,18 +225,37 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     out_conv = np.zeros((ends.size, m), dtype=bool)
     start = 0
     restart_at: list[int] = []
+    fresh = np.zeros(m, dtype=bool)           # modes restarted by the change detector, until the window is full
     for j, e in enumerate(ends.tolist()):
         a = max(e - W + 1, start)
         n_j = e - a + 1
         span[j] = (n_j - 1) * dt
-        if n_j >= w_restart or n_j == W:
-            seg = y[a: e + 1]
-            sizes = (opts.rows, opts.ar_order, opts.min_segment) if n_j == W else _shorter(n_j, m, order, opts)
-            kept[j] = _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq[j], found[j], wstd[j])
+        full = (opts.rows, opts.ar_order, opts.min_segment)
+        if n_j == W:
+            fresh[:] = False
+        if n_j == W or (n_j >= w_restart and not fresh.any()):
+            kept[j] = _window(y[a: e + 1], dt, full if n_j == W else _shorter(n_j, m, order, opts), order, opts,
+                              nyquist, limit, prior, state, freq[j], found[j], wstd[j])
+        elif e + 1 >= W:
+            # after a restart: the restarted modes from the samples since the change, the others from the
+            # full window as before (their frequency did not jump; a short window would only add noise)
+            kept[j] = _window(y[e - W + 1: e + 1], dt, full, order, opts, nyquist, limit, prior, state, freq[j],
+                              found[j], wstd[j])
+            if n_j >= w_restart:
+                f2, d2, s2 = np.full(m, np.nan), np.zeros(m, dtype=bool), np.full(m, np.nan)
+                _window(y[a: e + 1], dt, _shorter(n_j, m, order, opts), order, opts, nyquist, limit, prior,
+                        state, f2, d2, s2)
+                freq[j] = np.where(fresh, f2, freq[j])
+                found[j] = np.where(fresh, d2, found[j])
+                wstd[j] = np.where(fresh, s2, wstd[j])
+            else:
+                freq[j, fresh], found[j, fresh], wstd[j, fresh] = np.nan, False, np.nan
+        span_j = np.where(fresh, span[j], (W - 1) * dt)
         if bank is None:
             continue
-        meas = np.sqrt(opts.overlap_inflation * max(1.0, n_j / H)) * wstd[j] if opts.refine else None
-        out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span[j] / 2, span[j] / 2, freq[j], found[j], meas)
+        meas = np.sqrt(opts.overlap_inflation * np.maximum(1.0, (span_j / dt + 1) / H)) * wstd[j] if opts.refine \
+            else None
+        out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas)
         if cusum is not None:
             alarm = cusum.update(nu, e)
             if alarm.any():
@@ -244,6 +263,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
                 restart_at.append(start)
                 for i in np.flatnonzero(alarm):
                     bank.restart(int(i))
+                fresh |= alarm
                 cusum.reset(start - 1)
     message = (f"gated pencil (order {order}, {opts.rows} rows) on {ends.size} windows of {W} samples every {H}; "
                f"median share of Hankel columns kept {np.nanmedian(kept) if np.isfinite(kept).any() else 0:.2f}")

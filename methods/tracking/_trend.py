@@ -73,10 +73,11 @@ def settings(opts, prior) -> dict:
 class TrendBank:
     """The local-linear-trend filters of m modes, fed one window at a time (module docstring).
 
-    :meth:`step` takes window j's centre time, half-span, estimates, determined flags and (optional) stds,
-    and returns the estimates carried to the window's end, their std, the converged flags and each mode's
-    normalised innovation ν/√S (NaN where the mode was not updated or not started) — what a change detector
-    reads. :meth:`restart` forgets a mode: it starts again at its next determined estimate.
+    :meth:`step` takes window j's centre time and half-span (per mode, or one for all), estimates,
+    determined flags and (optional) stds; it returns the estimates carried to the window's end, their std,
+    the converged flags and each mode's normalised innovation ν/√S (NaN where the mode was not updated or
+    not started), which a change detector reads. :meth:`restart` forgets a mode: it starts again at its
+    next determined estimate.
     """
 
     def __init__(self, m: int, *, rate_noise: float, meas_rel: float, gate: float, restart_after: int,
@@ -99,8 +100,10 @@ class TrendBank:
         out = np.full(self.m, np.nan)
         std = np.full(self.m, np.nan)
         nu_norm = np.full(self.m, np.nan)
-        ahead = np.array([[1.0, lead], [0.0, 1.0]])
+        t_c = np.broadcast_to(np.asarray(t_c, dtype=float), (self.m,))
+        lead = np.broadcast_to(np.asarray(lead, dtype=float), (self.m,))
         for i in range(self.m):
+            ahead = np.array([[1.0, lead[i]], [0.0, 1.0]])
             zi = z[i]
             good = bool(determined[i]) and np.isfinite(zi) and zi > 0
             r_std = self.meas_rel * zi
@@ -114,10 +117,10 @@ class TrendBank:
                 kf.H = np.array([[1.0, 0.0]])
                 kf.x = np.array([zi, 0.0])
                 kf.P = np.diag([r_std ** 2, (self.rate0 * zi) ** 2])
-                self.t_last[i], self.w0[i], self.ok[i] = t_c, zi, True
+                self.t_last[i], self.w0[i], self.ok[i] = t_c[i], zi, True
             else:
-                tau = t_c - self.t_last[i]
-                self.t_last[i] = t_c
+                tau = t_c[i] - self.t_last[i]
+                self.t_last[i] = t_c[i]
                 kf.F = np.array([[1.0, tau], [0.0, 1.0]])
                 kf.Q = Q_discrete_white_noise(dim=2, dt=tau, var=(self.rate_noise * self.w0[i]) ** 2)
                 kf.predict()
