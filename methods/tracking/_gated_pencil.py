@@ -216,7 +216,8 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     kept = np.full(ends.size, np.nan)
     wstd = np.full((ends.size, m), np.nan)
     span = np.full(ends.size, np.nan)
-    state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy()}
+    state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
+             "seg_start": 0}
     limit = np.log1p(opts.band)
     bank = _trend.TrendBank(m, **_trend.settings(opts, prior)) if (opts.trend or opts.memory) else None
     cusum = _memory.Cusum(m, opts.change_threshold, opts.change_drift) if opts.memory else None
@@ -226,6 +227,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     start = 0
     restart_at: list[int] = []
     fresh = np.zeros(m, dtype=bool)           # modes restarted by the change detector, until the window is full
+    last_pulse = -1                           # the last sample the pulse detector flagged
     for j, e in enumerate(ends.tolist()):
         a = max(e - W + 1, start)
         n_j = e - a + 1
@@ -234,9 +236,11 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         if n_j == W:
             fresh[:] = False
         if n_j == W or (n_j >= w_restart and not fresh.any()):
+            state["seg_start"] = a
             kept[j] = _window(y[a: e + 1], dt, full if n_j == W else _shorter(n_j, m, order, opts), order, opts,
                               nyquist, limit, prior, state, freq[j], found[j], wstd[j])
         elif e + 1 >= W:
+            state["seg_start"] = e - W + 1
             # after a restart: the restarted modes from the samples since the change, the others from the
             # full window as before (their frequency did not jump; a short window would only add noise)
             kept[j] = _window(y[e - W + 1: e + 1], dt, full, order, opts, nyquist, limit, prior, state, freq[j],
@@ -256,10 +260,15 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         meas = np.sqrt(opts.overlap_inflation * np.maximum(1.0, (span_j / dt + 1) / H)) * wstd[j] if opts.refine \
             else None
         out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas)
+        if state.get("flags") is not None and state["flags"].any():
+            last_pulse = max(last_pulse, state["seg_start"] + int(np.flatnonzero(state["flags"])[-1]))
         if cusum is not None:
             alarm = cusum.update(nu, e)
             if alarm.any():
-                start = max(start, cusum.restart_sample(alarm))
+                clean = cusum.restart_sample(alarm)
+                # a jump that rang the structure starts at its pulse: restart after the last one flagged
+                # since the last clean window
+                start = max(start, last_pulse + 1 if last_pulse >= clean else clean)
                 restart_at.append(start)
                 for i in np.flatnonzero(alarm):
                     bank.restart(int(i))
@@ -290,10 +299,12 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     the share of Hankel columns kept. ``state``: the last refined ω, ζ and the assignment reference."""
     rows, ar_order, min_segment = sizes
     ref = state["ref"]
+    state["flags"] = None
     if flat_record(seg):
         return np.nan
     centred = seg - seg.mean()
     flags = pulse_flags(centred, ar_order, opts.outlier_cut)
+    state["flags"] = flags
     s, kept = window_poles(seg, dt, order, rows, ar_order, opts.outlier_cut, opts.detect_ratio, flags)
     w = np.abs(s)
     zeta = -s.real / np.maximum(w, 1e-300)

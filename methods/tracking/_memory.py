@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-DEFAULTS = {"memory": True, "change_threshold": 5.0, "change_drift": 0.5}
+DEFAULTS = {"memory": False, "change_threshold": 5.0, "change_drift": 0.5}
 FIELDS = tuple(DEFAULTS)
 
 

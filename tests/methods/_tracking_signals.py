@@ -92,8 +92,8 @@ def stepped_schedule(n: int, dt: float, freq, rng, *, dwell_periods=(15.0, 60.0)
         steps.append(k)
         for _ in range(200):
             new = cur * (1 + rng.choice([-1.0, 1.0], freq.size) * rng.uniform(*step, freq.size))
-            if (np.all(np.diff(new) > 0.03 * new[:-1]) and np.all(new > bounds[0] * freq) and np.all(new < bounds[1] * freq)
-                    and new.max() < 0.9 * np.pi / dt):
+            if (np.all(np.diff(new) > 0.03 * new[:-1]) and np.all(new > bounds[0] * freq)
+                    and np.all(new < bounds[1] * freq) and new.max() < 0.9 * np.pi / dt):
                 cur = new
                 break
         dwell = rng.uniform(*dwell_periods)
@@ -102,9 +102,11 @@ def stepped_schedule(n: int, dt: float, freq, rng, *, dwell_periods=(15.0, 60.0)
 
 def ringing_force(n: int, steps, rng, dt: float, period_s: float, *, pulses_per_period: float = 0.2,
                   white: float = 0.02):
-    """A force that rings the structure at the start and at every step (a one-sample blow of random sign and size 0.5–1.5),
-    at random blows between (``pulses_per_period`` per period of the slowest mode), and a weak white force."""
-    u = white * rng.standard_normal(n)
+    """A force that rings the structure at the start and at every step (a one-sample blow of random sign and
+    size 0.5–1.5, an impulse of 0.01–0.03 N·s), at random blows between (``pulses_per_period`` per period of
+    the slowest mode), and a weak white force of per-sample std ``white``·0.02/√(Δt·T), T the slowest period:
+    a record time-scaled by a (Δt and T × a) keeps the same mix of blows and white force."""
+    u = white * 0.02 / np.sqrt(dt * period_s) * rng.standard_normal(n)
     blows = {0} | set(np.asarray(steps, int).tolist())
     n_extra = rng.poisson(pulses_per_period * n * dt / period_s)
     blows |= set(rng.integers(0, n, n_extra).tolist())
@@ -117,7 +119,8 @@ def anyrate_record(dt: float, m: int, seed: int, *, duration_periods: float = 40
                    zeta: float = 0.005):
     """A record at sample interval ``dt`` with ``m`` modes: frequencies log-uniform with ωΔt in [0.08, 1.2]
     rad per sample (5–80 samples per period) at least 8 % apart, stepping ±5–20 % after dwells of 15–60 periods
-    of the slowest mode, every step ringing the modes, blows between, white noise of ``noise_rel`` × the RMS.
+    of the slowest mode, every step ringing the modes, blows between, white noise of ``noise_rel`` × the
+    99th percentile of |y| (the rings' level).
     Returns (y, truth (n, m), step samples, prior = the start frequencies × (1 ± 5 %), sorted)."""
     rng = np.random.default_rng([seed, m, int(round(1e6 * dt))])
     for _ in range(1000):
@@ -130,7 +133,7 @@ def anyrate_record(dt: float, m: int, seed: int, *, duration_periods: float = 40
     w, steps = stepped_schedule(n, dt, freq, rng)
     u = ringing_force(n, steps, rng, dt, period)
     y = modal_response(w, u, zeta=zeta, gain=np.ones(m), dt=dt)
-    y = y + noise_rel * np.std(y) * rng.standard_normal(n)
+    y = y + noise_rel * np.percentile(np.abs(y), 99) * rng.standard_normal(n)
     prior = np.sort(freq * (1 + 0.05 * rng.uniform(-1, 1, m)))
     return y, w, steps, prior
 
@@ -154,7 +157,9 @@ def lab_record(seed: int, *, n_modes: int = 1, duration_s: float = 12.0, fs_hz: 
     u = ringing_force(n, steps, rng, dt_fast, period, pulses_per_period=0.0, white=0.002)
     y = modal_response(w, u, zeta=rng.uniform(0.003, 0.01), gain=np.ones(n_modes), dt=dt_fast)
     g = 9.80665
-    volts = 10.0 * (y / g * (0.4 / np.max(np.abs(y))) + rng.uniform(0.02, 0.1) + 1e-3 * rng.standard_normal(n))
+    # the rings' level (the 99th percentile of |y|: a blow's one-sample feed-through saturates) at 0.3 g
+    volts = 10.0 * (y / g * (0.3 / np.percentile(np.abs(y), 99)) + rng.uniform(0.02, 0.1)
+                    + 1e-3 * rng.standard_normal(n))
     lsb = 20.0 / 2 ** 12
     volts = np.clip(np.round(volts / lsb) * lsb, -10.0, 10.0 - lsb)
     acc = scipy.signal.decimate(volts / 10.0 * g, decimate_by, ftype="fir")

@@ -31,7 +31,7 @@ def records(seeds):
             yield f"lab_{n_modes}mode", seed, y, dt, truth, steps, prior
         for dt in (1e-3, 4e-3, 0.1):
             for m in (1, 2, 6):
-                y, truth, steps, prior = anyrate_record(dt, m, seed, duration_periods=200.0)
+                y, truth, steps, prior = anyrate_record(dt, m, seed, duration_periods=120.0)
                 yield f"dt{dt:g}_{m}mode", seed, y, dt, truth, steps, prior
 
 
