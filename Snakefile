@@ -6,11 +6,11 @@
 #   snakemake --cores 2 results/<name>/README.md   # any grid in configs/grid/<name>.yaml
 #   snakemake --cores 2 tracking   # the tracking grid (configs/grid/tracking.yaml, docs/tracking.md)
 
-include: "experiments/rules/common.smk"
-include: "experiments/rules/datasets.smk"
-include: "experiments/rules/identify.smk"
-include: "experiments/rules/report.smk"
-include: "experiments/rules/tracking.smk"
+include: "experiments/workflow/rules/common.smk"
+include: "experiments/workflow/rules/datasets.smk"
+include: "experiments/workflow/rules/identify.smk"
+include: "experiments/workflow/rules/report.smk"
+include: "experiments/workflow/rules/tracking.smk"
 
 
 localrules:

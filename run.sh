@@ -3,7 +3,7 @@
 #   ./run.sh reproduce     the paper reproduction: the paper grid, tables, figures (snakemake paper)
 #   ./run.sh test          lint, workflow lint, and the test suite (with the smoke workflow end to end)
 #   ./run.sh smoke | full  the CI grid / the R = 100 grid up to 2048 samples
-#   ./run.sh tracking-server postgresql+psycopg://USER:PASSWORD@HOST/DB   a shared MLflow server (docs/cluster.md)
+#   ./run.sh mlflow-server postgresql+psycopg://USER:PASSWORD@HOST/DB     a shared MLflow server (docs/cluster.md)
 #   ./run.sh snakemake ... / python ...   anything else, inside the environment
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -52,13 +52,16 @@ case "${1:-}" in
   smoke)           shift; unlock_if_stale; exec snakemake $RERUN --cores "$CORES" smoke "$@" ;;
   full)            shift; unlock_if_stale; exec snakemake $RERUN --cores "$CORES" full "$@" ;;
   snakemake)       shift; unlock_if_stale; exec snakemake $RERUN "$@" ;;
-  tracking-server)
+  tracking-server)   # the old name of mlflow-server, until the next release
+    echo "note: ./run.sh tracking-server is now ./run.sh mlflow-server; the old name works until the next release" >&2
+    shift; exec "$0" mlflow-server "$@" ;;
+  mlflow-server)
     # mlflow server on a PostgreSQL backend store; artifacts are uploaded through the server into
     # results/mlflow-artifacts (or --artifacts-destination). Later options override: --host, --port, ...
     shift
     case "${1:-}" in
       postgresql*://*) ;;
-      *) echo "error: tracking-server needs the PostgreSQL URL first, e.g. postgresql+psycopg://USER:PASSWORD@HOST/DB (got '${1:-}')" >&2; exit 2 ;;
+      *) echo "error: mlflow-server needs the PostgreSQL URL first, e.g. postgresql+psycopg://USER:PASSWORD@HOST/DB (got '${1:-}')" >&2; exit 2 ;;
     esac
     db=$1; shift
     exec mlflow server --backend-store-uri "$db" --artifacts-destination "$PWD/results/mlflow-artifacts" \

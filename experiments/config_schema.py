@@ -1,6 +1,6 @@
 """The jobs' structured-config schemas (Hydra ConfigStore nodes) and how method configs are named.
 
-Below every stage: the jobs register these schemas, and the tracker (``experiments.tracking.provenance``)
+Below every stage: the jobs register these schemas, and the provenance (``experiments.provenance``)
 composes a method's config with them to key its runs. YAML files under configs/ carry the values; each
 method's node is generated from its ``Options`` dataclass (:func:`method_schema`), so a typo in
 ``method.options.*`` fails at composition with the key's name, and a removed YAML value falls back to the
@@ -11,19 +11,19 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import yaml
 from omegaconf import MISSING
 
 import methods
+from experiments import paths
 
-__all__ = ["DataConfig", "TrackingConfig", "IdentifyConfig", "ReproduceConfig", "method_schema",
+__all__ = ["DataConfig", "RunlogConfig", "IdentifyConfig", "ReproduceConfig", "method_schema",
            "method_of_config", "variant_label", "stated_options", "METHOD_CONFIG_DIR"]
 
 # configs/ travels with the code as experiments/configs (a link in the repository, package data when installed)
-METHOD_CONFIG_DIR = Path(__file__).resolve().parent / "configs" / "method"
+METHOD_CONFIG_DIR = paths.METHOD_CONFIGS
 
 
 @dataclass
@@ -43,11 +43,11 @@ class DataConfig:
 
 
 @dataclass
-class TrackingConfig:
+class RunlogConfig:
     enabled: bool = True             # log this job to MLflow
     experiment: str = "identify"     # MLflow experiment name
     background: bool = True          # a measurement's run: logged by a detached process after the answer
-    #                                  (experiments/tracking/pending.py); false: by the job itself
+    #                                  (experiments/runlog/pending.py); false: by the job itself
 
 
 @dataclass
@@ -59,7 +59,7 @@ class IdentifyConfig:
     n_modes: int | None = None           # a measurement without a prior: at most this many modes
     out: str | None = None               # per-replicate results table (CSV); Snakemake sets it
     grid_name: str = "adhoc"             # the grid this job belongs to (MLflow tags)
-    tracking: TrackingConfig = field(default_factory=TrackingConfig)
+    runlog: RunlogConfig = field(default_factory=RunlogConfig)
     progress: bool = True                # a progress bar over replicates
 
 
@@ -67,7 +67,7 @@ class IdentifyConfig:
 class ReproduceConfig:
     experiment: Any = MISSING
     out_dir: str = "results/reproduce/${experiment.name}"
-    tracking: TrackingConfig = field(default_factory=lambda: TrackingConfig(experiment="paper"))
+    runlog: RunlogConfig = field(default_factory=lambda: RunlogConfig(experiment="paper"))
 
 
 def method_schema(name: str, prior=MISSING):

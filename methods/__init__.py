@@ -155,5 +155,9 @@ def check_options(name: str, prior, dt: float, options: dict | None = None):
     return make_options(module.Options, options, name)
 
 
-# The tracking face (methods/tracking/): every method run online over a record whose frequencies move.
+# The tracking face (methods/tracking/): every method run online over a record whose frequencies move. It runs
+# the batch methods of this registry on windows: ``names`` is handed down to it, not imported back.
+from methods import tracking as _tracking_face  # noqa: E402
 from methods.tracking import Track, check_track_options, track, track_names, track_options_class  # noqa: E402
+
+_tracking_face.batch_names = names

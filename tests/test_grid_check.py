@@ -21,7 +21,6 @@ def dry_run(tmp_path, methods):
         shutil.copytree(ROOT / code, tmp_path / code, symlinks=True, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copytree(ROOT / "configs", tmp_path / "configs", ignore=shutil.ignore_patterns("grid"))
     (tmp_path / "configs" / "grid").mkdir()
-    shutil.copy(ROOT / "configs" / "grid" / "schema.yaml", tmp_path / "configs" / "grid" / "schema.yaml")
     for name in ("paper", "smoke", "full"):            # the Snakefile's named targets
         (tmp_path / "configs" / "grid" / f"{name}.yaml").write_text(GRID.format(name=name, methods="[fft]"))
     (tmp_path / "configs" / "grid" / "mine.yaml").write_text(GRID.format(name="mine", methods=methods))

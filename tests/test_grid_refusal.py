@@ -81,5 +81,5 @@ def test_a_broken_mlflow_store_is_one_line_before_any_job(tmp_path, damage):
     lines = (proc.stdout + proc.stderr).splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"error: the MLflow store {store}"), proc.stdout + proc.stderr
     assert ("empty (0 bytes)" if damage == "empty" else "truncated") in lines[0]
-    # nothing beside the store but its inter-process lock (experiments/tracking/store.py)
+    # nothing beside the store but its inter-process lock (experiments/runlog/store.py)
     assert {p.name for p in (tmp_path / "results").iterdir()} <= {"mlflow.db", "mlflow.db.lock"}

@@ -2,10 +2,13 @@
 
 In the spirit of scikit-learn's import-consistency checks: the walls of the house are tested, not hoped for.
 
-- ``experiments/`` stages import one way: io (and the other modules at the top of ``experiments/``) ->
-  recordings / simulate (data read, data made) -> report -> tracking (MLflow) -> jobs -> tuning /
-  benchmarks / paper. A stage imports only its own modules and earlier stages'; stages of one rank do not
-  import each other.
+- ``experiments/`` stages import one way: io, paths, provenance (and the other modules at the top of
+  ``experiments/``) -> recordings / simulate (data read, data made) -> report -> runlog (MLflow run logging)
+  -> jobs -> workflow (the Snakemake rules' Python) / tuning / benchmarks / paper. A stage imports only its
+  own modules and earlier stages'; stages of one rank do not import each other.
+- No module imports itself through others: the graph of imports among the project's modules (module level
+  and inside functions) has no cycle.
+- An import inside a function says why, in a comment on its line, or above it or above its group of imports.
 - ``methods/`` imports nothing from ``experiments/`` and never Hydra, OmegaConf, MLflow or Snakemake.
 - Outside a method family package (``methods/<family>/``), nothing imports the family's private
   (underscore) modules: the family's ``__init__`` is its face. Tests are exempt: they test the insides.
@@ -21,8 +24,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 # rank of each stage; modules directly under experiments/ (io.py, config_schema.py) are the ground floor
-STAGE_RANK = {"": 0, "recordings": 1, "simulate": 1, "report": 2, "tracking": 3, "jobs": 4,
-              "tuning": 5, "benchmarks": 5, "paper": 5}
+STAGE_RANK = {"": 0, "recordings": 1, "simulate": 1, "report": 2, "runlog": 3, "jobs": 4,
+              "workflow": 5, "tuning": 5, "benchmarks": 5, "paper": 5}
 FORBIDDEN_IN_METHODS = ("experiments", "hydra", "omegaconf", "mlflow", "snakemake")
 
 
@@ -113,7 +116,7 @@ def test_tests_may_reach_inside_a_family():
 
 
 @pytest.mark.parametrize("source, where, expected", [
-    ("from experiments.jobs import config\n", "experiments/tracking/x.py", "may not import stage jobs"),
+    ("from experiments.jobs import config\n", "experiments/runlog/x.py", "may not import stage jobs"),
     ("def f():\n    from experiments.tuning.objective import objective\n", "experiments/jobs/x.py",
      "may not import stage tuning"),
     ("from ..jobs import config\n", "experiments/report/x.py", "may not import stage jobs"),
@@ -146,3 +149,144 @@ def test_the_check_lets_the_allowed_imports_pass(source, where, monkeypatch, tmp
     path.write_text(source)
     monkeypatch.setitem(globals(), "ROOT", tmp_path)
     assert violations([path]) == []
+
+
+# ---- no cycles ----------------------------------------------------------------------------------------------
+
+
+def import_graph(paths) -> dict[str, set[str]]:
+    """module -> the project's modules it imports (module level and inside functions): ``import a.b`` is an
+    edge to ``a.b``; ``from a import n`` to ``a.n`` when that is a module of the project, else to ``a`` (the
+    module the name ``n`` comes from)."""
+    modules = {module_name(p) for p in paths}
+    graph = {}
+    for path in paths:
+        here = module_name(path)
+        package = here if path.name == "__init__.py" else here.rpartition(".")[0]
+        edges = set()
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                edges |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    parts = package.split(".")
+                    base = ".".join(parts[: len(parts) - node.level + 1] + ([node.module] if node.module else []))
+                else:
+                    base = node.module or ""
+                edges |= {f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names}
+        graph[here] = {e for e in edges if e in modules} - {here}
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every strongly connected component of more than one module (Tarjan's algorithm, iterative), each
+    sorted: the modules that import each other, directly or through others."""
+    index, low, on_stack, stack, found = {}, {}, set(), [], []
+    counter = [0]
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter[0]
+        counter[0] += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            for child in children:
+                if child not in graph:
+                    continue
+                if child not in index:
+                    index[child] = low[child] = counter[0]
+                    counter[0] += 1
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph[child]))))
+                    break
+                if child in on_stack:
+                    low[node] = min(low[node], index[child])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    component = []
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        component.append(member)
+                        if member == node:
+                            break
+                    if len(component) > 1:
+                        found.append(sorted(component))
+    return found
+
+
+def test_no_two_modules_import_each_other():
+    assert cycles(import_graph(source_files("methods", "experiments"))) == []
+
+
+@pytest.mark.parametrize("files, expected", [
+    ({"experiments/a.py": "from experiments import b\n", "experiments/b.py": "def f():\n    import experiments.a\n"},
+     [["experiments.a", "experiments.b"]]),
+    ({"methods/x/_p.py": "from methods.x import _q\n", "methods/x/_q.py": "from methods.x import _r\n",
+      "methods/x/_r.py": "def g():\n    from methods.x._p import f\n", "methods/x/__init__.py": ""},
+     [["methods.x._p", "methods.x._q", "methods.x._r"]]),
+    ({"methods/y/__init__.py": "from methods.y._a import f\n", "methods/y/_a.py": "from methods.y import _b\n",
+      "methods/y/_b.py": "import numpy\n"}, []),
+    ({"methods/z/__init__.py": "from methods.z._a import f\ndef h(): pass\n",
+      "methods/z/_a.py": "def f():\n    from methods.z import h\n"}, [["methods.z", "methods.z._a"]]),
+])
+def test_the_cycle_check_sees_a_cycle_and_only_a_cycle(files, expected, monkeypatch, tmp_path):
+    """A direct and an indirect cycle (through a function-level import) are found; a package that imports its
+    submodule which imports a sibling is no cycle, one whose submodule takes a name from it is."""
+    for where, source in files.items():
+        (tmp_path / where).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / where).write_text(source)
+    monkeypatch.setitem(globals(), "ROOT", tmp_path)
+    paths = sorted(tmp_path / w for w in files)
+    assert cycles(import_graph(paths)) == expected
+
+
+# ---- an import inside a function says why -------------------------------------------------------------------
+
+
+def unexplained_function_imports(paths) -> list[str]:
+    """``file:line`` of each import inside a function with no comment on its line(s), on the line above, or
+    above the run of import lines it belongs to."""
+    found = []
+    for path in paths:
+        lines = path.read_text().splitlines()
+        for fn in ast.walk(ast.parse("\n".join(lines), filename=str(path))):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for node in ast.walk(fn):
+                if not isinstance(node, (ast.Import, ast.ImportFrom)):
+                    continue
+                own = lines[node.lineno - 1: node.end_lineno]
+                k = node.lineno - 2
+                while k >= 0 and lines[k].strip().startswith(("import ", "from ")) and "#" not in lines[k]:
+                    k -= 1          # up the run of imports this one belongs to
+                above = lines[k].strip() if k >= 0 else ""
+                if not any("#" in ln for ln in own) and not above.startswith("#") and "#" not in above:
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    return found
+
+
+def test_every_import_inside_a_function_says_why():
+    assert unexplained_function_imports(source_files("methods", "experiments")) == []
+
+
+@pytest.mark.parametrize("source, bad", [
+    ("def f():\n    import scipy\n", True),
+    ("def f():\n    x = 1\n    import scipy\n", True),
+    ("def f():\n    import scipy  # 0.3 s: one caller\n", False),
+    ("def f():\n    # 0.3 s: one caller\n    import scipy\n    from scipy import linalg\n", False),
+    ("import os\n\ndef f():\n    return os.sep\n", False),
+])
+def test_the_why_check_sees_a_bare_function_import(source, bad, monkeypatch, tmp_path):
+    path = tmp_path / "experiments" / "x.py"
+    path.parent.mkdir(parents=True)
+    path.write_text(source)
+    monkeypatch.setitem(globals(), "ROOT", tmp_path)
+    assert bool(unexplained_function_imports([path])) is bad

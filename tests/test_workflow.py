@@ -94,7 +94,7 @@ def test_a_killed_job_leaves_no_file_snakemake_takes_for_done(smoke_run, tmp_pat
     cell = next((smoke_run / "results" / "smoke" / "data").glob("*.npz"))
     target = tmp_path / "res.csv"
     proc = subprocess.Popen([sys.executable, "-m", "experiments.jobs.identify", "method=fft",
-                             f"data.dataset={cell}", f"out={target}", "tracking.enabled=false",
+                             f"data.dataset={cell}", f"out={target}", "runlog.enabled=false",
                              f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
     proc.kill()
     proc.wait()
@@ -121,7 +121,7 @@ def planned(workdir, target="results/tiny/README.md"):
     assert proc.returncode == 0, proc.stderr[-3000:]
     jobs = {}
     for line in (proc.stdout + proc.stderr).splitlines():
-        # each rule's message (experiments/rules/*.smk): "Job <i>: <rule>: <what> -> <first output>"
+        # each rule's message (experiments/workflow/rules/*.smk): "Job <i>: <rule>: <what> -> <first output>"
         match = re.match(r"\s*Job \d+: (\w+): .* -> (\S+)$", line)
         if match:
             jobs.setdefault(match[1], []).append(match[2])
@@ -157,15 +157,15 @@ def test_a_malformed_grid_file_breaks_only_itself_in_one_line(repo_copy):
     assert errors and "noise_ug" in errors[0] and "-1" in errors[0], proc.stderr[-2000:]
 
 
-def test_tracking_reads_only_what_the_workflow_declares(repo_copy):
-    # the track step reads the declared tables and records; logs, benchmarks and run folders are not inputs
+def test_runlog_reads_only_what_the_workflow_declares(repo_copy):
+    # the runlog step reads the declared tables and records; logs, benchmarks and run folders are not inputs
     for undeclared in ("logs", "benchmarks", "runs"):
         shutil.rmtree(repo_copy / "results" / "tiny" / undeclared, ignore_errors=True)
     (repo_copy / "results" / "tiny" / "README.md").unlink()
     proc = snakemake_in(repo_copy, "results/tiny/README.md", snakefile=repo_copy / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
-    assert "track: MLflow runs and page of grid tiny" in proc.stdout + proc.stderr
-    assert "0 newly logged" in (repo_copy / "results" / "tiny" / "logs" / "track.log").read_text()
+    assert "runlog: MLflow runs and page of grid tiny" in proc.stdout + proc.stderr
+    assert "0 newly logged" in (repo_copy / "results" / "tiny" / "logs" / "runlog.log").read_text()
 
 
 def test_a_deleted_dataset_is_regenerated_bit_for_bit_and_the_tables_stay(repo_copy):
@@ -175,7 +175,7 @@ def test_a_deleted_dataset_is_regenerated_bit_for_bit_and_the_tables_stay(repo_c
     table = pd.read_csv(out / "tables" / "comparison.csv").drop(columns="median_runtime_s")
     dataset.unlink()
     jobs = planned(repo_copy)
-    assert jobs.pop("datasets") == ["results/tiny/data"] and set(jobs) == {"identify", "aggregate", "track"}
+    assert jobs.pop("datasets") == ["results/tiny/data"] and set(jobs) == {"identify", "aggregate", "runlog"}
     proc = snakemake_in(repo_copy, "results/tiny/README.md", snakefile=repo_copy / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert dataset.read_bytes() == original
@@ -192,7 +192,7 @@ def _edit(path, old, new):
 
 
 def test_an_edit_reruns_exactly_the_affected_jobs_and_what_follows(repo_copy):
-    downstream = {"aggregate", "track"}
+    downstream = {"aggregate", "runlog"}
     fft_jobs = ["results/tiny/identify/fft"]           # the fft batch: every cell of the grid
     # unrelated edits: a README, another method's code and config
     for path, old, new in [(repo_copy / "README.md", "# Identifying", "# Identifying (edited)"),
@@ -252,7 +252,7 @@ def test_a_grid_with_a_yardstick_prior_gets_the_bayesian_columns_and_a_rerun_doe
     grid = TINY.replace("tiny", "bayes").replace("[64]", "[20]").replace("[fft, akf]", "[fft]")
     (repo_copy / "configs" / "grid" / "bayes.yaml").write_text(grid + "yardstick_prior: pem_map\n")
     target = "results/bayes/README.md"
-    assert set(planned(repo_copy, target)) == {"datasets", "identify", "yardstick", "aggregate", "track"}
+    assert set(planned(repo_copy, target)) == {"datasets", "identify", "yardstick", "aggregate", "runlog"}
     proc = snakemake_in(repo_copy, target, snakefile=repo_copy / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
     out = repo_copy / "results" / "bayes"
@@ -266,6 +266,6 @@ def test_a_grid_with_a_yardstick_prior_gets_the_bayesian_columns_and_a_rerun_doe
     assert planned(repo_copy, target) == {}                              # cached: a rerun does nothing
     cfg = repo_copy / "configs" / "method" / "pem_map.yaml"
     original = _edit(cfg, "[0.795, 5.019, 5.196, 15.873]", "[0.8, 5.0, 5.2, 15.9]")
-    assert set(planned(repo_copy, target)) == {"yardstick", "aggregate", "track"}
+    assert set(planned(repo_copy, target)) == {"yardstick", "aggregate", "runlog"}
     cfg.write_text(original)
     assert planned(repo_copy, target) == {}

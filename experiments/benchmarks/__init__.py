@@ -18,7 +18,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from experiments.io import atomic_write_text
-from experiments.tracking.provenance import git_state
+from experiments.provenance import git_state
 
 PAGE_DIR = Path("results") / "bench"
 _PAGE_ENV = "EXPERIMENTS_BENCH_PAGE"     # set while a page is being recorded: a child benchmark writes none

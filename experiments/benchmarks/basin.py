@@ -44,6 +44,7 @@ import pandas as pd  # noqa: E402
 import yaml  # noqa: E402
 
 import methods  # noqa: E402
+from experiments import paths
 from experiments.io import write_json  # noqa: E402
 from experiments.report.scoring import identifiable  # noqa: E402
 from experiments.report.success import mode_success, tolerance  # noqa: E402
@@ -57,7 +58,7 @@ SCORING_SEED = 20261121
 DT_S = 0.02
 F_MIN, F_MAX, MIN_RATIO = 1.5, 80.0, 1.08
 ZETA = (0.002, 0.03)
-METHOD_DIR = Path(__file__).resolve().parents[2] / "configs" / "method"
+METHOD_DIR = paths.METHOD_CONFIGS
 
 
 def method_options(config: str) -> dict:

@@ -7,10 +7,10 @@ The record is the simulated steel-cantilever impact (:mod:`experiments.simulate.
 a logger's CSV (time stamps rounded to 1 µs, the signal in g). Rows, each the median of ``--repeats``
 runs of the job as a user types it (``python -m experiments.jobs.identify ...``, a fresh process):
 
-- no prior (stabilisation diagram, then pem): MLflow tracking off; the default command, whose MLflow run is
-  logged by a detached process after the job (:mod:`experiments.tracking.pending`; before the next run
+- no prior (stabilisation diagram, then pem): MLflow logging off; the default command, whose MLflow run is
+  logged by a detached process after the job (:mod:`experiments.runlog.pending`; before the next run
   the benchmark waits for it, untimed, so no run pays for the last one's logging); and the run logged in
-  the job (``tracking.background=false``), all on one SQLite store (a fresh one for the first run);
+  the job (``runlog.background=false``), all on one SQLite store (a fresh one for the first run);
 - with ``--previous``: the same no-prior rows and the 512-sample rows run by another checkout of this line
   (e.g. the one before a change);
 - with ``--before``: the same jobs run by another checkout (``PYTHONPATH``), e.g. the release before
@@ -39,12 +39,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from experiments import paths
 from experiments.simulate.impact import G, simulate
 
 __all__ = ["ROOT", "JOB", "PHASES", "write_records", "run_job", "timed", "profile_phases", "import_times", "main",
            "report"]
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = paths.ROOT
 JOB = ["-m", "experiments.jobs.identify", "method=pem"]
 # The job's phases, as (label, profiled function: file suffix, function name), in the order they run.
 PHASES = [
@@ -73,10 +74,13 @@ def write_records(d: Path, n: int) -> dict[str, Path]:
 
 def wait_for_logging(cwd: Path, pythonpath: Path, env: dict | None) -> None:
     """Wait (untimed) until no MLflow run of a job is left to log: the queue's logger takes the store's lock
-    after the detached one (a checkout without :mod:`experiments.tracking.pending` has nothing to wait for)."""
-    if not (Path(pythonpath) / "experiments" / "tracking" / "pending.py").is_file():
+    after the detached one (a checkout without :mod:`experiments.runlog.pending` has nothing to wait for)."""
+    for stage in ("runlog", "tracking"):       # the stage's name in this checkout, and before the rename
+        if (Path(pythonpath) / "experiments" / stage / "pending.py").is_file():
+            break
+    else:
         return
-    subprocess.run([sys.executable, "-m", "experiments.tracking.pending"], cwd=cwd, capture_output=True,
+    subprocess.run([sys.executable, "-m", f"experiments.{stage}.pending"], cwd=cwd, capture_output=True,
                    env={**os.environ, "PYTHONPATH": str(pythonpath), **(env or {})})
 
 
@@ -91,9 +95,18 @@ def run_job(args: list[str], cwd: Path, pythonpath: Path, env: dict | None = Non
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     if proc.returncode != 0:
         raise RuntimeError(f"job failed ({proc.returncode}): {proc.stderr.strip()[-400:]}")
-    if "tracking.enabled=false" not in args:
+    if not {"runlog.enabled=false", OLD_OFF} & set(args):
         wait_for_logging(cwd, pythonpath, env)
     return wall, cpu, proc.stdout
+
+
+# MLflow logging off: this checkout's key, and the one a checkout before the rename (--before, --previous)
+# reads (this one reads it too, with a note).
+OLD_OFF = "tracking.enabled=false"
+
+
+def off(path) -> str:
+    return "runlog.enabled=false" if path == ROOT else OLD_OFF
 
 
 def timed(label: str, args: list[str], cwd: Path, pythonpath: Path, repeats: int, env=None) -> dict:
@@ -164,27 +177,27 @@ def main(argv=None) -> None:
             if path is None:
                 continue
             db = {"MLFLOW_TRACKING_URI": f"sqlite:///{d / ('mlflow.db' if path == ROOT else 'mlflow_prev.db')}"}
-            rows += [timed(f"{label}, no prior, tracking off", [*new, "tracking.enabled=false"], d, path, a.repeats),
-                     timed(f"{label}, no prior, the default command (MLflow tracking on)", new, d, path,
+            rows += [timed(f"{label}, no prior, MLflow logging off", [*new, off(path)], d, path, a.repeats),
+                     timed(f"{label}, no prior, the default command (MLflow logging on)", new, d, path,
                            a.repeats, db)]
-            if path == ROOT:        # the checkout before may have no tracking.background: its run is in the job
-                rows.append(timed(f"{label}, no prior, MLflow run logged in the job (tracking.background=false)",
-                                  [*new, "tracking.background=false"], d, path, a.repeats, db))
-            rows += [timed(f"{label}, 512 samples, prior given, tracking off", [*small_new, "tracking.enabled=false"],
+            if path == ROOT:        # the checkout before may have no runlog.background: its run is in the job
+                rows.append(timed(f"{label}, no prior, MLflow run logged in the job (runlog.background=false)",
+                                  [*new, "runlog.background=false"], d, path, a.repeats, db))
+            rows += [timed(f"{label}, 512 samples, prior given, MLflow logging off", [*small_new, off(path)],
                            d, path, a.repeats),
-                     timed(f"{label}, 512 samples, prior given, the default command (MLflow tracking on)", small_new,
+                     timed(f"{label}, 512 samples, prior given, the default command (MLflow logging on)", small_new,
                            d, path, a.repeats, db)]
         if a.before is not None:
             old = [*JOB, f"data.path={files['plain']}", f"prior={prior}", "hydra.run.dir=run_before"]
-            rows += [timed("before (--before), prior given, tracking off", [*old, "tracking.enabled=false"], d,
+            rows += [timed("before (--before), prior given, MLflow logging off", [*old, OLD_OFF], d,
                            a.before, a.repeats),
-                     timed("before (--before), prior given, MLflow tracking on", old, d, a.before, a.repeats,
+                     timed("before (--before), prior given, MLflow logging on", old, d, a.before, a.repeats,
                            {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_before.db'}"})]
             args = [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_small_before"]
-            rows += [timed("before (--before), 512 samples, prior given, tracking off",
-                           [*args, "tracking.enabled=false"],
+            rows += [timed("before (--before), 512 samples, prior given, MLflow logging off",
+                           [*args, OLD_OFF],
                            d, a.before, a.repeats),
-                     timed("before (--before), 512 samples, prior given, MLflow tracking on", args, d, a.before,
+                     timed("before (--before), 512 samples, prior given, MLflow logging on", args, d, a.before,
                            a.repeats, {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})]
         profiles = {"this release": profile_phases(run_dir(new, "run_prof"), d, store)}
         wait_for_logging(d, ROOT, store)
@@ -193,17 +206,17 @@ def main(argv=None) -> None:
                 run_dir(new, "run_prof_prev"), d, {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_prev.db'}"},
                 a.previous)
         os.environ.update(store)
-        imports = {"this release, tracking off": import_times([*run_dir(new, "run_imp"),
-                                                               "tracking.enabled=false"], d),
-                   "this release, the default command (MLflow tracking on)": import_times(
+        imports = {"this release, MLflow logging off": import_times([*run_dir(new, "run_imp"),
+                                                               "runlog.enabled=false"], d),
+                   "this release, the default command (MLflow logging on)": import_times(
                        run_dir(new, "run_imp2"), d)}
         wait_for_logging(d, ROOT, store)
         if a.previous is not None:
-            imports["previous (--previous), the default command (MLflow tracking on)"] = import_times(
+            imports["previous (--previous), the default command (MLflow logging on)"] = import_times(
                 run_dir(new, "run_imp4"), d, a.previous,
                 {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_prev.db'}"})
         if a.before is not None:
-            imports["before, 512 samples, tracking on"] = import_times(
+            imports["before, 512 samples, MLflow logging on"] = import_times(
                 [*JOB, f"data.path={small}", f"prior={prior}", "hydra.run.dir=run_imp3"], d, a.before,
                 {"MLFLOW_TRACKING_URI": f"sqlite:///{d / 'mlflow_small.db'}"})
         answer = rows[0]["stdout"]

@@ -42,24 +42,25 @@ import pandas as pd
 from omegaconf import OmegaConf
 
 import methods
+from experiments import paths
 from experiments.io import markdown_table, write_table
-from experiments.jobs.app import CONFIG_DIR
 from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, coverage
 from experiments.simulate import mismatch, scenarios
+from experiments.simulate.datasets import DatasetConfig, ScenarioConfig, make_cell
 
 __all__ = ["DEFAULT_GRID", "method_setup", "cell_label", "BEFORE", "run_method", "std_kinds", "drift_claims",
            "duffing_truth", "score", "cell_records", "run", "main"]
 
-DEFAULT_GRID = f"{CONFIG_DIR}/grid/mismatch.yaml"
+DEFAULT_GRID = str(paths.GRIDS / "mismatch.yaml")
 
 
 def method_setup(name: str) -> tuple[str, list[float], dict]:
     """(registry name, prior, options) of a method config ``name`` or variant ``name:variant``."""
     base, _, variant = name.partition(":")
-    cfg = OmegaConf.load(f"{CONFIG_DIR}/method/{base}.yaml")
+    cfg = OmegaConf.load(paths.METHOD_CONFIGS / f"{base}.yaml")
     options = OmegaConf.to_container(cfg.get("options") or OmegaConf.create({}))
     if variant:
-        options.update(OmegaConf.to_container(OmegaConf.load(f"{CONFIG_DIR}/method/{base}_{variant}.yaml")
+        options.update(OmegaConf.to_container(OmegaConf.load(paths.METHOD_CONFIGS / f"{base}_{variant}.yaml")
                                               .get("options") or OmegaConf.create({})))
     return base, list(cfg.prior_rad_s), options
 
@@ -158,7 +159,6 @@ def score(estimates: list, truth: np.ndarray, claims=None, truths=None) -> list[
 
 def cell_records(grid: dict, cell: dict, replicates: int) -> dict:
     """The cell's dataset as the workflow makes it (``experiments.simulate.datasets.make_cell``)."""
-    from experiments.simulate.datasets import DatasetConfig, ScenarioConfig, make_cell
 
     axes = dict(cell["axes"])
     cfg = DatasetConfig(noise_ug=float(cell["noise_ug"]), n_samples=int(cell["n_samples"]), replicates=replicates,

@@ -34,6 +34,7 @@ import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
 import methods  # noqa: E402
+from experiments import paths
 from experiments.io import atomic_write_text  # noqa: E402
 from experiments.jobs.identify import rows_to_csv  # noqa: E402
 from experiments.report.scoring import (
@@ -82,7 +83,7 @@ def score(name: str, options: dict, cells: list[dict]) -> tuple[float, float, fl
 def run_grid(grid_path: str, names: list[str], out: str) -> None:
     """Every cell of a grid for ``names``, in this process; per-replicate CSVs as the identify jobs write."""
     grid = yaml.safe_load(Path(grid_path).read_text())
-    root = Path(__file__).resolve().parents[2] / "configs" / "method"
+    root = paths.METHOD_CONFIGS
     for noise in grid["noise_ug"]:
         for n in grid["n_samples"]:
             cell = make_cell(DatasetConfig(noise_ug=noise, n_samples=n, replicates=grid["replicates"],

@@ -35,13 +35,12 @@ import argparse  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
 from concurrent.futures import ProcessPoolExecutor  # noqa: E402
-from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import scipy.optimize  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
-from experiments import io  # noqa: E402
+from experiments import io, paths  # noqa: E402
 from experiments.benchmarks import pem_speed  # noqa: E402
 from experiments.config_schema import stated_options  # noqa: E402
 from experiments.report.scoring import identifiable  # noqa: E402
@@ -121,7 +120,7 @@ def grid(replicates: int, seed: int, jobs: int, out: str, compare: str | None, m
 
     This is how "accuracy unchanged" is checked when the implementation changes: run it with the old code
     (e.g. a checkout of main on ``PYTHONPATH``) and the new, same machine, same seed, then compare."""
-    full = OmegaConf.load(Path(__file__).resolve().parents[2] / "configs" / "grid" / "full.yaml")
+    full = OmegaConf.load(paths.GRIDS / "full.yaml")
     cells = [("default", float(noise), int(n), replicates, seed) for n in full.n_samples for noise in full.noise_ug
              if max_n is None or n <= max_n]
     t0 = time.perf_counter()

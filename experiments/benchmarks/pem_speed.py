@@ -199,7 +199,7 @@ def scaling(sizes: list[int], out: str) -> None:
         print(f"\nlog-log slope for N >= 4096: time {st:.2f}, memory {sm:.2f} (1 = linear)")
     import matplotlib  # ~0.5 s, only for the figure at the end; Agg before pyplot
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # after matplotlib.use("Agg"), as pyplot needs
 
     fig, ax = plt.subplots(figsize=(5.5, 4))
     ax.loglog(sizes, times, "-", color="C0", label="time per fit (s)")

@@ -3,7 +3,7 @@
     python -m experiments.benchmarks.pipeline results/full [--wall-s 1234]
 
 Reads Snakemake's ``benchmark:`` files (the wall time of each job as a whole process: the datasets batch of
-the grid and one identify batch per method, experiments/rules/; a batch run by W worker processes counts
+the grid and one identify batch per method, experiments/workflow/rules/; a batch run by W worker processes counts
 W × its wall time, the cores it held) and the jobs' result tables (the time spent
 inside ``identify`` for each replicate). The difference is the pipeline's overhead: interpreter start-up,
 imports, Hydra composition, file I/O. With ``--wall-s`` (the workflow's measured wall time) it also reports

@@ -15,15 +15,15 @@ from functools import partial
 import numpy as np
 from omegaconf import OmegaConf
 
+from experiments import paths
 from experiments.benchmarks import median_seconds
-from experiments.jobs.app import CONFIG_DIR
 from experiments.simulate.datasets import UG
 from experiments.simulate.plant import build_plant
 from methods import pll
 
 __all__ = ["PRIOR", "PAPER_OPTIONS", "DT_S", "TARGET_S", "main"]
 
-_CONFIG = OmegaConf.load(f"{CONFIG_DIR}/method/pll.yaml")
+_CONFIG = OmegaConf.load(paths.METHOD_CONFIGS / "pll.yaml")
 PRIOR = list(_CONFIG.prior_rad_s)                     # Table 6
 PAPER_OPTIONS = OmegaConf.to_container(_CONFIG.options)
 DT_S = 0.02

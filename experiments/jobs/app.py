@@ -21,15 +21,16 @@ from hydra.errors import OverrideParseException
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, open_dict
 
+from experiments import paths
 from experiments.io import atomic_write_text, check_writable
 
 __all__ = ["CONFIG_MODULE", "CONFIG_DIR", "EXIT_BAD_INPUT", "BAD_INPUT", "one_line", "fail", "run_app",
-           "check_command_line"]
+           "check_command_line", "RENAMED_KEYS", "renamed_keys"]
 
-# configs/ travels with the code as the package data `experiments.configs` (experiments/configs links to it in
-# the repository; a wheel holds a copy), so Hydra finds it from any working directory, installed or not.
-CONFIG_MODULE = "experiments.configs"
-CONFIG_DIR = str(Path(__file__).resolve().parents[1] / "configs")   # for code that reads a YAML file directly
+# configs/ travels with the code as the package data `experiments.configs` (experiments/paths.py), so Hydra
+# finds it from any working directory, installed or not.
+CONFIG_MODULE = paths.CONFIG_MODULE
+CONFIG_DIR = str(paths.CONFIGS)   # for code that reads a YAML file directly
 EXIT_BAD_INPUT = 2
 BAD_INPUT = (ValueError, FileNotFoundError, KeyError)
 
@@ -43,7 +44,7 @@ def one_line(exc: BaseException) -> str:
     missing = _MISSING_OPTION.search(text)
     if missing:
         group, name = missing.groups()
-        known = sorted(p.stem for p in (Path(CONFIG_DIR) / group).glob("*.yaml"))
+        known = sorted(p.stem for p in (paths.CONFIGS / group).glob("*.yaml"))
         return f"unknown {group} '{name}'; known: {', '.join(known)}"
     parts = []
     while exc is not None:
@@ -83,6 +84,26 @@ HYDRA_FLAGS = frozenset({"-h", "--help", "--hydra-help", "--version", "-c", "--c
                          "--experimental-rerun"})
 
 
+# Config keys renamed so that "tracking" names only frequency tracking: MLflow run logging is ``runlog``. Hydra
+# has no alias of a key, so the old spelling is rewritten on the command line, with a note, until the next
+# release.
+RENAMED_KEYS = {"tracking": "runlog"}
+
+
+def renamed_keys(args: list[str]) -> list[str]:
+    """The command line with each renamed key (``runlog.enabled=false``, ``+tracking.x=...``,
+    ``~tracking``) in its new spelling, and one note on stderr per old spelling used."""
+    out = []
+    for arg in args:
+        match = re.match(r"([~+]*)(\w+)(?=[.=]|$)", arg)
+        if match and match.group(2) in RENAMED_KEYS:
+            new = match.group(1) + RENAMED_KEYS[match.group(2)] + arg[match.end():]
+            print(f"note: {arg} is now {new}; the old spelling works until the next release", file=sys.stderr)
+            arg = new
+        out.append(arg)
+    return out
+
+
 def check_command_line(args: list[str]) -> None:
     """Refuse, in one line, an unknown flag and a key given twice (``method=pem method=fft``: Hydra would
     keep the last without a word)."""
@@ -104,7 +125,7 @@ def _check_sweep(config_name: str, args: list[str]) -> None:
     would end the whole sweep with Hydra's error over many lines: each swept value is composed here first,
     with the other overrides, and the first that fails is one line. Values a job's own check refuses are
     left to the job (recorded in its ``error.txt``; the sweep goes on)."""
-    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.core.override_parser.overrides_parser import OverridesParser  # Hydra internals: sweeps only
 
     words = [a for a in args if not a.startswith("-")]
     try:
@@ -140,7 +161,7 @@ def run_app(config_name: str, task: Callable[[DictConfig], object],
     ``check(cfg)`` raises ``ValueError`` (or FileNotFoundError) for impossible values; ``task(cfg)`` does
     the work. A bad-input exception from either becomes one line on stderr and exit status 2.
     """
-    args = sys.argv[1:] = [quote_unicode_value(a) for a in sys.argv[1:]]
+    args = sys.argv[1:] = renamed_keys([quote_unicode_value(a) for a in sys.argv[1:]])
     check_command_line(args)
     if any(a in ("-m", "--multirun") for a in args):
         _check_sweep(config_name, args)

@@ -10,12 +10,12 @@ from __future__ import annotations
 import dataclasses
 import importlib
 from dataclasses import field
-from pathlib import Path
 
 import yaml
 from hydra.core.config_store import ConfigStore
 
 import methods
+from experiments import paths
 from experiments.config_schema import (
     IdentifyConfig,
     ReproduceConfig,
@@ -28,7 +28,7 @@ from experiments.simulate.plant import PlantConfig
 __all__ = ["METHOD_CONFIGS", "PLUGIN_PRIOR_FROM", "plugin_prior", "experiment_schema", "methods_named_on",
            "DEFAULT_METHOD", "register"]
 
-METHOD_CONFIGS = Path(__file__).resolve().parents[2] / "configs" / "method"
+METHOD_CONFIGS = paths.METHOD_CONFIGS
 PLUGIN_PRIOR_FROM = "akf"     # a plugin without its own prior gets Table 3's (configs/method/akf.yaml)
 
 

@@ -5,10 +5,10 @@
 
 On a dataset cell it writes the per-replicate results table (``out``, or ``results.csv`` in the run
 directory) and beside it ``<table>.json``, the job's record: its resolved config, the dataset's digest,
-the code version and package versions (what the workflow's tracking step reads). On a CSV it prints the
+the code version and package versions (what the workflow's runlog step reads). On a CSV it prints the
 estimates and writes ``estimate.json`` in the run directory. Either way the job is logged to MLflow unless
-``tracking.enabled=false`` (the workflow logs in one serial step): a cell's job in the experiment
-``tracking.experiment`` (default ``identify``), a user's CSV in the experiment ``measurements``.
+``runlog.enabled=false`` (the workflow logs in one serial step): a cell's job in the experiment
+``runlog.experiment`` (default ``identify``), a user's CSV in the experiment ``measurements``.
 """
 
 from __future__ import annotations
@@ -27,15 +27,15 @@ from omegaconf import OmegaConf
 from tqdm import tqdm
 
 import methods
+from experiments import provenance
 from experiments.config_schema import variant_label
 from experiments.io import CHECKSUM_KEY, atomic_write_text, read_npz, write_json
 from experiments.jobs.app import fail, run_app
 from experiments.jobs.config import methods_named_on, register
 from experiments.report.scoring import COLUMNS, replicate_rows
+from experiments.runlog.store import check_store
 from experiments.simulate.datasets import CELL_KEYS
 from experiments.simulate.scenarios import AXES, result_columns
-from experiments.tracking import provenance
-from experiments.tracking.store import check_store
 
 __all__ = ["load_data", "prior_of", "priors_of", "scenario_of", "check", "LONG_RECORD_SAMPLES", "run_records",
            "task", "run_job", "rows_to_csv", "job_record", "main"]
@@ -95,7 +95,7 @@ def check(cfg) -> None:
         mid = np.pi * sum(data["segment"].band_hz) or np.pi / (2 * data["dt"])
         methods.check_options(cfg.method.name, [min(mid, 0.9 * np.pi / data["dt"])], data["dt"],
                               OmegaConf.to_container(cfg.method.options, resolve=True))
-        if cfg.tracking.enabled:
+        if cfg.runlog.enabled:
             check_store()      # here too: the run is logged by a background process, which no one watches
         return
     priors = priors_of(cfg, data)
@@ -111,7 +111,7 @@ def check(cfg) -> None:
                              f"{data['source']}, replicate {r}: {exc}") from None
     methods.check_options(cfg.method.name, priors[0], data["dt"],
                           OmegaConf.to_container(cfg.method.options, resolve=True))
-    if cfg.tracking.enabled:
+    if cfg.runlog.enabled:
         check_store()          # an empty or corrupt MLflow store: one line now, not a traceback after the work
 
 
@@ -208,16 +208,16 @@ def run_job(cfg, run_dir: Path, config_name: str | None, sweep: bool = False) ->
     atomic_write_text(out, rows_to_csv(rows))
     record_path = write_json(out.with_suffix(".json"), record)
     print(f"wrote {out} and {record_path}")
-    if cfg.tracking.enabled:
-        from experiments.tracking.track import log_job  # pandas (0.4 s): tracked jobs only
+    if cfg.runlog.enabled:
+        from experiments.runlog.identify_runs import log_job  # pandas (0.4 s): jobs logged to MLflow only
 
-        key, _, created = log_job(cfg.tracking.experiment, record, out, record_path)
-        print(f"MLflow experiment {cfg.tracking.experiment}: run {key} ({'logged' if created else 'already there'})")
-    if cfg.tracking.enabled or sweep:
+        key, _, created = log_job(cfg.runlog.experiment, record, out, record_path)
+        print(f"MLflow experiment {cfg.runlog.experiment}: run {key} ({'logged' if created else 'already there'})")
+    if cfg.runlog.enabled or sweep:
         import pandas as pd  # 0.4 s of start-up: only a tracked or swept job scores its cell here
 
-        from experiments.report.objective import cell_objective
-        from experiments.report.summary import summarize
+        from experiments.report.objective import cell_objective  # pandas, as above
+        from experiments.report.summary import summarize  # pandas, as above
 
         # A sweeper's objective (any Hydra sweeper minimises what the job returns): log10 of the median
         # RMSE/CRLB over modes + a failure penalty, as the tuning command (experiments/report/objective.py)
@@ -241,7 +241,7 @@ def rows_to_csv(rows: list[dict]) -> str:
 def _run_measurement(cfg, data: dict, run_dir: Path, config_name: str | None, options: dict) -> None:
     """A user's measurement: the notes on what was read and chosen, the modes (the prior, or the
     stabilisation diagram's), the method, then the answer, the figure and the MLflow run."""
-    from experiments.jobs import measurements
+    from experiments.jobs import measurements  # pandas and the readers: only for a user's file
 
     measurements.print_notes(data)
     diagram = None
@@ -254,8 +254,8 @@ def _run_measurement(cfg, data: dict, run_dir: Path, config_name: str | None, op
     options = measurements.method_options(options, data)
     est = run_records(cfg.method.name, data["y"], data["dt"], prior, options, cfg.progress)[0][0]
     paths = measurements.report(cfg.method.name, prior, est, data, run_dir, diagram)
-    if cfg.tracking.enabled:
-        measurements.log(job_record(cfg, data, config_name), est, paths, run_dir, cfg.tracking.background)
+    if cfg.runlog.enabled:
+        measurements.log(job_record(cfg, data, config_name), est, paths, run_dir, cfg.runlog.background)
 
 
 def job_record(cfg, data, config_name: str | None) -> dict:

@@ -19,14 +19,18 @@ from pathlib import Path
 import numpy as np
 
 from experiments.io import write_json
+from experiments.jobs.modes_found import INSTALL_HINT, find_modes
+from experiments.recordings import choose_segment, read_record
+from experiments.recordings.modal_fit import fit_modes
+from experiments.recordings.spectral import flat_band
 from experiments.report import model_check
+from experiments.report.measurement_figure import measurement_figure
+from experiments.units import G_M_S2
 
 __all__ = ["G_M_S2", "MEASUREMENTS_EXPERIMENT", "INSTALL_HINT", "load", "load_csv", "find_modes", "method_options",
            "print_notes", "report", "log"]
 
-G_M_S2 = 9.80665
 MEASUREMENTS_EXPERIMENT = "measurements"
-INSTALL_HINT = "pip install -e '.[measurements]'"
 
 
 def load(d, prior=None) -> dict:
@@ -42,7 +46,6 @@ def load(d, prior=None) -> dict:
 
 @functools.lru_cache(maxsize=4)
 def _load(path, _stamp, channel, units, dt, start_s, stop_s, band_hz, cover_hz) -> dict:
-    from experiments.recordings import choose_segment, read_record
 
     try:
         rec = read_record(path, channel=channel, units=units, dt=dt)
@@ -56,34 +59,15 @@ def _load(path, _stamp, channel, units, dt, start_s, stop_s, band_hz, cover_hz) 
 
 def load_csv(path) -> tuple[np.ndarray, float]:
     """(accel in m/s², dt) of a CSV's single acceleration channel, the whole record (no segmentation)."""
-    from experiments.recordings import read_record
 
     rec = read_record(path)
     return rec.accel_m_s2, rec.dt_s
-
-
-def find_modes(data: dict, n_modes: int | None):
-    """The modes of the segment from a stabilisation diagram: (prior in rad/s, the diagram)."""
-    try:
-        from methods.peers.stabilisation import stabilisation_diagram
-        diagram = stabilisation_diagram(data["segment"].y, data["dt"],
-                                        band_rad_s=tuple(2 * np.pi * np.asarray(data["segment"].band_hz)),
-                                        n_modes=n_modes)
-    except ModuleNotFoundError as exc:
-        raise ValueError(f"finding the modes without a prior needs the package '{exc.name}': {INSTALL_HINT}"
-                         ) from None
-    if diagram.modes_rad_s.size == 0:
-        lo, hi = data["segment"].band_hz
-        raise ValueError(f"{data['source']}: no mode stands out of the noise between {lo:.4g} and {hi:.4g} Hz "
-                         f"({diagram.n_clusters} stable clusters on the stabilisation diagram); give a prior")
-    return diagram.modes_rad_s, diagram
 
 
 def method_options(options: dict, data: dict) -> dict:
     """The method's options for the segment: a method with a residual check (``whiteness_band_rad_s``, pem)
     judges a decimated segment's residual in the anti-alias filter's flat pass band only
     (:func:`experiments.recordings.spectral.flat_band`), unless the option was set."""
-    from experiments.recordings.spectral import flat_band
 
     q = data["segment"].decimation
     if q > 1 and "whiteness_band_rad_s" in options and options["whiteness_band_rad_s"] is None:
@@ -98,8 +82,6 @@ def print_notes(data: dict) -> None:
 
 def report(name: str, prior, est, data: dict, run_dir: Path, diagram=None) -> list[Path]:
     """Print the modes, write ``estimate.json`` and the figure; return the paths written."""
-    from experiments.recordings.modal_fit import fit_modes
-    from experiments.report.measurement_figure import measurement_figure
 
     seg = data["segment"]
     m = est.frequencies.size
@@ -163,12 +145,13 @@ def _digits(value: float, std: float) -> str:
 def log(record: dict, est, paths: list[Path], run_dir: Path, background: bool = True) -> None:
     """Log a run on a user's measurement in the MLflow experiment ``measurements`` (keyed like a cell's job).
 
-    The run is written into the run folder first (``mlflow_pending.json``, :mod:`experiments.tracking.pending`)
+    The run is written into the run folder first (``mlflow_pending.json``, :mod:`experiments.runlog.pending`)
     and queued; with ``background`` a detached process logs it (and any run left over) while the job ends,
     otherwise the job logs it here. Neither imports MLflow into the job until it logs."""
-    from experiments.tracking import pending
-    from experiments.tracking.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
-    from experiments.tracking.store import source_tags
+    # run logging's modules, loaded when the run is logged (runlog.enabled=false never loads them)
+    from experiments.runlog import pending
+    from experiments.runlog.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
+    from experiments.runlog.store import source_tags
 
     record = {**record, "grid": "measurement"}
     key = run_key(record)
@@ -191,7 +174,7 @@ def log(record: dict, est, paths: list[Path], run_dir: Path, background: bool = 
     if background:
         pending.start_logger(run_dir)
         print(f"MLflow experiment {MEASUREMENTS_EXPERIMENT}: run {key} is being logged by a background process "
-              f"(its output: {Path(run_dir) / pending.LOG}; `python -m experiments.tracking.pending` logs any run "
+              f"(its output: {Path(run_dir) / pending.LOG}; `python -m experiments.runlog.pending` logs any run "
               f"left waiting)")
         return
     out = pending.log_folder(run_dir)            # None: a logger of another job logged it meanwhile

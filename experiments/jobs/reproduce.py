@@ -5,7 +5,7 @@
 
 Each experiment is a module with a ``Params`` dataclass and ``run(params, out_dir) -> list[Path]``; its
 config is ``configs/experiment/<name>.yaml``. The files it writes are logged to MLflow (experiment
-``paper``) unless ``tracking.enabled=false``.
+``paper``) unless ``runlog.enabled=false``.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from omegaconf import OmegaConf
 
 from experiments.jobs.app import run_app
 from experiments.jobs.config import register
-from experiments.tracking.provenance import canonical_json, digest, git_state
-from experiments.tracking.store import log_run, source_tags
+from experiments.provenance import canonical_json, digest, git_state
+from experiments.runlog.store import log_run, source_tags
 
 __all__ = ["EXPERIMENTS", "task", "flatten", "main"]
 
@@ -39,11 +39,11 @@ def task(cfg) -> None:
     files = module.run(exp.params, out_dir)
     for f in files:
         print(f"wrote {f}")
-    if cfg.tracking.enabled:
+    if cfg.runlog.enabled:
         params = flatten(OmegaConf.to_container(cfg.experiment.params, resolve=True), "param")
         code = git_state()
         key = f"{cfg.experiment.name}/{digest(canonical_json({'params': params, 'code': code}))}"
-        log_run(cfg.tracking.experiment, key, params=params, artifacts=files,
+        log_run(cfg.runlog.experiment, key, params=params, artifacts=files,
                 texts={"config.yaml": OmegaConf.to_yaml(cfg)},
                 tags={**source_tags("experiments/jobs/reproduce.py", code), "kind": "paper"})
 

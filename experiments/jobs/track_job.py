@@ -30,22 +30,22 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
+import methods
 from experiments.cli import ArgumentParser
 from experiments.io import read_npz, write_json, write_npz
 from experiments.jobs.app import fail
 from experiments.jobs.track_variants import split, variant_options
-from experiments.report.tracking_metrics import score_track
-from experiments.simulate.tracking_data import make_cell
-from experiments.simulate.tracking_grid import load_grid
-from experiments.tracking.provenance import digest, git_state
+from experiments.provenance import digest, git_state
+from experiments.report.tracking_metrics import score_record
+from experiments.simulate.tracking_grid import load_grid, make_grid_cell, nominal_prior_rad_s
 
 __all__ = ["WARM_UP_SAMPLES", "check_tracker", "grid_trackers", "main", "rescore_tracker", "run_cell", "run_data",
            "run_tracker", "score_cell", "track_record", "tracker_names", "warm_up"]
 
 
 def tracker_names() -> list[str]:
-    import methods
 
     face = getattr(methods, "track_names", None)
     if face is None:
@@ -79,14 +79,13 @@ def grid_trackers(grid: dict) -> list[str]:
 def check_tracker(grid: dict, tracker: str) -> dict:
     """The tracker's options (a variant's over the defaults, then the grid's ``tracker_options``), checked
     against every cell (prior, Δt and record length)."""
-    import methods
 
     options = {**variant_options(tracker), **dict((grid.get("tracker_options") or {}).get(tracker, {}))}
     check = methods.check_track_options
     takes_length = "n_samples" in inspect.signature(check).parameters
     for name, cell in grid["cells"].items():
         cfg = cell["config"]
-        nominal = np.asarray(cfg.plant.target_freq_rad_s, dtype=float)
+        nominal = np.asarray(nominal_prior_rad_s(cfg), dtype=float)
         try:
             if takes_length:
                 check(split(tracker)[0], nominal, cfg.dt_s, options, n_samples=cfg.n_samples)
@@ -100,14 +99,13 @@ def check_tracker(grid: dict, tracker: str) -> dict:
 def run_data(grid: dict, out: Path) -> None:
     for i, (name, cell) in enumerate(grid["cells"].items()):
         t0 = time.process_time()
-        write_npz(out / f"{name}.npz", make_cell(cell["config"]))
+        write_npz(out / f"{name}.npz", make_grid_cell(cell["config"]))
         print(f"cell {i + 1} of {len(grid['cells'])} ({name}) in {time.process_time() - t0:.3g} s CPU", flush=True)
 
 
 def track_record(tracker: str, y: np.ndarray, dt_s: float, prior: np.ndarray, options: dict):
     """One record through ``methods.track`` (``tracker`` a name or a ``name:variant`` label whose options are
     already in ``options``); a tracker's exception becomes a failed track (None, message)."""
-    import methods
 
     try:
         return methods.track(split(tracker)[0], y, dt_s, prior, **options), ""
@@ -139,15 +137,11 @@ def run_cell(tracker: str, options: dict, data: dict, cell_meta: dict) -> tuple[
 
 
 def score_cell(tracker: str, tracks: dict, data: dict, cell_meta: dict, messages: list[str]) -> pd.DataFrame:
-    """The scores of every replicate's track (``experiments.report.tracking_metrics.score_track``)."""
-    step = float(data["step_time_s"])
-    span = data["drift_span_s"]
+    """The scores of every replicate's track (``experiments.report.tracking_metrics.score_record``)."""
     rows = []
     for r in range(tracks["frequencies"].shape[0]):
-        s = score_track(tracks["t_s"], tracks["frequencies"][r], tracks["converged"][r], tracks["runtime_s"][r],
-                        data["truth_freq_rad_s"], float(data["dt_s"]), bound=data["pcrb_std_rad_s"][r],
-                        step_time_s=step if np.isfinite(step) else None,
-                        drift_span_s=span if np.all(np.isfinite(span)) else None)
+        s = score_record(tracks["t_s"], tracks["frequencies"][r], tracks["converged"][r], tracks["runtime_s"][r],
+                         data, r)
         rows.append({"tracker": tracker, **cell_meta, "replicate": r, **s, "message": str(messages[r])[:300]})
     return pd.DataFrame(rows)
 
@@ -228,9 +222,8 @@ def main(argv: list[str] | None = None) -> None:
         fail(" ".join(str(exc).split()))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    from threadpoolctl import threadpool_limits
 
-    # One BLAS thread, as under Snakemake (experiments/rules/common.smk) and as on board: with several, the
+    # One BLAS thread, as under Snakemake (experiments/workflow/rules/common.smk) and as on board: with several, the
     # CPU time per sample counts threads that wait on tiny matrices (measured: era 3.5 ms instead of 0.24 ms
     # per sample on a loaded 2-core machine).
     with threadpool_limits(limits=1):

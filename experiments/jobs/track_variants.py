@@ -15,11 +15,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from experiments.simulate.tracking_grid import CONFIGS
+from experiments import paths
 
 __all__ = ["VARIANT_DIR", "known_variants", "split", "variant_options", "variant_path"]
 
-VARIANT_DIR = CONFIGS / "tracker"
+VARIANT_DIR = paths.TRACKER_CONFIGS
 
 
 def split(spec: str) -> tuple[str, str]:

@@ -31,15 +31,13 @@ from pathlib import Path
 import numpy as np
 
 from experiments.recordings.formats import FORMATS, RawFile
+from experiments.units import G_M_S2, MAX_ABS_ACCEL_M_S2
 
 __all__ = ["G_M_S2", "UNITS_M_S2", "MIN_SAMPLES", "MAX_ABS_ACCEL_M_S2", "LEGACY_CSV_CHANNEL", "Record",
            "read_record", "uniform_step"]
 
-G_M_S2 = 9.80665                      # standard gravity, m/s² per g
 UNITS_M_S2 = {"g": G_M_S2, "m/s^2": 1.0, "mm/s^2": 1e-3}
 MIN_SAMPLES = 8                       # the fewest samples any method accepts (methods.check_inputs)
-# Largest |sample| accepted, m/s²: ±10⁵ g (as methods.estimate.MAX_ABS_ACCEL_M_S2, the methods' own rule).
-MAX_ABS_ACCEL_M_S2 = 1e6
 LEGACY_CSV_CHANNEL = "accel"          # the CSV column of the first release: m/s² when no unit is named
 
 

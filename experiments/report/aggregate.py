@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from experiments import paths
 from experiments.cli import ArgumentParser
 from experiments.io import atomic_write_text, markdown_table, write_table
 from experiments.report import axes, catalog, htmltables, pareto, plots, variants
@@ -28,8 +29,7 @@ from experiments.report.summary import attach_yardstick, cell_keys, summarize
 __all__ = ["PRINTED", "read_results", "paper_tables", "PAPER_TABLES_INTRO", "render_paper_tables", "headline",
            "bayes_headline", "main", "experiment_tables", "html_twins", "write_captions", "page", "experiments_section"]
 
-# experiments/configs is configs/ (a link in the repository, package data in a wheel)
-PRINTED = Path(__file__).resolve().parents[1] / "configs" / "paper" / "printed.yaml"
+PRINTED = paths.CONFIGS / "paper" / "printed.yaml"
 
 
 def read_results(paths) -> pd.DataFrame:
@@ -176,7 +176,7 @@ def main(argv=None) -> int:
                     help="folders of paper reproductions to link from the page")
     ap.add_argument("--page", type=Path, default=None,
                     help="the summary page to write (default: <out>/README.md; the workflow writes "
-                         "<out>/summary.md and the tracking step makes README.md of it)")
+                         "<out>/summary.md and the runlog step makes README.md of it)")
     ap.add_argument("--yardstick", nargs="*", type=Path, default=[],
                     help="the grid's Bayesian yardstick table (experiments.jobs.yardstick), if it has one")
     ap.add_argument("results", nargs="+", type=Path, help="per-job result tables (CSV)")

@@ -12,7 +12,7 @@ title, then the caption in reStructuredText::
 ``${name}`` placeholders in a caption are filled from the aggregate's context (e.g. ``${longest}``, the grid's
 longest record). A figure anyone adds to a grid's ``figures/`` folder is picked up; without a caption file it
 lands in the category "other" with a caption saying so. The aggregate writes each filled-in caption beside its
-output (``figures/<name>.rst``), which is what the Snakemake report shows (experiments/rules/report.smk).
+output (``figures/<name>.rst``), which is what the Snakemake report shows (experiments/workflow/rules/report.smk).
 """
 
 from __future__ import annotations

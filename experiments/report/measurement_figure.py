@@ -21,10 +21,10 @@ import numpy as np
 
 from experiments.io import save_figure
 from experiments.recordings.spectral import welch
+from experiments.units import G_M_S2
 
 __all__ = ["G_M_S2", "DPI", "envelope", "measurement_figure"]
 
-G_M_S2 = 9.80665
 DPI = 150                  # experiments.io.save_figure's
 
 

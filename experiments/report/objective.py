@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from experiments.report.tracking_metrics import DIVERGED_REL, TAIL, TOL, converged_from, sample_index
+
 __all__ = ["FAILED_RATIO", "DEFAULT_PENALTY", "FAILED_REL", "TRACK_PENALTY", "cell_objective", "mode_failed",
            "objective", "track_objective"]
 
@@ -71,7 +73,6 @@ TRACK_PENALTY = 2.0
 
 def mode_failed(t_s, frequencies, truth: np.ndarray, dt_s: float) -> np.ndarray:
     """(m,) bool: per mode, never within 1 % of the truth for HOLD_S, or diverged over the record's tail."""
-    from experiments.report.tracking_metrics import DIVERGED_REL, TAIL, TOL, converged_from, sample_index
 
     t_s = np.asarray(t_s, dtype=float)
     w = truth[sample_index(t_s, dt_s, truth.shape[0])]

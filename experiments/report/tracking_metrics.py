@@ -8,11 +8,15 @@ A track is the tracker's estimate ω̂ᵢ(t_j) at its own times t_j (each a samp
   ``hold_s`` (judged against the truth, not the tracker's own flag). **Time to converge**: the first such
   t, from the record's start. **Re-convergence**: the first such t at or after a step, minus the step's
   instant. NaN when it never happens (reported as such, and counted).
-* **tracking error**: eᵢ(t) = |ω̂ᵢ − ωᵢ| after the first convergence, relative to ωᵢ and to the bound
-  (the PCRB std at that sample); its median and 90th percentile over time and modes (empirical quantiles,
-  no interpolation: a missing estimate counts as an infinite error).
+* **tracking error**: eᵢ(t) = |ω̂ᵢ − ωᵢ| after the first convergence, relative to ωᵢ and to the bounds
+  (the PCRB std at that sample: ``err_bound_*`` the **genie** bound, every input known; ``err_ufbound_*``
+  the **unknown-force** bound, the white disturbance unknown); its median and 90th percentile over time and
+  modes (empirical quantiles, no interpolation: a missing estimate counts as an infinite error). An
+  efficient unbiased tracker's |e|/σ has median 0.67 (the half-normal's), so ``err_ufbound_median`` ≈ 0.67
+  is at the bound and 1.35 is twice it.
 * **late error**: the same error over the second half of the record whether or not the tracker converged
-  (``err_rel_median_late``, ``err_rel_p90_late``): it ranks trackers that never hold all four modes.
+  (``err_rel_median_late``, ``err_rel_p90_late``; × the unknown-force bound ``err_ufbound_median_late``): it
+  ranks trackers that never hold all four modes.
 * **share within 1 %**: the fraction of the track's times at which every mode is within ``tol``.
 * **lag under a drift**: the delay τ ≥ 0 that best explains the estimate as a late copy of the truth,
   argmin_τ median_t |ω̂ᵢ(t) − ωᵢ(t − τ)| over the drifting span after convergence, per mode; the median
@@ -23,6 +27,16 @@ A track is the tracker's estimate ω̂ᵢ(t_j) at its own times t_j (each a samp
   converged (most of the time) while its median error exceeds ``tol``.
 * **CPU per sample**: ``runtime_s`` / samples; **on board**: a processor 100× slower keeps up at
   20 ms per sample (``cpu_per_sample_s`` × 100 ≤ 0.020 s).
+
+A **laboratory record** (``experiments.simulate.laboratory``: moves every 0.4–2 s, ``step_times_s``) is
+scored per dwell (:func:`score_dwells`), as a lab scores it: a dwell j runs from move j (the record's start
+for j = 0) to the next; its **scored span** starts ``SETTLE_PERIODS`` (10) periods of the dwell's slowest
+mode after the move. ``err_rel_median``/``p90`` and ``share_within_1pct`` are over the scored spans;
+**re-convergence** after move j is the first estimate time from which every mode stays within ``tol`` to the
+dwell's end (never: ∞), ``t_reconverge_s`` its median over moves (NaN if that is ∞), ``reconverge_periods``
+the same in periods of the slowest mode, ``reconverged_share`` the share of moves re-converged within
+``SETTLE_PERIODS`` periods; ``t_converge_s`` is dwell 0's. The late error, divergence and false lock are as
+above; the lag and the bound columns are NaN (no drift, no bound computed).
 """
 
 from __future__ import annotations
@@ -32,8 +46,9 @@ import math
 import numpy as np
 import pandas as pd
 
-__all__ = ["DIVERGED_REL", "HOLD_S", "ONBOARD_BUDGET_S", "ONBOARD_SLOWDOWN", "SUMMARY_MEDIANS", "TAIL", "TOL",
-           "converged_from", "lag_s", "sample_index", "score_track", "summarize_cell"]
+__all__ = ["DIVERGED_REL", "HOLD_S", "ONBOARD_BUDGET_S", "ONBOARD_SLOWDOWN", "SETTLE_PERIODS", "SUMMARY_MEDIANS",
+           "TAIL", "TOL", "converged_from", "lag_s", "sample_index", "score_dwells", "score_record", "score_track",
+           "summarize_cell"]
 
 TOL = 0.01
 HOLD_S = 2.0
@@ -41,6 +56,7 @@ ONBOARD_SLOWDOWN = 100.0
 ONBOARD_BUDGET_S = 0.020
 TAIL = 0.10
 DIVERGED_REL = 0.10
+SETTLE_PERIODS = 10.0            # a laboratory dwell is scored from this many periods of its slowest mode on
 
 
 def sample_index(t_s, dt_s: float, n_samples: int) -> np.ndarray:
@@ -88,8 +104,9 @@ def lag_s(t_s: np.ndarray, est: np.ndarray, truth_t_s: np.ndarray, truth: np.nda
 
 
 def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray, dt_s: float, *,
-                bound: np.ndarray | None = None, step_time_s: float | None = None, drift_span_s=None,
-                tol: float = TOL, hold_s: float = HOLD_S) -> dict:
+                bound: np.ndarray | None = None, bound_unknown_force: np.ndarray | None = None,
+                step_time_s: float | None = None, drift_span_s=None, tol: float = TOL,
+                hold_s: float = HOLD_S) -> dict:
     """The scores of one track against the truth of its record (module docstring).
 
     Parameters
@@ -100,7 +117,9 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
     truth : ndarray, shape (N, m)
         ωᵢ at every sample of the record.
     bound : ndarray, shape (N, m), optional
-        The PCRB std at every sample (rad/s).
+        The genie PCRB std at every sample (rad/s): ``err_bound_*``.
+    bound_unknown_force : ndarray, shape (N, m), optional
+        The unknown-force PCRB std at every sample (rad/s): ``err_ufbound_*``.
 
     Returns
     -------
@@ -124,15 +143,22 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
     for name, q in (("median", 50), ("p90", 90)):
         out[f"err_rel_{name}"] = (float(np.percentile(rel[after], q, method="inverted_cdf")) if after.any()
                                   else math.nan)
-        if bound is not None and after.any():
-            ratio = err[after] / np.asarray(bound)[k][after]
-            ratio = np.where(np.isfinite(ratio), ratio, np.inf)     # a missing estimate is no small error
-            out[f"err_bound_{name}"] = float(np.percentile(ratio, q, method="inverted_cdf"))
-        else:
-            out[f"err_bound_{name}"] = math.nan
+        for key, b in (("err_bound", bound), ("err_ufbound", bound_unknown_force)):
+            if b is not None and after.any():
+                ratio = err[after] / np.asarray(b)[k][after]
+                ratio = np.where(np.isfinite(ratio), ratio, np.inf)     # a missing estimate is no small error
+                out[f"{key}_{name}"] = float(np.percentile(ratio, q, method="inverted_cdf"))
+            else:
+                out[f"{key}_{name}"] = math.nan
     late = t_s >= t_s[0] + 0.5 * (t_s[-1] - t_s[0])
     out["err_rel_median_late"] = float(np.percentile(rel[late], 50, method="inverted_cdf"))
+    out["err_ufbound_median_late"] = math.nan
+    if bound_unknown_force is not None:
+        ratio = err[late] / np.asarray(bound_unknown_force)[k][late]
+        out["err_ufbound_median_late"] = float(np.percentile(np.where(np.isfinite(ratio), ratio, np.inf), 50,
+                                                             method="inverted_cdf"))
     out["err_rel_p90_late"] = float(np.percentile(rel[late], 90, method="inverted_cdf"))
+    out["err_ufbound_median_late"] = math.nan
     for i in range(m):
         out[f"err_rel_median_mode{i + 1}"] = float(np.median(rel[after, i])) if after.any() else math.nan
     out["t_reconverge_s"] = math.nan
@@ -151,9 +177,100 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
     return out
 
 
+def score_dwells(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray, dt_s: float,
+                 step_times_s, *, tol: float = TOL, settle_periods: float = SETTLE_PERIODS) -> dict:
+    """The scores of one track of a laboratory record, dwell by dwell (module docstring).
+
+    Parameters
+    ----------
+    t_s, frequencies, converged, runtime_s, truth, dt_s
+        As :func:`score_track`.
+    step_times_s : array_like, shape (S,)
+        The moves' instants, s (increasing).
+
+    Returns
+    -------
+    dict of float
+        The keys of :func:`score_track`, plus ``reconverge_periods`` and ``reconverged_share``.
+    """
+    t_s = np.asarray(t_s, dtype=float)
+    est = np.asarray(frequencies, dtype=float)
+    n, m = truth.shape
+    if est.shape != (t_s.size, m):
+        raise ValueError(f"track frequencies of shape {est.shape}; expected ({t_s.size}, {m})")
+    k = sample_index(t_s, dt_s, n)
+    w = truth[k]
+    rel = np.where(np.isfinite(est), np.abs(est - w) / w, np.inf)
+    ok = np.all(rel <= tol, axis=1)
+    edges = np.concatenate([[0.0], np.asarray(step_times_s, float).reshape(-1), [n * dt_s]])
+    scored = np.zeros(t_s.size, bool)
+    reconv_s, reconv_periods = [], []
+    for j in range(edges.size - 1):
+        lo, hi = edges[j], edges[j + 1]
+        inside = (t_s >= lo) & (t_s < hi)
+        mid = min(int(round(0.5 * (lo + hi) / dt_s)), n - 1)
+        period = 2 * np.pi / float(truth[mid].min())
+        scored |= inside & (t_s >= lo + settle_periods * period)
+        idx = np.flatnonzero(inside)
+        # first estimate of the dwell from which every later one in the dwell is within tol
+        bad = idx[~ok[idx]]
+        first = idx[0] if idx.size and bad.size == 0 else (bad[-1] + 1 if bad.size and bad[-1] + 1 <= idx[-1]
+                                                            else None)
+        r = (t_s[first] - lo) if first is not None else math.inf
+        reconv_s.append(r)
+        reconv_periods.append(r / period)
+    out = {"n_samples": n, "cpu_s": float(runtime_s), "cpu_per_sample_s": float(runtime_s) / n}
+    out["onboard_ok"] = bool(out["cpu_per_sample_s"] * ONBOARD_SLOWDOWN <= ONBOARD_BUDGET_S)
+    out["share_within_1pct"] = float(ok[scored].mean()) if scored.any() else math.nan
+    for name, q in (("median", 50), ("p90", 90)):
+        out[f"err_rel_{name}"] = (float(np.percentile(rel[scored], q, method="inverted_cdf")) if scored.any()
+                                  else math.nan)
+        out[f"err_bound_{name}"] = math.nan
+        out[f"err_ufbound_{name}"] = math.nan                # no bound is computed for a laboratory record
+    late = t_s >= t_s[0] + 0.5 * (t_s[-1] - t_s[0])
+    out["err_rel_median_late"] = float(np.percentile(rel[late], 50, method="inverted_cdf"))
+    out["err_rel_p90_late"] = float(np.percentile(rel[late], 90, method="inverted_cdf"))
+    out["err_ufbound_median_late"] = math.nan
+    for i in range(m):
+        out[f"err_rel_median_mode{i + 1}"] = float(np.median(rel[scored, i])) if scored.any() else math.nan
+    moves = np.asarray(reconv_s[1:] or [math.nan])
+    med = float(np.median(moves))
+    out["t_converge_s"] = reconv_s[0] if math.isfinite(reconv_s[0]) else math.nan
+    out["t_reconverge_s"] = med if math.isfinite(med) else math.nan
+    med_p = float(np.median(reconv_periods[1:])) if len(reconv_periods) > 1 else math.nan
+    out["reconverge_periods"] = med_p if math.isfinite(med_p) else math.nan
+    out["reconverged_share"] = (float(np.mean(np.asarray(reconv_periods[1:]) <= settle_periods))
+                                if len(reconv_periods) > 1 else math.nan)
+    out["lag_s"] = math.nan
+    tail = t_s >= t_s[0] + (1 - TAIL) * (t_s[-1] - t_s[0])
+    med_tail = np.median(rel[tail], axis=0)
+    out["diverged"] = bool(np.any(med_tail > DIVERGED_REL))
+    flagged = np.asarray(converged, dtype=bool)[tail].mean(axis=0) > 0.5
+    out["false_lock"] = bool(not out["diverged"] and np.any(flagged & (med_tail > tol)))
+    return out
+
+
+def score_record(t_s, frequencies, converged, runtime_s: float, cell: dict, r: int) -> dict:
+    """The scores of replicate ``r``'s track against its cell (a grid cell's arrays): per dwell for a
+    laboratory cell (``step_times_s``), else :func:`score_track` with the cell's bound, step and drift."""
+    dt = float(cell["dt_s"])
+    if "step_times_s" in cell:
+        return score_dwells(t_s, frequencies, converged, runtime_s, cell["truth_freq_rad_s"], dt,
+                            cell["step_times_s"])
+    step = float(cell["step_time_s"])
+    span = cell["drift_span_s"]
+    return score_track(t_s, frequencies, converged, runtime_s, cell["truth_freq_rad_s"], dt,
+                       bound=cell["pcrb_std_rad_s"][r] if "pcrb_std_rad_s" in cell else None,
+                       bound_unknown_force=(cell["pcrb_unknown_force_std_rad_s"][r]
+                                            if "pcrb_unknown_force_std_rad_s" in cell else None),
+                       step_time_s=step if np.isfinite(step) else None,
+                       drift_span_s=span if np.all(np.isfinite(span)) else None)
+
+
 SUMMARY_MEDIANS = ("t_converge_s", "t_reconverge_s", "err_rel_median", "err_rel_p90", "err_bound_median",
-                   "err_bound_p90", "err_rel_median_late", "err_rel_p90_late", "share_within_1pct", "lag_s",
-                   "cpu_per_sample_s")
+                   "err_bound_p90", "err_ufbound_median", "err_ufbound_p90", "err_rel_median_late", "err_rel_p90_late",
+                   "err_ufbound_median_late", "share_within_1pct", "lag_s", "cpu_per_sample_s", "reconverge_periods",
+                   "reconverged_share")
 
 
 def summarize_cell(rows: pd.DataFrame, *, has_step: bool = False) -> dict:
@@ -161,6 +278,9 @@ def summarize_cell(rows: pd.DataFrame, *, has_step: bool = False) -> dict:
     replicates that never converged, never re-converged after the step, diverged, locked falsely)."""
     out = {"replicates": int(len(rows))}
     for col in SUMMARY_MEDIANS:
+        if col not in rows:                     # scores written before the column existed
+            out[col] = math.nan
+            continue
         values = rows[col].to_numpy(dtype=float)
         out[col] = float(np.nanmedian(values)) if np.isfinite(values).any() else math.nan
     out["never_converged_rate"] = float(rows["t_converge_s"].isna().mean())

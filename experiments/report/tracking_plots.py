@@ -17,7 +17,10 @@ import pandas as pd  # noqa: E402
 from experiments.report.plots import _save, _style  # noqa: E402
 from experiments.report.tracking_metrics import ONBOARD_BUDGET_S, ONBOARD_SLOWDOWN  # noqa: E402
 
-__all__ = ["accuracy_vs_cpu", "error_vs_time", "estimates_vs_truth", "reconvergence_vs_noise"]
+__all__ = ["BOUND_STYLES", "HALF_NORMAL_MEDIAN", "accuracy_vs_cpu", "error_vs_time", "estimates_vs_truth",
+           "reconvergence_vs_noise"]
+
+HALF_NORMAL_MEDIAN = 0.6745      # median of |e| for e ~ N(0, σ²), in σ
 
 
 def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarray, title: str,
@@ -54,9 +57,17 @@ def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarr
     return _save(fig, stem)
 
 
-def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], stem: Path) -> list[Path]:
+BOUND_STYLES = {"unknown-force bound": {"color": "0.55", "ls": "-", "lw": 1.2},
+                "genie bound": {"color": "0.45", "ls": ":", "lw": 1.4}}
+SHADED_BOUND = "unknown-force bound"      # drawn as a grey floor: no tracker can be expected below it
+
+
+def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], stem: Path,
+                  bounds: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]] | None = None) -> list[Path]:
     """Relative error against time, one panel per schedule, one line per tracker (median over replicates
-    and modes). ``panels``: title -> tracker -> (t_s, rel_err (R, K, m))."""
+    and modes). ``panels``: title -> tracker -> (t_s, rel_err (R, K, m)); ``bounds``: title -> label
+    (``BOUND_STYLES``) -> (t_s, bound std / ω (R, N, m)), drawn as the median over replicates and modes,
+    scaled by 0.67 (the median of |error| of an efficient tracker: the half-normal's)."""
     titles = list(panels)
     ncols = min(2, len(titles))
     nrows = -(-len(titles) // ncols)
@@ -67,8 +78,20 @@ def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], s
                 curve = np.nanmedian(np.nanmedian(rel, axis=2), axis=0)
             color, _ = _style(name)
             ax.plot(t, np.clip(curve, 1e-6, None), color=color, lw=1.0, label=name)
+        shade = None
+        for label, (t, rel) in (bounds or {}).get(title, {}).items():
+            curve = np.clip(HALF_NORMAL_MEDIAN * np.median(np.median(rel, axis=2), axis=0), 1e-6, None)
+            ax.plot(t, curve, label=f"{label} (×0.67)", zorder=1, **BOUND_STYLES[label])
+            if label == SHADED_BOUND:
+                shade = (t, curve)
         ax.axhline(0.01, color="k", ls="--", lw=0.8)
         ax.set_yscale("log")
+        if shade is not None:                       # down to the axis as the lines set it, no lower
+            ax.relim()
+            ax.autoscale_view()
+            lo, hi = ax.get_ylim()
+            ax.fill_between(*shade, lo, color="0.88", lw=0, zorder=0)
+            ax.set_ylim(lo, hi)
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("time (s)")
         ax.set_ylabel(r"$|\hat\omega - \omega| / \omega$")
@@ -76,7 +99,9 @@ def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], s
     for ax in axes.flat[len(titles):]:
         ax.set_axis_off()
     axes.flat[0].legend(fontsize=7, ncol=2)
-    fig.suptitle("Tracking error against time (median over replicates and modes; dashed: 1 %)", fontsize=10)
+    fig.suptitle("Tracking error against time (median over replicates and modes; dashed: 1 %; grey floor: the "
+                 "bound that does not know the force, dotted: the genie's)" if bounds else
+                 "Tracking error against time (median over replicates and modes; dashed: 1 %)", fontsize=10)
     return _save(fig, stem)
 
 

@@ -18,12 +18,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from experiments import paths
 from experiments.report import plots  # noqa: E402
 
 __all__ = ["ROOT", "METHOD_CONFIGS", "base_of", "table", "provenance", "figure"]
 
-ROOT = Path(__file__).resolve().parents[2]
-METHOD_CONFIGS = ROOT / "configs" / "method"
+ROOT = paths.ROOT
+METHOD_CONFIGS = paths.METHOD_CONFIGS
 
 
 def base_of(label: str) -> str:

@@ -41,12 +41,12 @@ from experiments.io import write_npz
 from experiments.simulate import mismatch, scenarios
 from experiments.simulate.crlb import crlb_std
 from experiments.simulate.plant import PlantConfig, build_plant
-from methods.estimate import MAX_ABS_ACCEL_M_S2
+from experiments.units import G_M_S2, MAX_ABS_ACCEL_M_S2
 
 __all__ = ["G0", "UG", "MIN_SAMPLES", "MAX_SEED", "CELL_KEYS", "ScenarioConfig", "DatasetConfig", "scenario_axes",
            "check_noise_and_seed", "check_dataset_config", "replicate_rng", "make_cell", "write_cell"]
 
-G0 = 9.80665                 # standard gravity, m/s²
+G0 = G_M_S2                  # standard gravity, m/s²
 UG = G0 * 1e-6               # 1 µg in m/s²
 MAX_SEED = 2**63 - 1         # the seed is stored as an int64 (and numpy's seed sequence takes any such)
 MIN_SAMPLES = 8

@@ -17,11 +17,12 @@ from experiments.cli import ArgumentParser
 from experiments.io import atomic_path
 from experiments.simulate.beam import BeamGeometry, cantilever_beta_l
 from experiments.simulate.crlb import crlb_std
+from experiments.units import G_M_S2
 
 __all__ = ["G", "STEEL_STRIP", "FS_HZ", "DURATION_S", "DAMPING", "AMPLITUDE_G", "NOISE_G", "Impact",
            "cantilever_frequencies_rad_s", "simulate", "main"]
 
-G = 9.80665
+G = G_M_S2
 STEEL_STRIP = BeamGeometry(length_m=0.5, width_m=0.03, height_m=0.005, density_kg_m3=7850.0,
                            youngs_modulus_pa=210e9)
 FS_HZ = 2048.0

@@ -38,8 +38,9 @@ import numpy as np
 
 from experiments.simulate.timevarying import ModalModel, oscillator_transition
 
-__all__ = ["COMPLEX_STEP", "RW_FLOOR_REL", "cell_pcrb", "cell_window_bound", "jacobians", "pcrb_covariance",
-           "random_walk_q", "tichavsky_recursion", "transition_derivatives", "window_bound", "window_information"]
+__all__ = ["COMPLEX_STEP", "RW_FLOOR_REL", "cell_pcrb", "cell_window_bound", "jacobians", "matched_walk_q",
+           "pcrb_covariance", "prior_covariance", "random_walk_q", "tichavsky_recursion", "transition_derivatives",
+           "window_bound", "window_information"]
 
 COMPLEX_STEP = 1e-30
 RW_FLOOR_REL = 1e-4          # the random walk of a constant schedule: 1e-4·ω over the record
@@ -99,19 +100,27 @@ def jacobians(model: ModalModel, w, x, dt_s: float, u=None, *, damping: bool = T
     return F, H
 
 
-def pcrb_covariance(F, H, Q, noise_var: float, P0):
+def pcrb_covariance(F, H, Q, noise_var: float, P0, *, cross=None):
     """The PCRB along trajectories, covariance form: P_k = J_k⁻¹ (module docstring).
+
+    With ``cross`` the process noise v_k (driving z_{k+1}) and the measurement noise e_k of sample k are
+    correlated, S_k = E[v_k e_k]: one force drives the modes and enters the accelerometer directly. The
+    joint density then factors as p(y_k | z_k) p(z_{k+1} | z_k, y_k), the second Gaussian with mean
+    f(z_k) + S_k R⁻¹(y_k − h(z_k)) and covariance Q_k − S_k S_kᵀ/R, so the recursion is the same with
+    F̃ ← F̃ − S_k H̃_k/R and Q_k ← Q_k − S_k S_kᵀ/R (R = ``noise_var``, the measurement's whole variance).
 
     Parameters
     ----------
     F : ndarray, shape (R, N, d, d)
     H : ndarray, shape (R, N, d)
-    Q : ndarray, shape (d, d)
-        Process-noise covariance (may be singular).
+    Q : ndarray, shape (d, d) or (N, d, d)
+        Process-noise covariance (may be singular), constant or per sample (Q_k drives z_k → z_{k+1}).
     noise_var : float
-        σ² of the measurement noise.
+        The variance of the measurement's noise (σ², plus the direct term's share of an unknown force).
     P0 : ndarray, shape (d, d) or (R, d, d)
         The prior's covariance of z_0.
+    cross : ndarray, shape (d,) or (N, d), optional
+        S_k = E[v_k e_k].
 
     Returns
     -------
@@ -119,15 +128,23 @@ def pcrb_covariance(F, H, Q, noise_var: float, P0):
         diag(P_k) after the measurement of sample k.
     """
     r, n, d, _ = F.shape
+    Q = np.broadcast_to(Q, (n, d, d))
+    if cross is not None:
+        cross = np.broadcast_to(cross, (n, d))
     P = np.broadcast_to(P0, (r, d, d)).copy()
     out = np.empty((r, n, d))
     for k in range(n):
         if k:
-            P = F[:, k - 1] @ P @ F[:, k - 1].transpose(0, 2, 1) + Q
+            f, q = F[:, k - 1], Q[k - 1]
+            if cross is not None:
+                s = cross[k - 1]
+                f = f - s[None, :, None] * H[:, k - 1, None, :] / noise_var
+                q = q - np.outer(s, s) / noise_var
+            P = f @ P @ f.transpose(0, 2, 1) + q
         h = H[:, k]
         ph = np.einsum("rij,rj->ri", P, h)
-        s = np.einsum("ri,ri->r", h, ph) + noise_var
-        P = P - ph[:, :, None] * ph[:, None, :] / s[:, None, None]
+        s_k = np.einsum("ri,ri->r", h, ph) + noise_var
+        P = P - ph[:, :, None] * ph[:, None, :] / s_k[:, None, None]
         P = 0.5 * (P + P.transpose(0, 2, 1))
         out[:, k] = np.diagonal(P, axis1=1, axis2=2)
     return out
@@ -160,10 +177,11 @@ def tichavsky_recursion(F, H, Q, noise_var: float, J0):
 
 
 def random_walk_q(w: np.ndarray, dt_s: float, rw_rel: float | None) -> np.ndarray:
-    """The per-sample variance of each frequency's random walk.
+    """The per-sample variance of each frequency's random walk, one number per mode.
 
     With ``rw_rel``: qᵢ = (rw_rel·ωᵢ(0))²·Δt (a walk of rw_rel·ω per √s). Without: the walk whose spread
-    over the record equals the schedule's range, qᵢ = range(ωᵢ)²/N, floored at (RW_FLOOR_REL·ωᵢ)²/N.
+    over the record equals the schedule's range, qᵢ = range(ωᵢ)²/N, floored at (RW_FLOOR_REL·ωᵢ)²/N (the
+    bounds' rule before :func:`matched_walk_q`; kept for ``rw_rel`` and comparisons).
     """
     n = w.shape[0]
     if rw_rel is not None:
@@ -172,30 +190,64 @@ def random_walk_q(w: np.ndarray, dt_s: float, rw_rel: float | None) -> np.ndarra
     return spread**2 / n
 
 
-def cell_pcrb(model: ModalModel, w, x, dt_s: float, noise_std: float, prior, *, rw_rel=None, u=None,
-              prior_rel_std: float | None = None, damping: bool = True) -> np.ndarray:
-    """The PCRB std (rad/s) of every frequency at every sample, per replicate: shape (R, N, m).
+def matched_walk_q(w: np.ndarray) -> np.ndarray:
+    """The per-sample variances of a random walk whose every step has the size of the schedule's own step
+    (the bounds' rule), shape (N, m): q_{k,i} = (ωᵢ(t_{k+1}) − ωᵢ(t_k))², floored at
+    (RW_FLOOR_REL·ωᵢ)²/N (the last sample repeats the one before).
 
-    The prior of z_0: ω ~ N(prior, (s·ω/√3)²) with s the prior's spread (the uniform U(−s, s)'s variance;
-    ``prior_rel_std`` gives s/√3 directly, default from the prior's distance to the truth, at least 5 %/√3),
-    ζ ~ N(ζ, (ζ/2)²), and the oscillators N(0, (10·max|x|)²): a tracker starts knowing nothing of the phase.
+    A drift's walk moves at the drift's rate, a slosh's at the modulation's instantaneous rate, and a step's
+    walk is still except at the step, where it jumps by the step's size in an unknown direction: the bound
+    knows when and how fast the frequencies move, not where to. A walk spread over the record
+    (:func:`random_walk_q`) moves far more than a drift does on short time scales: with the force unknown its
+    bound on the grid's drift at 100 µg was 2.7/1.2/1.3/0.6 % of ω, of the order of the trackers' own errors
+    there, so it bounded nothing a trend-following tracker could not beat.
     """
     w = np.asarray(w, dtype=float)
-    x = np.asarray(x, dtype=float)
-    r, n, m, _ = x.shape
-    F, H = jacobians(model, w, x, dt_s, u, damping=damping)
-    d = F.shape[-1]
-    Q = np.zeros((d, d))
-    Q[np.arange(2 * m, 3 * m), np.arange(2 * m, 3 * m)] = random_walk_q(w, dt_s, rw_rel)
+    n = w.shape[0]
+    step = np.diff(w, axis=0, append=w[-1:] + (w[-1:] - w[-2:-1] if n > 1 else 0.0)) ** 2
+    return np.maximum(step, (RW_FLOOR_REL * w[0]) ** 2 / n)
+
+
+def prior_covariance(model: ModalModel, w, x, prior, *, prior_rel_std: float | None = None,
+                     damping: bool = True) -> np.ndarray:
+    """The diagonal of the bound's prior covariance of z_0, shape (d,) (``cell_pcrb``'s docstring)."""
+    w = np.asarray(w, dtype=float)
+    m = w.shape[1]
+    d = (4 if damping else 3) * m
     if prior_rel_std is None:
         spread = np.max(np.abs(np.asarray(prior) / w[0][None, :] - 1.0))
         prior_rel_std = max(spread, 0.05) / np.sqrt(3.0)
     p0 = np.zeros(d)
-    scale = 10.0 * np.abs(x).reshape(-1, m, 2).max(axis=0)
+    scale = 10.0 * np.abs(np.asarray(x, dtype=float)).reshape(-1, m, 2).max(axis=0)
     p0[: 2 * m] = (np.maximum(scale, 1e-12).reshape(-1)) ** 2
     p0[2 * m: 3 * m] = (prior_rel_std * w[0]) ** 2
     if damping:
         p0[3 * m:] = (0.5 * model.damping) ** 2
+    return p0
+
+
+def cell_pcrb(model: ModalModel, w, x, dt_s: float, noise_std: float, prior, *, rw_rel=None, u=None,
+              prior_rel_std: float | None = None, damping: bool = True) -> np.ndarray:
+    """The **genie** PCRB std (rad/s) of every frequency at every sample, per replicate: shape (R, N, m).
+
+    The inputs ``u`` are known to it (no process noise on the oscillators); the bound that does not know a
+    white force is ``experiments.simulate.pcrb_force.unknown_force_pcrb``; the two share the random walk
+    (:func:`matched_walk_q`, or :func:`random_walk_q` with ``rw_rel``) and the prior, so the genie is the
+    lower of the two everywhere. The prior of z_0
+    (:func:`prior_covariance`): ω ~ N(prior, (s·ω/√3)²) with s the prior's spread (the uniform U(−s, s)'s
+    variance; ``prior_rel_std`` gives s/√3 directly, default from the prior's distance to the truth, at least
+    5 %/√3), ζ ~ N(ζ, (ζ/2)²), and the oscillators N(0, (10·max|x|)²): a tracker starts knowing nothing of
+    the phase.
+    """
+    w = np.asarray(w, dtype=float)
+    x = np.asarray(x, dtype=float)
+    m = x.shape[2]
+    F, H = jacobians(model, w, x, dt_s, u, damping=damping)
+    d = F.shape[-1]
+    q = matched_walk_q(w) if rw_rel is None else np.broadcast_to(random_walk_q(w, dt_s, rw_rel), w.shape)
+    Q = np.zeros((w.shape[0], d, d))
+    Q[:, np.arange(2 * m, 3 * m), np.arange(2 * m, 3 * m)] = q
+    p0 = prior_covariance(model, w, x, prior, prior_rel_std=prior_rel_std, damping=damping)
     var = pcrb_covariance(F, H, Q, noise_std**2, np.diag(p0))
     return np.sqrt(np.maximum(var[:, :, 2 * m: 3 * m], 0.0))
 

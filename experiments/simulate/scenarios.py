@@ -39,6 +39,8 @@ import math
 
 import numpy as np
 
+from experiments.simulate import mismatch
+
 __all__ = ["AXES", "PER_MODE_AXES", "PRIOR_AXES", "MEASUREMENTS", "PRIOR_STREAM", "GAP_MODES", "cell_name",
            "grid_cells", "per_mode", "apply_to_plant", "nominal_frequencies", "has_prior_axis", "prior_draws",
            "harness_prior", "check_cell", "check_grid", "result_columns"]
@@ -189,7 +191,6 @@ def check_cell(axes: dict, plant_cfg, dt_s: float) -> None:
             raise ValueError(f"prior_scale/prior_spread {axes.get('prior_scale')}/{axes.get('prior_spread')} "
                              f"allow a prior of {top:.4g} rad/s, at or above Nyquist {nyquist:.4g} rad/s "
                              f"(dt_s = {dt_s:g} s)")
-    from experiments.simulate import mismatch
 
     mismatch.check_axes(mismatch.present(axes))
     if axes.get("measurement") is not None and axes["measurement"] not in MEASUREMENTS:

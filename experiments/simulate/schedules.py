@@ -30,6 +30,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from experiments.simulate.plant import Plant, PlantConfig, build_plant
 
@@ -80,7 +81,6 @@ def mass_frequencies(plant: Plant, masses_kg: np.ndarray) -> np.ndarray:
     """ωᵢ⁰(m) (rad/s), shape (len(masses), m): the plant's coupled eigenfrequencies at each body mass, its
     beam stiffness held (the calibrated one). Exact at ``MASS_GRID_POINTS`` masses and a cubic spline between
     (scipy.interpolate; the spline's error is < 1e-9 relative over a halving of the mass)."""
-    from scipy.interpolate import CubicSpline
 
     lo, hi = float(np.min(masses_kg)), float(np.max(masses_kg))
     if hi - lo < 1e-12 * hi:

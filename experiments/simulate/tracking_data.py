@@ -30,7 +30,8 @@ File schema (plain arrays, ``experiments.io.read_npz`` verifies the checksum):
 | ``modal_state`` | (R, N, m, 2) float32 | [ξᵢ, ξ̇ᵢ] of the truth model (for the bound) |
 | ``inputs`` | (R, N, 3) float32 | torque about z (N·m), tip force, body force (N) held over each sample |
 | ``prior_rad_s`` | (R, m) | the prior the harness gives every tracker |
-| ``pcrb_std_rad_s`` | (N, m) | the posterior Cramér–Rao bound (``experiments.simulate.pcrb``) |
+| ``pcrb_std_rad_s`` | (R, N, m) | the **genie** posterior Cramér–Rao bound: every input known (``pcrb.cell_pcrb``) |
+| ``pcrb_unknown_force_std_rad_s`` | (R, N, m) | the **unknown-force** PCRB: white force unknown, pulses known |
 | ``window_bound_std_rad_s`` | (N, m) | the best sliding window's bound, NaN between its evaluation times |
 | ``dt_s``, ``noise_ug``, ``noise_std_m_s2``, ``seed`` | () | settings |
 | ``step_time_s`` | () | the step's instant, NaN without one |
@@ -48,7 +49,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from experiments.io import write_npz
-from experiments.simulate import schedules
+from experiments.simulate import pcrb, pcrb_force, schedules
 from experiments.simulate.plant import PlantConfig, build_plant
 from experiments.simulate.schedules import ScheduleConfig
 from experiments.simulate.timevarying import INPUTS, modal_model, simulate
@@ -163,7 +164,9 @@ def inputs(cfg: TrackingCellConfig) -> np.ndarray:
 
 
 def make_cell(cfg: TrackingCellConfig, *, bounds: bool = True) -> dict[str, np.ndarray]:
-    """Simulate one cell (module docstring); ``bounds`` also computes the two yardsticks."""
+    """Simulate one cell (module docstring); ``bounds`` also computes the yardsticks: the genie PCRB (every
+    input known, ``pcrb.cell_pcrb``), the unknown-force PCRB (the white disturbance unknown, the pulses known,
+    ``pcrb_force.unknown_force_pcrb``) and the best window's bound."""
     w = check_cell_config(cfg)
     n = cfg.n_samples
     t = np.arange(n) * cfg.dt_s
@@ -191,10 +194,16 @@ def make_cell(cfg: TrackingCellConfig, *, bounds: bool = True) -> dict[str, np.n
             sort_keys=True, default=float)),
     }
     if bounds:
-        from experiments.simulate import pcrb
-
         out["pcrb_std_rad_s"] = pcrb.cell_pcrb(model, w, states, cfg.dt_s, sigma, prior,
                                                rw_rel=cfg.pcrb_rw_rel, u=u)
+        if cfg.excitation.disturbance_force_n > 0:
+            column = "force_body_y" if cfg.excitation.disturbance_at == "body" else "force_tip"
+            out["pcrb_unknown_force_std_rad_s"] = pcrb_force.unknown_force_pcrb(
+                model, w, states, cfg.dt_s, sigma, prior, force_std_n=cfg.excitation.disturbance_force_n,
+                force_input=column, u=u)
+        else:                   # pulses only, known to both bounds: the unknown-force bound with no force
+            out["pcrb_unknown_force_std_rad_s"] = pcrb_force.unknown_force_pcrb(
+                model, w, states, cfg.dt_s, sigma, prior, force_std_n=0.0, u=u)
         out["window_bound_std_rad_s"] = pcrb.cell_window_bound(model, w, states, cfg.dt_s, sigma)
     return out
 

@@ -19,10 +19,11 @@ import numpy as np
 import pandas as pd
 from omegaconf import OmegaConf
 
+from experiments import paths
 from experiments.cli import ArgumentParser
 from experiments.config_schema import method_of_config, variant_label
 from experiments.io import atomic_write_text, markdown_table, write_table
-from experiments.jobs.app import CONFIG_DIR, fail, one_line
+from experiments.jobs.app import fail, one_line
 from experiments.jobs.config import register
 from experiments.report.objective import DEFAULT_PENALTY, cell_objective
 from experiments.simulate.datasets import DatasetConfig, make_cell
@@ -76,7 +77,7 @@ def main(argv: list[str] | None = None) -> None:
         cells = [parse_cell(c) for c in args.cells]
         if args.replicates < 1:
             raise ValueError(f"--replicates {args.replicates} must be at least 1")
-        paper_grid = Path(CONFIG_DIR) / "grid" / "paper.yaml"
+        paper_grid = paths.GRIDS / "paper.yaml"
         seed = args.seed if args.seed is not None else int(OmegaConf.load(paper_grid).seed)
         table, modes = compare(args.methods, cells, args.replicates, seed, args.penalty)
     except (ValueError, FileNotFoundError, KeyError) as exc:

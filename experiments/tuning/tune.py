@@ -19,6 +19,7 @@ optuna < 3, and a sweep of the identify job scores one cell per job, where a tri
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import sys
@@ -35,24 +36,29 @@ from hydra.core.global_hydra import GlobalHydra
 from omegaconf import MISSING, OmegaConf
 
 import methods
-from experiments.config_schema import TrackingConfig, method_of_config, variant_label
+from experiments import paths
+from experiments.config_schema import RunlogConfig, method_of_config, variant_label
 from experiments.io import atomic_write_text
-from experiments.jobs.app import CONFIG_DIR, run_app
+from experiments.jobs.app import run_app
 from experiments.jobs.config import register
 from experiments.jobs.identify import run_records
-from experiments.report.objective import objective
+from experiments.jobs.track_job import track_record
+from experiments.report.objective import mode_failed, objective, track_objective
 from experiments.report.scoring import COLUMNS, replicate_rows
 from experiments.report.summary import summarize
+from experiments.report.tracking_metrics import score_track
+from experiments.runlog.store import DEFAULT_DB, git_commit, log_run
+from experiments.simulate import tracking_data
 from experiments.simulate.datasets import DatasetConfig, make_cell
-from experiments.tracking.store import DEFAULT_DB, git_commit, log_run
+from experiments.simulate.tracking_data import TrackingCellConfig, check_cell_config
+from experiments.simulate.tracking_grid import DEFAULTS as TRACKING_DEFAULTS
+from experiments.simulate.tracking_grid import paper_plant
 from experiments.tuning.space import base_params, check_space, suggest_options
 
-__all__ = ["PROJECT", "CellConfig", "TrackCellConfig", "TuningConfig", "TuneApp", "scoring_seeds", "check",
+__all__ = ["CellConfig", "TrackCellConfig", "TuningConfig", "TuneApp", "scoring_seeds", "check",
            "check_track", "track_base_options", "track_cell_configs", "simulate_track_cells", "evaluate_track",
            "track_cell_label", "track_config_text", "base_method",
            "simulate_cells", "evaluate", "study_name", "storage_url", "task", "config_text", "main"]
-
-PROJECT = Path(CONFIG_DIR).parent
 
 
 @dataclass
@@ -82,7 +88,7 @@ class TuningConfig:
     kind: str = "identify"               # identify: free-decay cells, method options; track: tracking cells
     cells: list[CellConfig] = field(default_factory=list)
     track_cells: list[TrackCellConfig] = field(default_factory=list)   # kind: track
-    prior_spread: float = 0.05           # kind: track, as the tracking grids
+    prior_spread: float = TRACKING_DEFAULTS["prior_spread"]   # kind: track, as the tracking grids
     replicates: int = 10                 # tuning replicates per cell
     seed: int = 1                        # the tuning noise seed; never a grid's scoring seed
     dt_s: float = 0.02
@@ -99,13 +105,13 @@ class TuningConfig:
 @dataclass
 class TuneApp:
     tuning: Any = MISSING
-    tracking: TrackingConfig = field(default_factory=lambda: TrackingConfig(experiment="tuning"))
+    runlog: RunlogConfig = field(default_factory=lambda: RunlogConfig(experiment="tuning"))
 
 
 def scoring_seeds() -> dict[int, list[str]]:
     """The seeds the grids score on (configs/grid/*.yaml ``seed``), with the grids using each."""
     seeds: dict[int, list[str]] = {}
-    for path in sorted((Path(CONFIG_DIR) / "grid").glob("*.yaml")):
+    for path in sorted(paths.GRIDS.glob("*.yaml")):
         seed = OmegaConf.load(path).get("seed")
         if seed is not None:
             seeds.setdefault(int(seed), []).append(path.stem)
@@ -143,15 +149,12 @@ def check(cfg) -> None:
 
 def track_base_options(t) -> dict:
     """A tracking study's starting point: the tracker's defaults (the grids' plain row) with ``fixed`` over."""
-    import dataclasses
 
     defaults = dataclasses.asdict(methods.track_options_class(t.method)())
     return {**defaults, **OmegaConf.to_container(t.fixed, resolve=True)}
 
 
 def track_cell_configs(t) -> list:
-    from experiments.simulate.tracking_data import TrackingCellConfig
-    from experiments.simulate.tracking_grid import paper_plant
 
     plant = paper_plant()
     return [TrackingCellConfig(schedule=OmegaConf.to_container(c.schedule, resolve=True),
@@ -163,7 +166,6 @@ def track_cell_configs(t) -> list:
 
 
 def check_track(t) -> None:
-    from experiments.simulate.tracking_data import check_cell_config
 
     if t.method not in methods.track_names():
         raise ValueError(f"tuning.method = '{t.method}' is not a tracker; known: {', '.join(methods.track_names())}")
@@ -192,7 +194,7 @@ def base_method(config_name: str):
     """The composed method config (its prior and options) the study starts from."""
     if GlobalHydra.instance().is_initialized():        # inside the Hydra app
         return compose(config_name="identify", overrides=[f"method={config_name}"]).method
-    with initialize_config_dir(config_dir=CONFIG_DIR, version_base="1.3"):   # the pre-check
+    with initialize_config_dir(config_dir=str(paths.CONFIGS), version_base="1.3"):   # the pre-check
         return compose(config_name="identify", overrides=[f"method={config_name}"]).method
 
 
@@ -229,9 +231,8 @@ def study_name(t) -> str:
 
 
 def simulate_track_cells(t) -> list[dict]:
-    from experiments.simulate.tracking_data import make_cell as make_track_cell
 
-    return [make_track_cell(cfg, bounds=False) for cfg in track_cell_configs(t)]
+    return [tracking_data.make_cell(cfg, bounds=False) for cfg in track_cell_configs(t)]
 
 
 def track_cell_label(c, i: int) -> str:
@@ -240,9 +241,6 @@ def track_cell_label(c, i: int) -> str:
 
 def evaluate_track(name: str, options: dict, cells: list[dict], labels: list[str], penalty: float):
     """Run the tracker on every record of every cell; the objective's parts and the per-record table."""
-    from experiments.jobs.track_job import track_record
-    from experiments.report.objective import mode_failed, track_objective
-    from experiments.report.tracking_metrics import score_track
 
     rows = []
     for label, cell in zip(labels, cells, strict=True):
@@ -304,7 +302,7 @@ def task(cfg) -> None:
     _fail_stale(study)
     if t.enqueue_base and not study.trials:
         study.enqueue_trial(base_params(space, base_options, n_modes), user_attrs={"base": True})
-    parent = _log_study(cfg, sname) if cfg.tracking.enabled else None
+    parent = _log_study(cfg, sname) if cfg.runlog.enabled else None
 
     def trial_objective(trial):
         options = {**base_options, **suggest_options(trial, space, base_options, n_modes)}
@@ -325,15 +323,15 @@ def task(cfg) -> None:
     tuned = {**OmegaConf.to_container(t.fixed, resolve=True),
              **suggest_options(optuna.trial.FixedTrial(best.params), space, base_options, n_modes)}
     if t.kind == "track":
-        out = Path(t.out) if t.out else PROJECT / "configs" / "tracker" / f"{t.method}_{t.variant}.yaml"
+        out = Path(t.out) if t.out else paths.TRACKER_CONFIGS / f"{t.method}_{t.variant}.yaml"
         text = track_config_text(t, sname, study, best, tuned)
     else:
-        out = Path(t.out) if t.out else PROJECT / "configs" / "method" / f"{t.method}_{t.variant}.yaml"
+        out = Path(t.out) if t.out else paths.METHOD_CONFIGS / f"{t.method}_{t.variant}.yaml"
         text = config_text(t, name, sname, study, best, tuned)
     atomic_write_text(out, text)
     print(f"best trial {best.number}: J = {best.value:.4g}\nwrote {out}")
     if parent is not None:
-        log_run(cfg.tracking.experiment, f"tuning/{sname}/best{len(study.trials)}", params=_flat(tuned),
+        log_run(cfg.runlog.experiment, f"tuning/{sname}/best{len(study.trials)}", params=_flat(tuned),
                 metrics={"best_value": best.value, "best_trial": best.number}, artifacts=[out],
                 tags={"mlflow.parentRunId": parent, "kind": "tuning-result"})
 
@@ -416,7 +414,7 @@ def track_config_text(t, sname: str, study, best, tuned: dict) -> str:
 
 def _shown(url: str) -> str:
     """A storage URL inside the project shown relative to it (the header must not name a checkout)."""
-    for root in (PROJECT, Path(CONFIG_DIR).resolve().parent, Path.cwd()):   # experiments/configs is a link
+    for root in (paths.PACKAGE, paths.CONFIGS.resolve().parent, Path.cwd()):   # experiments/configs is a link
         prefix = f"sqlite:///{root}/"
         if url.startswith(prefix):
             return "sqlite:///" + url.removeprefix(prefix)
@@ -430,13 +428,13 @@ def _flat(options: dict) -> dict:
 def _log_study(cfg, sname: str) -> str:
     params = {"study": sname, **{f"tuning.{k}": v for k, v in
                                  OmegaConf.to_container(cfg.tuning, resolve=True).items()}}
-    run_id, _ = log_run(cfg.tracking.experiment, f"tuning/{sname}", params=params,
+    run_id, _ = log_run(cfg.runlog.experiment, f"tuning/{sname}", params=params,
                         tags={"kind": "tuning-study", "git_commit": git_commit()})
     return run_id
 
 
 def _log_trial(cfg, sname: str, parent: str, trial, options: dict, parts: dict) -> None:
-    log_run(cfg.tracking.experiment, f"tuning/{sname}/trial{trial.number}", params=_flat(options),
+    log_run(cfg.runlog.experiment, f"tuning/{sname}/trial{trial.number}", params=_flat(options),
             metrics={k: v for k, v in parts.items() if np.isfinite(v)},
             tags={"mlflow.parentRunId": parent, "kind": "tuning-trial", "trial": str(trial.number)})
 

@@ -13,7 +13,8 @@ paper's setting is the variant ``pem:paper``, configs/method/pem_paper.yaml). Be
 - ``_pencil``: the matrix-pencil start from the record;
 - ``_residual``: the residual's whiteness check (public as :func:`residual_check`) and the robust (sandwich)
   std, in every estimate;
-- ``_drift``: :func:`segment_drift`, the test for a frequency that drifts over the record;
+- ``_drift``: :func:`segment_drift` (with pem's fit, from ``_fit``), the test for a frequency that drifts over
+  the record;
 - ``_chirp``: the small-amplitude frequency ω₀ from one fit of the record's backbone chirp;
 - ``_saturation``: a clipped sensor's plateaus, left out of the fit.
 
@@ -37,7 +38,7 @@ import contextlib
 import numpy as np
 
 from methods.pem import _fast, predictor, search
-from methods.pem._drift import DriftReport, segment_drift
+from methods.pem._drift import DriftReport
 from methods.pem._fast import _Model as SeparableModel
 from methods.pem._fit import (
     Options,
@@ -45,6 +46,7 @@ from methods.pem._fit import (
     detection_std,
     free_mask,
     identify,
+    segment_drift,
     starts,
 )
 from methods.pem._residual import residual_check

@@ -27,11 +27,13 @@ mode moves over the record: :func:`attach` adds it to the reported std of a drif
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.special
 
+from methods.pem import _chirp
 from methods.pem.predictor import modal_basis
 
 MIN_SEGMENT_SAMPLES = 64
@@ -75,7 +77,7 @@ class DriftReport:
 
 
 def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = DRIFT_ALPHA,
-                  whole=None, **options) -> DriftReport:
+                  whole=None, *, fit, **options) -> DriftReport:
     """Fit ``n_segments`` disjoint successive segments of ``y`` and test each mode's frequency for drift.
 
     Parameters
@@ -92,6 +94,10 @@ def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = DRIFT
         Level of the χ² agreement test per mode.
     whole : Estimate, optional
         The whole record's pem estimate, if already computed with the same options.
+    fit : callable
+        pem's fit, ``fit(y, dt, prior, **options) -> Estimate`` (:func:`methods.pem.identify`). The fit calls
+        this test and this test calls the fit: it is handed down by its caller (``methods.pem._fit``, whose
+        :func:`~methods.pem._fit.segment_drift` is the public one) rather than imported back.
     **options
         :class:`methods.pem.Options` fields, for every fit.
 
@@ -99,8 +105,7 @@ def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = DRIFT
     -------
     DriftReport
     """
-    from methods.pem._fit import identify
-
+    identify = fit
     y = np.asarray(y, float)
     k_seg = int(n_segments)
     if k_seg < 2:
@@ -232,7 +237,7 @@ def _report(t_mid, freq, std, amp, whole, alpha) -> DriftReport:
                        out["a_ref"], out["t_ref"], out["p_slope"], notes)
 
 
-def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
+def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts, fit):
     """The estimate with the drift test when its residual is not white (``extra["residual_check"]``):
     :func:`segment_drift` with ``opts.drift_segments`` segments, its report in ``extra["drift"]``. A mode
     whose segments disagree reports, by ``opts.drift_frequency``:
@@ -244,8 +249,7 @@ def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
 
     ``extra["drift_reported"]`` says which, per mode ("" for a mode whose segments agree: the frequency at
     the amplitude the record holds), and so does the message. A white residual, ``drift_segments = 0`` or a
-    record too short for the segments: the estimate unchanged."""
-    import dataclasses
+    record too short for the segments: the estimate unchanged. ``fit``: pem's fit (see :func:`segment_drift`)."""
 
     check = est.extra.get("residual_check")
     k = int(opts.drift_segments)
@@ -258,7 +262,7 @@ def attach(est, y: np.ndarray, dt: float, prior: np.ndarray, opts):
         est = dataclasses.replace(est, message=est.message + f"; drift test on the first {n_info * dt:.4g} s "
                                   f"({n_info} samples: the modes have decayed into the noise after it)")
     options = {**dataclasses.asdict(opts), "drift_segments": 0}
-    report = segment_drift(y, dt, prior, k, whole=est, **options)
+    report = segment_drift(y, dt, prior, k, whole=est, fit=fit, **options)
     extra = {**est.extra, "drift": dataclasses.asdict(report)}
     # Only the modes whose segments disagree at level DRIFT_ALPHA change (a stationary record keeps its
     # answer in 19 modes of 20; τ for every mode made the std of coloured-noise records 15 points too wide).
@@ -305,9 +309,7 @@ def _small_amplitude(est, y, dt, extra, report, drifting):
     std (its frequency at the amplitude the record holds). Reporting ω₀ for the drifting modes only mixed
     two quantities: a window whose drift test missed a drift answered its own average, many of its std
     from the other window's ω₀ (docs/uncertainty.md §5)."""
-    import dataclasses
 
-    from methods.pem import _chirp
 
     fit = _chirp.fit(y, dt, est.frequencies, np.asarray(est.extra["damping"], float))
     extra["backbone"] = fit

@@ -132,7 +132,7 @@ def identify(y, dt, prior, **options) -> Estimate:
         else:
             est = _lines.absorb(_identify(y, dt, prior, opts), y, dt, prior, opts,
                                 lambda wider: _identify(y, dt, wider, opts))
-            est = _drift.attach(est, y, dt, prior, opts)
+            est = _drift.attach(est, y, dt, prior, opts, identify)
         return est if clip is None else _saturation.attach(est, clip, start)
 
 
@@ -592,3 +592,10 @@ def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray, band: floa
         in_band = np.abs(np.log(f / prior)) <= np.log1p(band)
         placed[free_slots] = ((lo < f) & (f < hi) & in_band)[free_slots]
     return slot, placed
+
+
+def segment_drift(y, dt: float, prior, n_segments: int = 4, alpha: float = _drift.DRIFT_ALPHA, whole=None,
+                  **options) -> _drift.DriftReport:
+    """The drift test of :func:`methods.pem._drift.segment_drift` (its parameters but ``fit``) with pem's own
+    fit, :func:`identify`."""
+    return _drift.segment_drift(y, dt, prior, n_segments, alpha, whole, fit=identify, **options)

@@ -17,6 +17,8 @@ holding more than half the record is not a sensor's range but a record that says
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 MIN_PLATEAU = 3      # samples at one extreme value that make a plateau (two ties happen in quantised data)
@@ -63,7 +65,6 @@ def detect(y) -> dict | None:
 def attach(est, clip: dict, start: int):
     """The estimate with ``extra["saturation"]`` (:func:`detect`'s dict and ``fit_start``, the first sample
     the fit used: 0 when too few samples follow the last clipped one) and a note in its message."""
-    import dataclasses
 
     levels = ", ".join(f"{v:.4g}" for v in clip["levels_m_s2"])
     note = (f"the sensor clipped: {clip['clipped_samples']} samples at {levels} m/s² (plateaus of "

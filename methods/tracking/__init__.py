@@ -19,6 +19,11 @@ present by a local-linear-trend Kalman filter (:mod:`methods.tracking._trend`).
 Each tracker's options are a dataclass (:func:`track_options_class`) whose defaults are the tracker's;
 :func:`check_track_options` checks them without a record (with ``n_samples``: against the record's length too).
 Nothing here imports the experiments, Hydra, MLflow or files. See methods/tracking/README.md.
+
+Where the code lives: a method family keeps its numerics, batch or sample by sample (``methods.kalman.online``:
+the filters with a causal P0 and restarts; ``methods.pll``: the loop bank, online by design); this package
+holds every tracker, one private module each (``_kalman``, ``_pll``: adapters of the families' runs to
+:class:`Track`; ``_windowed``, ``_rls_ar``, ``_next_era``, ``_gated_pencil``: trackers of no family), and the face.
 """
 
 from __future__ import annotations
@@ -28,7 +33,6 @@ import time
 
 import numpy as np
 
-import methods
 from methods.estimate import check_inputs, check_prior
 from methods.tracking._track import Track, with_runtime
 
@@ -43,6 +47,13 @@ _NATIVE: dict[str, str] = {
 }
 _WINDOWED = "methods.tracking._windowed"
 
+
+def batch_names() -> list[str]:
+    """The batch methods (:func:`methods.names`). The registry lives in methods/__init__.py, which imports
+    this face and hands its ``names`` down here (replacing this function), so that the two do not import
+    each other; none before that."""
+    return []
+
 __all__ = ["Track", "check_track_options", "track", "track_names", "track_options_class"]
 
 
@@ -50,14 +61,14 @@ def track_names() -> list[str]:
     """Names of the trackers: the native ones, then every other batch method (plugins included) on a
     sliding window."""
     native = list(_NATIVE)
-    windowed = [n for n in methods.names() if n not in _NATIVE]
+    windowed = [n for n in batch_names() if n not in _NATIVE]
     return native[:3] + windowed + native[3:]
 
 
 def _module(name: str):
     if name in _NATIVE:
         return importlib.import_module(_NATIVE[name])
-    if name in methods.names():
+    if name in batch_names():
         return importlib.import_module(_WINDOWED)
     raise ValueError(f"unknown tracker '{name}'; known trackers: {', '.join(track_names())}")
 

@@ -1,7 +1,7 @@
 """Shared by the cluster tests: the smoke grid through Snakemake in a scratch directory, and its tables.
 
 Snakemake is started as ``<this interpreter> -m snakemake`` with a PATH that does *not* hold the environment's
-``bin``: the jobs must find their interpreter themselves (experiments/rules/common.smk), as on a cluster.
+``bin``: the jobs must find their interpreter themselves (experiments/workflow/rules/common.smk), as on a cluster.
 """
 
 import csv

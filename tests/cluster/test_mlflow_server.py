@@ -1,4 +1,4 @@
-"""The workflow logs to a shared MLflow server on PostgreSQL (`./run.sh tracking-server`) with no code change.
+"""The workflow logs to a shared MLflow server on PostgreSQL (`./run.sh mlflow-server`) with no code change.
 
 A private PostgreSQL (Debian's package; installed with apt-get when missing, as root) holds the server's
 backend store; the server is started by the documented command. The smoke grid's results (the shared local
@@ -39,7 +39,7 @@ def server(tmp_path_factory):
     port = free_port()
     artifacts = tmp_path_factory.mktemp("artifacts")
     log = open(tmp_path_factory.mktemp("server") / "server.log", "w+")
-    proc = subprocess.Popen(["bash", str(ROOT / "run.sh"), "tracking-server", pg.url, "--host", "127.0.0.1",
+    proc = subprocess.Popen(["bash", str(ROOT / "run.sh"), "mlflow-server", pg.url, "--host", "127.0.0.1",
                              "--port", str(port), "--workers", "2", "--artifacts-destination", str(artifacts)],
                             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
     uri = f"http://127.0.0.1:{port}"

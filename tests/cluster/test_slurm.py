@@ -71,7 +71,7 @@ def test_sacct_lists_the_batch_jobs_as_completed(runs):
     # the datasets batch and one identify batch per method; nothing else is sent
     grid = yaml.safe_load((ROOT / "configs" / "grid" / "smoke.yaml").read_text())
     assert len(job_ids) == 1 + len(grid["methods"]), log[-3000:]
-    assert "aggregate: tables" in log and "track: MLflow runs" in log   # run here, not submitted (localrules)
+    assert "aggregate: tables" in log and "runlog: MLflow runs" in log   # run here, not submitted (localrules)
     proc = subprocess.run(["sacct", "-X", "-n", "-P", "-j", ",".join(job_ids), "--format=JobID,State,Account"],
                           capture_output=True, text=True, check=True)
     rows = [line.split("|") for line in proc.stdout.split()]

@@ -96,7 +96,7 @@ def test_dataset_file_errors_say_what_is_wrong_in_words(tmp_path):
 def test_identify_refuses_a_truncated_dataset_in_one_line(cell, tmp_path):
     cell.write_bytes(cell.read_bytes()[:200])
     proc = subprocess.run([sys.executable, "-m", "experiments.jobs.identify", "method=fft",
-                           f"data.dataset={cell}", "tracking.enabled=false", f"hydra.run.dir={tmp_path / 'run'}"],
+                           f"data.dataset={cell}", "runlog.enabled=false", f"hydra.run.dir={tmp_path / 'run'}"],
                           capture_output=True, text=True, cwd=tmp_path)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()

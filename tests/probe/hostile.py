@@ -278,7 +278,7 @@ def cases(fix: Path) -> list[Case]:
     out: list[Case] = []
     add = out.append
     cell = f"data.dataset={fix / 'cell.npz'}"
-    off = "tracking.enabled=false"
+    off = "runlog.enabled=false"
 
     # CSV measurement files (method=fft with a prior: the quickest complete job)
     csv_expect = {"good.csv": "accept", "crlf.csv": "accept", "bom.csv": "accept", "trailing_blank.csv": "accept",
@@ -428,14 +428,14 @@ def cases(fix: Path) -> list[Case]:
     for args in [[], ["data", "nosuch", "--out", "x"], ["run", "tracking", "--tracker", "nosuch", "--data", "nosuch",
                                                           "--out", "x"], ["score", "tracking_smoke", "--out", "x"]]:
         add(Case("cli", "track_job " + " ".join(args), py("experiments.jobs.track_job", *args)))
-    add(Case("cli", "track on a missing table", py("experiments.tracking.track", "--grid", "x", "--out", "r.json",
-                                                   "--", "nosuch.csv")))
-    add(Case("cli", "track on a non-table", py("experiments.tracking.track", "--grid", "x", "--out", "r.json", "--",
-                                               str(fix / "good.csv"))))
+    add(Case("cli", "runlog on a missing table", py("experiments.runlog.identify_runs", "--grid", "x", "--out",
+                                                    "r.json", "--", "nosuch.csv")))
+    add(Case("cli", "runlog on a non-table", py("experiments.runlog.identify_runs", "--grid", "x", "--out", "r.json",
+                                                "--", str(fix / "good.csv"))))
     add(Case("cli", "aggregate on a missing table", py("experiments.report.aggregate", "--grid", "x", "--out", "o",
                                                        "--page", "o/p.md", "--", "nosuch.csv")))
     add(Case("cli", "reproduce experiment=nosuch", py("experiments.jobs.reproduce", "experiment=nosuch",
-                                                      "tracking.enabled=false")))
+                                                      "runlog.enabled=false")))
     add(Case("cli", "tune tuning=nosuch", py("experiments.tuning.tune", "tuning=nosuch")))
     add(Case("cli", "compare --methods nosuch", py("experiments.tuning.compare", "--methods", "nosuch",
                                                    "--cells", "10:256")))
@@ -601,9 +601,9 @@ def fault_cases(fix: Path) -> list[Case]:
     out.append(Case("fault", "tiny grid run", [], expect="accept", run=baseline, timeout=900,
                     setup=lambda w: run_sh_copy(w, TINY, "tiny")))
     out.append(Case("fault", "a deleted dataset, rerun", [], expect="accept", run=deleted_dataset, timeout=900))
-    out.append(Case("fault", "store truncated to half: a tracked job", [], run=truncated(0.5), timeout=300,
+    out.append(Case("fault", "store truncated to half: a job logged to MLflow", [], run=truncated(0.5), timeout=300,
                     check=lambda w, p: "run folder written" if ref.get("runs_0.5") else None))
-    out.append(Case("fault", "store truncated to zero: a tracked job", [], run=truncated(0.0), timeout=300,
+    out.append(Case("fault", "store truncated to zero: a job logged to MLflow", [], run=truncated(0.0), timeout=300,
                     check=lambda w, p: "run folder written" if ref.get("runs_0.0") else None))
     out.append(Case("fault", "store truncated to half: the workflow", [], run=truncated_workflow, timeout=900))
     out.append(Case("fault", "kill -9 and rerun", [], expect="accept", run=killed, timeout=1200,
@@ -611,9 +611,9 @@ def fault_cases(fix: Path) -> list[Case]:
     out.append(Case("fault", "two workflows, one store", [], expect="accept", run=shared_store, timeout=1200))
     for label, args in [("identify a cell", ["-m", "experiments.jobs.identify", "method=fft", "data.dataset=cell.npz"]),
                         ("identify a cell, no tracking", ["-m", "experiments.jobs.identify", "method=fft",
-                                                          "data.dataset=cell.npz", "tracking.enabled=false"]),
+                                                          "data.dataset=cell.npz", "runlog.enabled=false"]),
                         ("identify a CSV", ["-m", "experiments.jobs.identify", "method=fft", "data.path=my.csv",
-                                            "prior=[20,56]", "tracking.enabled=false"]),
+                                            "prior=[20,56]", "runlog.enabled=false"]),
                         ("make a dataset", ["-m", "experiments.jobs.make_dataset", "noise_ug=10", "n_samples=64",
                                             "replicates=2", "out=results/c.npz"])]:
         out.append(Case("fault", f"read-only folder: {label}", [], run=read_only(args), timeout=120, setup=inputs))

@@ -38,7 +38,7 @@ def test_a_batch_writes_what_single_jobs_write(cells):
     a, a1 = read_npz(cwd / "a.npz"), read_npz(cwd / "a1.npz")
     np.testing.assert_array_equal(a["accel_m_s2"], a1["accel_m_s2"])
     assert read_npz(cwd / "b.npz")["accel_m_s2"].shape == (2, 128)
-    common = ["method=era", "grid_name=t", "tracking.enabled=false"]
+    common = ["method=era", "grid_name=t", "runlog.enabled=false"]
     jobs = [common + [f"data.dataset={cwd}/{c}.npz", f"out={cwd}/era_{c}.csv"] for c in ("a", "b")]
     proc = batch(cwd, "identify", jobs)
     assert proc.returncode == 0, proc.stderr
@@ -83,7 +83,7 @@ def test_composing_once_per_method_gives_each_job_hydras_own_config():
 
     register(with_methods=["akf", "fft"])
     jobs = [[f"method={m}", f"data.dataset=results/g/data/{c}.npz", f"out=results/g/identify/{m}/{c}.csv",
-             "grid_name=g", "tracking.enabled=false", *extra]
+             "grid_name=g", "runlog.enabled=false", *extra]
             for m, extra in (("fft", []), ("akf", ["method.options.measurement=acceleration"]))
             for c in ("noise10ug_n20", "noise1000ug_n2048")]
     jobs.append(jobs[0] + ["out=twice.csv"])           # a key given twice: composed by Hydra from scratch
@@ -100,7 +100,7 @@ def test_composing_once_per_method_gives_each_job_hydras_own_config():
 
 def test_worker_processes_write_what_one_process_writes(cells):
     cwd = cells
-    common = ["method=akf", "grid_name=t", "tracking.enabled=false"]
+    common = ["method=akf", "grid_name=t", "runlog.enabled=false"]
 
     def jobs(tag):
         return [common + [f"data.dataset={cwd}/{c}.npz", f"out={cwd}/w{tag}_{c}.csv"] for c in ("a", "b")]

@@ -96,7 +96,7 @@ def test_make_dataset_refuses_an_output_that_names_no_file(workdir, out):
 
 def test_identify_on_a_users_csv_writes_estimate_json(workdir):
     proc = run("experiments.jobs.identify", "method=fft", "data.path=ok.csv", "prior=[2.5]", "hydra.run.dir=mine",
-               "tracking.enabled=false", cwd=workdir)
+               "runlog.enabled=false", cwd=workdir)
     assert proc.returncode == 0, proc.stderr
     import json
     est = json.loads((workdir / "mine" / "estimate.json").read_text())
@@ -121,7 +121,7 @@ def test_a_long_single_record_says_what_it_is_doing(workdir):
     assert "mode 1: 3 rad/s" in proc.stdout
     # the job's MLflow run is logged after the answer by a detached logger, into this module's folder: log it
     # now (the command waits for that logger's lock) so that no later test sees files appear in the folder
-    done = run("experiments.tracking.pending", cwd=workdir)
+    done = run("experiments.runlog.pending", cwd=workdir)
     assert done.returncode == 0, done.stderr
     deadline = time.time() + 120
     while (workdir / "long" / "mlflow_pending.json").exists() and time.time() < deadline:
@@ -131,14 +131,14 @@ def test_a_long_single_record_says_what_it_is_doing(workdir):
 
 def test_an_unbalanced_override_names_it_and_how_to_quote(workdir):
     proc = run("experiments.jobs.identify", "method=fft", "data.dataset=cell.npz", "prior=[1,2",
-               "tracking.enabled=false", cwd=workdir)
+               "runlog.enabled=false", cwd=workdir)
     assert_one_line_error(proc, "cannot read the override prior=[1,2", "prior='[3.8,16,26,46]'")
 
 
 def test_a_path_with_non_ascii_letters_is_read(workdir):
     (workdir / "mesure_été.csv").write_text((workdir / "ok.csv").read_text())
     proc = run("experiments.jobs.identify", "method=fft", "data.path=mesure_été.csv", "prior=[3.5]",
-               "tracking.enabled=false", "hydra.run.dir=run_été", cwd=workdir)
+               "runlog.enabled=false", "hydra.run.dir=run_été", cwd=workdir)
     assert proc.returncode == 0, proc.stderr
     assert "mode 1: 2.99" in proc.stdout and (workdir / "run_été" / "estimate.json").exists()
 
@@ -158,7 +158,7 @@ def test_quoting_leaves_the_users_own_syntax_alone():
     (["method=fft", "data.dataset=cell.npz", "+method._target_=os.system"], ["the job has no key method._target_"]),
     (["method=fft", "data.dataset=cell.npz", "+colour=red"], ["+colour=red: the job has no key colour"]),
     (["method=pem", "method=fft", "data.dataset=cell.npz"], ["method is given twice", "method=pem", "method=fft"]),
-    (["-m", "method=fft,nosuch", "data.dataset=cell.npz", "tracking.enabled=false"],
+    (["-m", "method=fft,nosuch", "data.dataset=cell.npz", "runlog.enabled=false"],
      ["method=nosuch (of the sweep method=fft,nosuch)", "unknown method 'nosuch'"]),
     (["method=fft", "data.dataset=cell.npz", "out=" + "d/" * 1500 + "x.csv"], ["folders deep (at most 200)"]),
     (["method=fft", "data.dataset=cell.npz", "out=" + "é" * 200 + ".csv"], ["too long a path"]),
@@ -172,7 +172,7 @@ def test_a_bad_command_line_is_one_line_and_leaves_nothing(workdir, args, fragme
 
 @pytest.mark.parametrize("module, args, fragments", [
     ("experiments.jobs.track_job", [], ["the following arguments are required: step, grid, --out"]),
-    ("experiments.tracking.track", ["--nosuch"], ["the following arguments are required: --grid"]),
+    ("experiments.runlog.identify_runs", ["--nosuch"], ["the following arguments are required: --grid"]),
     ("experiments.report.aggregate", [], ["required"]),
     ("experiments.tuning.compare", ["--methods"], ["--methods"]),
 ])

@@ -19,7 +19,7 @@ def test_identify_on_a_coloured_noise_csv_says_the_model_does_not_explain_it(tmp
     rows = "".join(f"{a:.2f},{b:.6f}\n" for a, b in zip(t, y, strict=True))
     (tmp_path / "coloured.csv").write_text("t,accel\n" + rows)
     proc = subprocess.run([sys.executable, "-m", "experiments.jobs.identify", "method=pem", "data.path=coloured.csv",
-                           "prior=[18]", "hydra.run.dir=coloured", "tracking.enabled=false"],
+                           "prior=[18]", "hydra.run.dir=coloured", "runlog.enabled=false"],
                           cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "residual: NOT white" in proc.stdout and "robust std" in proc.stdout
@@ -40,7 +40,7 @@ def test_identify_on_a_clipped_csv_says_the_sensor_clipped(tmp_path):
     rows = "".join(f"{a:.2f},{b:.6f}\n" for a, b in zip(t, y, strict=True))
     (tmp_path / "clipped.csv").write_text("t,accel\n" + rows)
     run = [sys.executable, "-m", "experiments.jobs.identify", "method=pem", "data.path=clipped.csv", "prior=[18]",
-           "tracking.enabled=false"]
+           "runlog.enabled=false"]
     proc = subprocess.run([*run, "hydra.run.dir=clipped"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "saturation: the sensor clipped" in proc.stdout

@@ -23,7 +23,7 @@ def run_identify(path, run_dir):
 
     register(with_methods=["pem"])
     with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
-        cfg = compose(config_name="identify", overrides=["method=pem", "tracking.enabled=false", "progress=false",
+        cfg = compose(config_name="identify", overrides=["method=pem", "runlog.enabled=false", "progress=false",
                                                          f"data.path={path}"])
     identify.check(cfg)
     identify.run_job(cfg, run_dir, "pem")

@@ -35,7 +35,7 @@ def workdir(tmp_path_factory):
 ])
 def test_bad_measurement_is_one_error_line_and_nothing_written(workdir, args, fragments):
     proc = subprocess.run([sys.executable, "-m", "experiments.jobs.identify", "method=pem", *args,
-                           "hydra.run.dir=out", "tracking.enabled=false"], cwd=workdir, capture_output=True,
+                           "hydra.run.dir=out", "runlog.enabled=false"], cwd=workdir, capture_output=True,
                           text=True, timeout=120,
                           env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert proc.returncode == 2, proc.stderr

@@ -84,7 +84,7 @@ def test_an_installed_plugin_joins_the_registry_and_runs_in_a_job(installed_plug
     write_cell(DatasetConfig(noise_ug=10, n_samples=256, replicates=2, seed=7, out=str(cell)))
     out = tmp_path / "results.csv"
     proc = python("-m", "experiments.jobs.identify", f"method={installed_plugin}", f"data.dataset={cell}",
-                  f"out={out}", "tracking.enabled=false", "progress=false", f"hydra.run.dir={tmp_path / 'run'}",
+                  f"out={out}", "runlog.enabled=false", "progress=false", f"hydra.run.dir={tmp_path / 'run'}",
                   "method.options.halfwidth=0.15")
     assert proc.returncode == 0, proc.stderr
     lines = out.read_text().splitlines()

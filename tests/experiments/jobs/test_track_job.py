@@ -84,7 +84,7 @@ def test_report_and_mlflow_steps_write_tables_figures_page_and_runs_once(grid_fi
     import mlflow
 
     from experiments.report.tracking_report import main as report
-    from experiments.tracking.tracking_runs import main as log
+    from experiments.runlog.tracker_runs import main as log
 
     monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path / 'mlflow.db'}")
     grid = grid_file(noise_ug=[100, 1000])

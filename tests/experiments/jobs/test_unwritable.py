@@ -14,8 +14,8 @@ import pytest
 from experiments.simulate.datasets import DatasetConfig, write_cell
 
 JOBS = {
-    "identify a cell": "-m experiments.jobs.identify method=fft data.dataset=cell.npz tracking.enabled=false",
-    "identify a CSV": "-m experiments.jobs.identify method=fft data.path=my.csv prior=[20,56] tracking.enabled=false",
+    "identify a cell": "-m experiments.jobs.identify method=fft data.dataset=cell.npz runlog.enabled=false",
+    "identify a CSV": "-m experiments.jobs.identify method=fft data.path=my.csv prior=[20,56] runlog.enabled=false",
     "make a dataset": "-m experiments.jobs.make_dataset noise_ug=10 n_samples=64 replicates=2 out=results/c.npz",
 }
 
@@ -61,7 +61,7 @@ def test_a_read_only_folder_is_one_line_and_nothing_written(folder, job):
 def test_an_output_under_a_file_is_one_line_and_nothing_written(folder, override):
     (folder / "afile").write_text("a file, not a folder\n")
     job = ("experiments.jobs.make_dataset noise_ug=10 n_samples=64 replicates=2" if override.startswith("out")
-           else "experiments.jobs.identify method=fft data.dataset=cell.npz tracking.enabled=false") + " " + override
+           else "experiments.jobs.identify method=fft data.dataset=cell.npz runlog.enabled=false") + " " + override
     before = sorted(p.name for p in folder.rglob("*"))
     proc = subprocess.run([sys.executable, "-m", *job.split()], cwd=folder, capture_output=True, text=True,
                           timeout=120)

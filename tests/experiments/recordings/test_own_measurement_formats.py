@@ -89,7 +89,7 @@ def run_identify(overrides, run_dir):
 
     register(with_methods=["pem"])
     with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
-        cfg = compose(config_name="identify", overrides=["method=pem", "tracking.enabled=false",
+        cfg = compose(config_name="identify", overrides=["method=pem", "runlog.enabled=false",
                                                          "progress=false", *overrides])
     identify.check(cfg)
     identify.run_job(cfg, run_dir, "pem")

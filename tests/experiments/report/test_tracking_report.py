@@ -32,3 +32,28 @@ def test_no_tracker_converged_names_the_smallest_late_error():
     lines = verdict(pd.DataFrame([row("fft", math.nan, 0.04, math.nan, 1.0),
                                   row("pll", math.nan, 0.09, math.nan, 1.0)]))
     assert "no tracker held every mode within 1 %; the smallest late error: fft, 4 %" in lines[0]
+
+
+def test_baseline_ratio_and_the_bound_stand_beside_the_error():
+    from experiments.report.tracking_report import add_baseline_ratio
+
+    rows = [dict(row("pem", 0.002, 0.002, 8.0), cell="c", err_ufbound_median=1.3),
+            dict(row("next_era", 0.005, 0.005, 6.0), cell="c", err_ufbound_median=3.0)]
+    summary = add_baseline_ratio(pd.DataFrame(rows))
+    assert summary["x_next_era"].tolist() == [0.4, 1.0]
+    assert "(1.3× the unknown-force bound)" in verdict(summary)[0]
+
+
+def lab_row(tracker, err, share, periods):
+    """A laboratory cell's summary: re-convergence counted in periods of the slowest mode over the moves."""
+    return {"tracker": tracker, "schedule": "lab1", "excitation": "laboratory", "noise_ug": 300.0,
+            "err_rel_median": err, "err_rel_median_late": err, "t_reconverge_s": 0.2,
+            "never_reconverged_rate": 0.0, "reconverged_share": share, "reconverge_periods": periods}
+
+
+def test_laboratory_cell_beats_only_when_every_move_reconverged_within_10_periods():
+    beats = verdict(pd.DataFrame([lab_row("era", 0.001, 1.0, 6.0), lab_row("next_era", 0.01, 0.2, 30.0)]))
+    assert "0.1× the error of the naive next_era (beats it:" in beats[0]
+    assert "within 10 periods of every move" in beats[0] and "6 periods of the slowest mode" in beats[0]
+    slow = verdict(pd.DataFrame([lab_row("era", 0.001, 0.8, 8.0), lab_row("next_era", 0.01, 0.2, 30.0)]))
+    assert "(does not beat it:" in slow[0] and "80 % of moves within 10" in slow[0]

@@ -3,13 +3,16 @@
 import pytest
 import yaml
 
-from experiments.simulate.tracking_grid import CONFIGS, load_grid
+from experiments.paths import GRIDS
+from experiments.simulate.tracking_grid import load_grid
 
 
-@pytest.mark.parametrize("name, cells", [("tracking", 4 * 2 * 2), ("tracking_smoke", 2), ("tracking_full", 4 * 3 * 2)])
+@pytest.mark.parametrize("name, cells", [("tracking", 4 * 2 * 2 + 3 * 2), ("tracking_smoke", 2),
+                                         ("tracking_full", 4 * 3 * 2)])
 def test_shipped_grids_validate(name, cells):
     grid = load_grid(name, check_cells=(name != "tracking_full"))
-    assert len(grid["cells"]) == cells
+    # the product of the axes, and one cell per laboratory entry
+    assert len(grid["cells"]) == cells + len(grid.get("laboratory") or {})
     assert all(c["config"].replicates == grid["replicates"] for c in grid["cells"].values())
 
 
@@ -22,9 +25,33 @@ def test_the_default_grid_has_every_schedule_kind_and_the_paper_plant():
 
 
 def test_a_typo_in_a_schedule_key_names_the_key(tmp_path):
-    grid = yaml.safe_load((CONFIGS / "grid" / "tracking_smoke.yaml").read_text())
+    grid = yaml.safe_load((GRIDS / "tracking_smoke.yaml").read_text())
     grid["schedules"]["step"]["step_tme_s"] = 3.0
     path = tmp_path / "g.yaml"
     path.write_text(yaml.safe_dump(grid))
     with pytest.raises(ValueError, match="schedules.step: Additional properties are not allowed .'step_tme_s'"):
         load_grid(str(path))
+
+
+def test_the_default_grid_has_the_ambient_classes_at_both_noise_levels():
+    # white force only, white force with sparse pulses, and sloshing under both, at 100 and 1000 µg
+    cells = load_grid("tracking", check_cells=False)["cells"].values()
+    have = {(c["schedule"], c["excitation"], c["noise_ug"]) for c in cells}
+    for sched in ("drift", "step", "slosh"):
+        for exc in ("disturbance", "sparse"):
+            assert {(sched, exc, 100.0), (sched, exc, 1000.0)} <= have
+    sparse = next(c["config"].excitation for c in cells if c["excitation"] == "sparse")
+    assert sparse.disturbance_force_n > 0 and sparse.thruster_torque_n_m > 0 and sparse.thruster_rate_hz < 0.2
+    assert ("fuel", "sparse", 100.0) not in have
+
+
+def test_an_exclude_that_names_no_excitation_of_the_grid_is_refused(tmp_path):
+    grid = yaml.safe_load((GRIDS / "tracking_smoke.yaml").read_text())
+    grid["exclude"] = [{"schedule": "step", "excitation": "thruster"}]
+    path = tmp_path / "g.yaml"
+    path.write_text(yaml.safe_dump(grid))
+    with pytest.raises(ValueError, match="exclude.0.excitation: 'thruster' names no excitation of this grid"):
+        load_grid(str(path))
+    grid["exclude"] = [{"schedule": "step", "excitation": "thrusters"}]
+    path.write_text(yaml.safe_dump(grid))
+    assert [c["schedule"] for c in load_grid(str(path))["cells"].values()] == ["drift"]

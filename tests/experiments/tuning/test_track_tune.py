@@ -51,7 +51,7 @@ def test_mode_failed_per_mode():
 def test_scoring_seed_is_refused_for_a_tracking_study(tmp_path):
     out = tmp_path / "akf_x.yaml"
     proc = run("experiments.tuning.tune", "tuning=track_akf", f"tuning.seed={SCORING_SEED}", f"tuning.out={out}",
-               f"tuning.storage=sqlite:///{tmp_path / 'o.db'}", "tracking.enabled=false")
+               f"tuning.storage=sqlite:///{tmp_path / 'o.db'}", "runlog.enabled=false")
     assert proc.returncode == 2, proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: ") and str(SCORING_SEED) in lines[0], proc.stderr
@@ -60,7 +60,7 @@ def test_scoring_seed_is_refused_for_a_tracking_study(tmp_path):
 
 def test_unknown_tracking_option_in_the_space_is_refused(tmp_path):
     proc = run("experiments.tuning.tune", "tuning=track_akf", "+tuning.space.nope={low:1,high:2}",
-               f"tuning.storage=sqlite:///{tmp_path / 'o.db'}", "tracking.enabled=false")
+               f"tuning.storage=sqlite:///{tmp_path / 'o.db'}", "runlog.enabled=false")
     assert proc.returncode == 2 and proc.stderr.strip().startswith("error: ") and "nope" in proc.stderr, proc.stderr
     assert not (tmp_path / "o.db").exists()
 
@@ -82,7 +82,7 @@ def test_tiny_tracking_study_writes_a_variant_the_track_face_accepts(tmp_path, m
     monkeypatch.setattr(sys, "argv", [
         "tune", "tuning=track_akf", "tuning.variant=tiny", "tuning.trials=2", "tuning.replicates=1",
         "tuning.seed=11", cell, f"tuning.out={out}", f"tuning.storage=sqlite:///{tmp_path / 'optuna.db'}",
-        "tracking.enabled=false"])
+        "runlog.enabled=false"])
     tune.main()
     assert seeds and set(seeds) == {11}
     text = out.read_text()

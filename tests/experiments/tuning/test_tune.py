@@ -58,7 +58,7 @@ def test_relative_per_mode_space_scales_the_base_list():
 def test_scoring_seed_is_refused(tmp_path):
     out = tmp_path / "akf_x.yaml"
     proc = run("experiments.tuning.tune", "tuning=akf", f"tuning.seed={SCORING_SEED}", f"tuning.out={out}",
-               f"tuning.storage=sqlite:///{tmp_path / 'o.db'}", "tracking.enabled=false")
+               f"tuning.storage=sqlite:///{tmp_path / 'o.db'}", "runlog.enabled=false")
     assert proc.returncode == 2, proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: ") and str(SCORING_SEED) in lines[0], proc.stderr
@@ -115,7 +115,7 @@ def test_sweep_with_a_failing_trial_finishes(tmp_path):
     the good job writes its table and prints its objective."""
     write_cell(DatasetConfig(noise_ug=1000, n_samples=32, replicates=2, seed=5, out=str(tmp_path / "cell.npz")))
     proc = run("experiments.jobs.identify", "-m", "method=akf", "method.options.rd=-1,0.1",
-               f"data.dataset={tmp_path / 'cell.npz'}", "tracking.enabled=false", "progress=false",
+               f"data.dataset={tmp_path / 'cell.npz'}", "runlog.enabled=false", "progress=false",
                f"hydra.sweep.dir={tmp_path / 'sweep'}")
     assert proc.returncode == 0, proc.stderr
     assert "rd = -1" in (tmp_path / "sweep" / "0" / "error.txt").read_text()

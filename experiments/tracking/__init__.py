@@ -1,3 +1,0 @@
-"""tracking stage of the pipeline."""
-
-__all__ = []

@@ -1,0 +1,187 @@
+"""The workflow's Python (experiments/workflow/: grids, targets, command_line) without Snakemake: a grid's
+cells, its jobs' command lines, and every refusal as one ``error:`` line naming the grid file and the value,
+before any job runs."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from experiments.workflow import targets
+from experiments.workflow.command_line import (
+    check_target,
+    command_line_targets,
+    renamed_rules,
+    requested_grids,
+    unknown_rule_targets,
+)
+from experiments.workflow.grids import GridError, Grids, method_config
+from experiments.workflow.triggers import resolved_config
+
+ROOT = Path(__file__).resolve().parents[3]
+GRID = "name: {name}\nnoise_ug: [10, 1000]\nn_samples: [64]\nreplicates: 2\nseed: 5\nmethods: [fft, akf]\n"
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory):
+    """A checkout's configs with test grids only (the repository's configs/grid/ is never written)."""
+    root = tmp_path_factory.mktemp("checkout")
+    shutil.copytree(ROOT / "configs", root / "configs", ignore=shutil.ignore_patterns("grid"))
+    (root / "configs" / "grid").mkdir()
+    return root
+
+
+def workflow_with(root, name, text) -> Grids:
+    (root / "configs" / "grid" / f"{name}.yaml").write_text(text)
+    return Grids(root)
+
+
+def test_a_plain_grid_gives_one_dataset_and_one_table_per_cell_and_method(root):
+    wf = workflow_with(root, "plain", GRID.format(name="plain"))
+    assert wf.cells("plain") == ["noise10ug_n64", "noise1000ug_n64"]
+    assert targets.result_files(wf, "plain") == [f"results/plain/identify/{m}/noise{u}ug_n64.csv"
+                                        for m in ("fft", "akf") for u in (10, 1000)]
+    assert targets.dataset_jobs(wf, "plain")[1] == ["noise_ug=1000", "n_samples=64", "replicates=2", "seed=5",
+                                                    "dt_s=0.02", "bias_m_s2=0.0",
+                                                    "out=results/plain/data/noise1000ug_n64.npz"]
+    assert targets.identify_jobs(wf, "plain", "akf")[0] == [
+        "method=akf", "data.dataset=results/plain/data/noise10ug_n64.npz",
+        "out=results/plain/identify/akf/noise10ug_n64.csv", "grid_name=plain", "runlog.enabled=false"]
+    assert targets.grid_targets("plain") == ["results/plain/README.md", "results/plain/mlflow_runs.json"]
+
+
+def test_a_measurement_cell_runs_only_the_methods_whose_options_have_it(root):
+    """akf and wkf have the option ``measurement`` (their Options), fft has not: asked of the registry."""
+    wf = workflow_with(root, "meas", GRID.format(name="meas").replace("[fft, akf]", "[fft, akf, \"pem:paper\"]")
+                       + "scenarios:\n  - {measurement: [acceleration]}\n")
+    cell = "noise10ug_n64_acceleration"
+    assert cell in wf.cells("meas")
+    assert targets.method_cells(wf, "meas", "akf") == wf.cells("meas")
+    assert targets.method_cells(wf, "meas", "fft") == [] == targets.method_cells(wf, "meas", method_config("pem:paper"))
+    assert targets.cell_overrides(wf, "meas", "akf", cell)[-1] == "method.options.measurement=acceleration"
+    with pytest.raises(GridError, match="runs on none of its cells"):
+        targets.identify_jobs(wf, "meas", "fft")
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (("[10, 1000]", "[.nan]"), "noise_ug.0: not a finite number"),
+    (("[10, 1000]", "[10, .inf]"), "noise_ug.1: not a finite number"),
+    (("[10, 1000]", "[-1]"), "noise_ug.0: -1 is less than or equal to the minimum of 0"),
+    (("n_samples: [64]\nreplicates: 2", "n_samples: [2048]\nreplicates: 1000000"),
+     "cell noise10ug_n2048: replicates × n_samples = 1000000 × 2048 needs 15.3 GiB"),
+    (("[fft, akf]", "[fft, nosuch]"), "unknown method 'nosuch'"),
+    (("name: bad", "name: other"), "name: 'other' must match the file name 'bad'"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {akf: [method.options.nosuch=1]}"), "method.options.nosuch"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {akf: [method.options.rd=-1]}"), "rd"),
+    (("seed: 5", "seed: 5\nmethods_overrides: {}"), "Additional properties are not allowed"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {pem: [method.options.n_starts=2]}"), "method_overrides.pem: not a "
+                                                                                   "method of the grid"),
+    (("[10, 1000]", "[10, 1.0e+308]"), "noise_ug = 1e+308 is above 1.02e+11 µg"),
+    (("seed: 5", "seed: 5\nyardstick_prior: nosuch"), "yardstick_prior: 'nosuch': no configs/method/nosuch.yaml"),
+    (("seed: 5", "seed: 5\nyardstick_prior: pem"), "yardstick_prior: 'pem' states no prior_rad_s and"),
+    (("seed: 5", "seed: 36893488147419103232"), "seed = 36893488147419103232 must be an integer from 0"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {fft: ['prior=${oc.env:HOME}']}"),
+     "method_overrides of fft: prior must be a list of frequencies"),
+    (("seed: 5", "seed: 5\nmethod_overrides: {fft: ['prior=[3.5,19,23,500]']}"),
+     "prior[3] = 500.0 rad/s is above the Nyquist frequency"),
+])
+def test_a_grid_a_job_would_refuse_is_refused_in_one_line(root, change, message):
+    text = GRID.format(name="bad").replace(*change)
+    wf = workflow_with(root, "bad", text)
+    with pytest.raises(GridError) as info:
+        wf.load_grid("bad")
+    line = str(info.value)
+    assert line.startswith("error: ") and "bad.yaml" in line and "\n" not in line
+    assert message in line, line
+
+
+def test_the_yardstick_prior_is_the_named_configs_prior_and_its_spread(root):
+    import yaml
+
+    wf = workflow_with(root, "bayes", GRID.format(name="bayes") + "yardstick_prior: pem_map\n")
+    cfg = yaml.safe_load((root / "configs" / "method" / "pem_map.yaml").read_text())
+    pem = yaml.safe_load((root / "configs" / "method" / "pem.yaml").read_text())
+    mu, std = wf.yardstick_prior("pem_map")
+    assert list(mu) == pem["prior_rad_s"] and list(std) == cfg["options"]["prior_std_rad_s"]
+    assert targets.yardstick_args(wf, "bayes") == ("--prior-rad-s " + " ".join(f"{v:g}" for v in mu)
+                                          + " --prior-std-rad-s " + " ".join(f"{v:g}" for v in std))
+    assert targets.yardstick_files(wf, "bayes") == ["results/bayes/yardstick.csv"]
+    assert targets.yardstick_cells(wf, "bayes") == [f"results/bayes/data/noise{u}ug_n64.npz" for u in (10, 1000)]
+    assert targets.yardstick_files(workflow_with(root, "plain", GRID.format(name="plain")), "plain") == []
+
+
+def test_an_option_a_method_refuses_is_named_before_any_job(root):
+    """pem's own check_options refuses n_starts = -1 (the value a job would stop on, 76 lines later)."""
+    wf = workflow_with(root, "starts", GRID.format(name="starts").replace("[fft, akf]", "[pem]")
+                       + "method_overrides: {pem: [method.options.n_starts=-1]}\n")
+    with pytest.raises(GridError, match=r"method_overrides of pem: .*n_starts"):
+        wf.load_grid("starts")
+    ok = workflow_with(root, "starts_ok", GRID.format(name="starts_ok").replace("[fft, akf]", "[pem]")
+                       + "method_overrides: {pem: [method.options.n_starts=2]}\n")
+    assert targets.identify_jobs(ok, "starts_ok", "pem")[0][-1] == "method.options.n_starts=2"
+    assert '"n_starts":2' in resolved_config(ok.root, "pem", ("method.options.n_starts=2",))
+
+
+def test_an_unknown_grid_is_refused_with_the_known_ones(root):
+    wf = workflow_with(root, "plain", GRID.format(name="plain"))
+    with pytest.raises(GridError, match="no such grid; known grids: .*plain"):
+        wf.load_grid("nosuch")
+
+
+@pytest.mark.parametrize(("targets", "expected"), [
+    (["smoke", "--cores", "2"], ["smoke"]),
+    (["-n", "results/paper/README.md", "results/smoke/tables"], ["paper", "smoke"]),
+    (["results/mlflow.db", "report.html"], []),
+])
+def test_the_requested_grids_are_read_off_the_targets(targets, expected):
+    assert requested_grids(targets, ["paper", "smoke"]) == expected
+
+
+@pytest.mark.parametrize(("target", "message"), [
+    ("results/nosuch/README.md", "no grid 'nosuch'"),
+    ("results/../../etc/README.md", "may not climb out"),
+    ("results/smoke/../../x", "may not climb out"),
+])
+def test_a_target_outside_the_grids_is_refused_in_one_line(target, message):
+    with pytest.raises(GridError, match=message) as info:
+        requested_grids([target], ["paper", "smoke"])
+    assert str(info.value).startswith(f"error: {target}: ")
+
+
+@pytest.mark.parametrize(("target", "message"), [
+    ("results/plain/data/nosuch.npz", "not a dataset of grid plain; .* cells: noise10ug_n64, noise1000ug_n64"),
+    ("results/plain/identify/nosuch", "no method 'nosuch' in grid plain; its methods: fft, akf"),
+    ("results/plain/identify/fft/noise10ug_n64.csv", "ask for the folder results/plain/identify/fft"),
+])
+def test_a_target_inside_a_grid_names_its_cells_or_methods(root, target, message):
+    wf = workflow_with(root, "plain", GRID.format(name="plain"))
+    with pytest.raises(GridError, match=message) as info:
+        check_target(wf, target)
+    assert str(info.value).startswith(f"error: {target}: ")
+    for fine in ("results/plain/data/noise10ug_n64.npz", "results/plain/identify/akf", "results/plain/README.md",
+                 "smoke", "--cores"):
+        check_target(wf, fine)
+
+
+def test_a_bare_word_that_names_no_rule_is_found_and_option_values_are_not(tmp_path):
+    argv = ["-n", "--cores", "2", "--executor", "slurm", "papr", "smoke", "results/smoke/README.md", "notes",
+            "--forcerun", "identify"]
+    words = command_line_targets(argv)
+    assert words == ["papr", "smoke", "results/smoke/README.md", "notes"]     # "2", "slurm" are values
+    (tmp_path / "notes").write_text("a file in the workflow's folder is a file target")
+    assert unknown_rule_targets(words, {"paper", "smoke"}, tmp_path) == ["papr"]
+    assert command_line_targets(["--no-such-option"]) == []          # Snakemake's own refusal, not ours
+
+
+def test_an_old_rule_name_is_found_with_one_note_naming_the_new_one(capsys):
+    """``track`` and ``tracking_mlflow`` (MLflow run logging) are ``runlog`` and ``tracking_runlog`` now."""
+    argv = ["--cores", "2", "--forcerun", "track", "--until", "tracking_mlflow,identify", "--set-threads",
+            "track=1", "tracking", "results/tracking/track/akf"]
+    assert renamed_rules(argv) == ["track", "tracking_mlflow"]
+    notes = capsys.readouterr().err.splitlines()
+    assert notes == ["note: rule 'track' is now 'runlog'; the old name works until the next release",
+                     "note: rule 'tracking_mlflow' is now 'tracking_runlog'; the old name works until the next "
+                     "release"]
+    assert renamed_rules(["--forcerun", "runlog", "tracking", "tracking_runlog"]) == []
