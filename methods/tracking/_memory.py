@@ -1,7 +1,7 @@
 """The automatic memory of the windowed trackers: a change detector that restarts the window after a jump.
 
 Why this one. A window tracker trusts the last W samples; W must be long for a noisy or slowly resolved mode
-and short for a frequency that jumps. Three ways to let the tracker choose were open (issue 30): a window
+and short for a frequency that jumps. Three ways to let the tracker choose were open: a window
 that shortens while the frequencies drift, an IMM over a few memory lengths, or a change detector that
 restarts the window after a jump. Under a drift the trend stage (:mod:`methods.tracking._trend`) already
 removes the lag of a long window (a straight line is followed with no lag once its rate is learnt), so a

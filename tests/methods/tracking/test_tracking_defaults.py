@@ -89,7 +89,7 @@ def test_a_short_users_window_runs_and_a_too_short_one_names_its_minimum(name):
 
 
 def test_gated_pencil_scales_rows_and_orders_to_a_users_window():
-    o = methods.check_track_options("gated_pencil", [188.0], 0.004, {"window_s": 0.3})     # the record
+    o = methods.check_track_options("gated_pencil", [188.0], 0.004, {"window_s": 0.3})     # a 30 Hz beam at 250 Hz
     assert o.window_samples == 75 and o.rows <= 75 // 3 - 1 and o.ar_order < 75 // 2
     o = methods.check_track_options("gated_pencil", [188.0], 0.004, {"window_samples": 75, "rows": 20})
     assert o.rows == 20                                                                    # a given size is kept
