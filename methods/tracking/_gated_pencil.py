@@ -44,6 +44,7 @@ own samples; the trend stage uses earlier windows only.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,37 +52,43 @@ import scipy.optimize
 
 from methods import pem
 from methods.estimate import flat_record, make_options
-from methods.tracking import _segments, _trend
-from methods.tracking._track import Track, check_window, usable_prior, window_ends
-from methods.tracking._windowed import DEFAULT_HOP_SAMPLES, DEFAULT_WINDOW_SAMPLES
+from methods.tracking import _defaults, _memory, _segments, _trend
+from methods.tracking._track import Track, usable_prior, window_ends
 
 MIN_DAMPING = -0.02
 
 
 @dataclass
 class Options:
-    """Options of ``gated_pencil`` (module docstring)."""
+    """Options of ``gated_pencil`` (module docstring). None: from Δt and the prior, or scaled to the window
+    (methods/tracking/_defaults.py): W = 5 periods of the slowest mode (≥ two beats of the closest pair),
+    H = W/10, L = W/8, AR order W/20 within [2m + 2, 2m + 16], min segment max(2(2m + 1), W/25)."""
 
-    window_samples: int = DEFAULT_WINDOW_SAMPLES
-    hop_samples: int = DEFAULT_HOP_SAMPLES
-    rows: int = 60
+    window_samples: int | None = None
+    hop_samples: int | None = None
+    window_s: float | None = None
+    hop_s: float | None = None
+    rows: int | None = None
     extra_order: int = 8
-    ar_order: int = 24
+    ar_order: int | None = None
     outlier_cut: float = 4.0
     detect_ratio: float = 3.0
     band: float = 0.3
     max_damping: float = 0.05
     refine: bool = True
     refine_steps: int = 10
-    min_segment: int = 20
+    min_segment: int | None = None
     max_phase_std: float = 0.5
     overlap_inflation: float = 1.0
     trend: bool = True
-    trend_rate_noise: float = _trend.DEFAULTS["trend_rate_noise"]
+    trend_rate_noise: float | None = _trend.DEFAULTS["trend_rate_noise"]
     trend_meas_rel: float = _trend.DEFAULTS["trend_meas_rel"]
     trend_gate: float = _trend.DEFAULTS["trend_gate"]
     trend_restart_after: int = _trend.DEFAULTS["trend_restart_after"]
-    trend_rate0: float = _trend.DEFAULTS["trend_rate0"]
+    trend_rate0: float | None = _trend.DEFAULTS["trend_rate0"]
+    memory: bool = _memory.DEFAULTS["memory"]
+    change_threshold: float = _memory.DEFAULTS["change_threshold"]
+    change_drift: float = _memory.DEFAULTS["change_drift"]
 
 
 def _int(value, name: str, low: int, tracker: str) -> None:
@@ -89,16 +96,29 @@ def _int(value, name: str, low: int, tracker: str) -> None:
         raise ValueError(f"{tracker}: {name} = {value!r} must be an integer ≥ {low}")
 
 
-def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
-    opts = make_options(Options, options, name)
-    check_window(opts.window_samples, opts.hop_samples, name, n_samples)
-    _int(opts.rows, "rows", 4, name)
+def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = None) -> Options:
+    """``opts`` with every size in samples: the window and hop (the user's, in s or samples, or the rule's),
+    then rows, AR order and min segment scaled to that window unless given (:mod:`methods.tracking._defaults`).
+    A window is refused only when shorter than 3(n + 1) samples, n = 2m + ``extra_order``."""
     _int(opts.extra_order, "extra_order", 0, name)
-    _int(opts.ar_order, "ar_order", 2, name)
+    m = int(np.size(prior))
+    order = 2 * m + opts.extra_order
+    W, H = _defaults.window_hop(name, prior, dt, window_s_=opts.window_s, window_samples=opts.window_samples,
+                                hop_s=opts.hop_s, hop_samples=opts.hop_samples, n_samples=n_samples,
+                                minimum=_defaults.min_window_samples(m, order))
+    for key, low in (("rows", 4), ("ar_order", 2), ("min_segment", 4)):
+        if getattr(opts, key) is not None:
+            _int(getattr(opts, key), key, low, name)
+    rows, ar_order, min_segment = _defaults.pencil_sizes(W, m, order, opts.rows, opts.ar_order, opts.min_segment)
+    return dataclasses.replace(opts, window_samples=W, hop_samples=H, window_s=None, hop_s=None, rows=rows,
+                               ar_order=ar_order, min_segment=min_segment)
+
+
+def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
+    opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
     if not isinstance(opts.refine, bool):
         raise ValueError(f"{name}: refine = {opts.refine!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
-    _int(opts.min_segment, "min_segment", 4, name)
     for key in ("outlier_cut", "detect_ratio", "band", "max_damping", "max_phase_std", "overlap_inflation"):
         value = getattr(opts, key)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (np.isfinite(value) and value > 0):
@@ -110,6 +130,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: window_samples = {opts.window_samples} is too short for rows = {opts.rows} "
                          f"and ar_order = {opts.ar_order} (needs ≥ 3 (rows + 1) and > 2 ar_order)")
     _trend.check(opts, name)
+    _memory.check(opts, name)
     return opts
 
 
@@ -181,61 +202,137 @@ def _labelled(w: np.ndarray, zeta: np.ndarray, std: np.ndarray, ref: np.ndarray,
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
-    opts = make_options(Options, options, name)
+    given = make_options(Options, options, name)
+    opts = resolve(given, name, prior, dt)
     W, H = opts.window_samples, opts.hop_samples
     ends = window_ends(y.size, W, H)
     m = prior.size
     order = 2 * m + opts.extra_order
+    # after a restart: the model's minimum window, at least two periods of the slowest mode
+    w_restart = min(W, _defaults.restart_samples(prior, dt, _defaults.min_window_samples(m, order)))
     nyquist = np.pi / dt
     freq = np.full((ends.size, m), np.nan)
     found = np.zeros((ends.size, m), dtype=bool)
     kept = np.full(ends.size, np.nan)
     wstd = np.full((ends.size, m), np.nan)
-    last_w = np.full(m, np.nan)
-    last_z = np.full(m, np.nan)
-    ref = prior.copy()
+    span = np.full(ends.size, np.nan)
+    state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
+             "seg_start": 0}
     limit = np.log1p(opts.band)
+    bank = _trend.TrendBank(m, **_trend.settings(opts, prior)) if (opts.trend or opts.memory) else None
+    cusum = _memory.Cusum(m, opts.change_threshold, opts.change_drift) if opts.memory else None
+    out = np.full((ends.size, m), np.nan)
+    out_std = np.full((ends.size, m), np.nan)
+    out_conv = np.zeros((ends.size, m), dtype=bool)
+    start = 0
+    restart_at: list[int] = []
+    fresh = np.zeros(m, dtype=bool)           # modes restarted by the change detector, until the window is full
+    last_pulse = -1                           # the last sample the pulse detector flagged
     for j, e in enumerate(ends.tolist()):
-        seg = y[e - W + 1: e + 1]
-        if flat_record(seg):
+        a = max(e - W + 1, start)
+        n_j = e - a + 1
+        span[j] = (n_j - 1) * dt
+        full = (opts.rows, opts.ar_order, opts.min_segment)
+        if n_j == W:
+            fresh[:] = False
+        if n_j == W or (n_j >= w_restart and not fresh.any()):
+            state["seg_start"] = a
+            kept[j] = _window(y[a: e + 1], dt, full if n_j == W else _shorter(n_j, m, order, opts), order, opts,
+                              nyquist, limit, prior, state, freq[j], found[j], wstd[j])
+        elif e + 1 >= W:
+            state["seg_start"] = e - W + 1
+            # after a restart: the restarted modes from the samples since the change, the others from the
+            # full window as before (their frequency did not jump; a short window would only add noise)
+            kept[j] = _window(y[e - W + 1: e + 1], dt, full, order, opts, nyquist, limit, prior, state, freq[j],
+                              found[j], wstd[j])
+            if n_j >= w_restart:
+                f2, d2, s2 = np.full(m, np.nan), np.zeros(m, dtype=bool), np.full(m, np.nan)
+                _window(y[a: e + 1], dt, _shorter(n_j, m, order, opts), order, opts, nyquist, limit, prior,
+                        state, f2, d2, s2)
+                freq[j] = np.where(fresh, f2, freq[j])
+                found[j] = np.where(fresh, d2, found[j])
+                wstd[j] = np.where(fresh, s2, wstd[j])
+            else:
+                freq[j, fresh], found[j, fresh], wstd[j, fresh] = np.nan, False, np.nan
+        span_j = np.where(fresh, span[j], (W - 1) * dt)
+        if bank is None:
             continue
-        centred = seg - seg.mean()
-        flags = pulse_flags(centred, opts.ar_order, opts.outlier_cut)
-        s, kept[j] = window_poles(seg, dt, order, opts.rows, opts.ar_order, opts.outlier_cut, opts.detect_ratio,
-                                  flags)
-        w = np.abs(s)
-        zeta = -s.real / np.maximum(w, 1e-300)
-        ok = (s.imag > 0) & (w < nyquist) & (zeta >= MIN_DAMPING) & (zeta <= opts.max_damping)
-        cand = np.log(w[ok])
-        if cand.size == 0:
-            continue
-        dist = np.abs(cand[:, None] - np.log(ref)[None, :])
-        cost = np.where(dist <= limit, dist, 1e6)
-        rr, cc = scipy.optimize.linear_sum_assignment(cost)
-        hit = cost[rr, cc] < 1e6
-        freq[j, cc[hit]] = np.exp(cand[rr[hit]])
-        found[j, cc[hit]] = True
-        if opts.refine and found[j].any():
-            zc = np.clip(zeta[ok][rr[hit]], 1e-4, opts.max_damping)
-            w0 = np.where(found[j], freq[j], np.where(np.isfinite(last_w), last_w, ref))
-            z0 = np.where(np.isfinite(last_z), last_z, 0.005)
-            z0[cc[hit]] = zc
-            runs = _segments.segments(flags, opts.min_segment)
-            refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
-            found[j] = False
-            freq[j] = np.nan
-            if refined is not None:
-                wr, zr, sr = refined
-                good = _labelled(wr, zr, sr, ref, limit, opts.max_phase_std / ((W - 1) * dt), opts.max_damping)
-                freq[j, good], wstd[j, good], found[j, good] = wr[good], sr[good], True
-                last_w = np.where(good, wr, last_w)
-                last_z = np.where(good, zr, last_z)
-        ref = usable_prior(np.where(found[j], freq[j], ref), prior, nyquist)
+        meas = np.sqrt(opts.overlap_inflation * np.maximum(1.0, (span_j / dt + 1) / H)) * wstd[j] if opts.refine \
+            else None
+        out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas)
+        if state.get("flags") is not None and state["flags"].any():
+            last_pulse = max(last_pulse, state["seg_start"] + int(np.flatnonzero(state["flags"])[-1]))
+        if cusum is not None:
+            alarm = cusum.update(nu, e)
+            if alarm.any():
+                clean = cusum.restart_sample(alarm)
+                # a jump that rang the structure starts at its pulse: restart after the last one flagged
+                # since the last clean window
+                start = max(start, last_pulse + 1 if last_pulse >= clean else clean)
+                restart_at.append(start)
+                for i in np.flatnonzero(alarm):
+                    bank.restart(int(i))
+                fresh |= alarm
+                cusum.reset(start - 1)
     message = (f"gated pencil (order {order}, {opts.rows} rows) on {ends.size} windows of {W} samples every {H}; "
                f"median share of Hankel columns kept {np.nanmedian(kept) if np.isfinite(kept).any() else 0:.2f}")
-    extra = {"window_end_sample": ends, "columns_kept": kept, "window_std": wstd}
-    meas = np.sqrt(opts.overlap_inflation * W / H) * wstd if opts.refine else None
-    freq, std, found, restarts = _trend.apply(opts, ends * dt, freq, np.nan, found, (W - 1) * dt, extra, meas)
-    if restarts is not None:
-        message += f"; trend stage: {restarts.tolist()} restarts"
-    return Track(ends * dt, freq, std, found, message=message, extra=extra)
+    extra = {"window_end_sample": ends, "columns_kept": kept, "window_std": wstd, "window_span_s": span,
+             "memory_restart_samples": np.asarray(restart_at, dtype=int)}
+    if opts.memory:
+        message += f"; {len(restart_at)} change-detector restarts of the window"
+    if not opts.trend:
+        return Track(ends * dt, freq, np.nan, found, message=message, extra=extra)
+    extra |= {"window_frequencies": freq, "window_converged": found, "trend_restarts": bank.restarts}
+    message += f"; trend stage: {bank.restarts.tolist()} restarts"
+    return Track(ends * dt, out, out_std, out_conv, message=message, extra=extra)
+
+
+def _shorter(n: int, m: int, order: int, opts: Options) -> tuple[int, int, int]:
+    """Rows, AR order and min segment for a window shortened by a restart: the rule's at n samples, never
+    above the full window's."""
+    rows, ar, seg = _defaults.pencil_sizes(n, m, order)
+    return min(rows, opts.rows), min(ar, opts.ar_order), min(seg, opts.min_segment)
+
+
+def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, found, wstd) -> float:
+    """One window's estimate into ``freq``/``found``/``wstd`` (rows of the track, written in place); returns
+    the share of Hankel columns kept. ``state``: the last refined ω, ζ and the assignment reference."""
+    rows, ar_order, min_segment = sizes
+    ref = state["ref"]
+    state["flags"] = None
+    if flat_record(seg):
+        return np.nan
+    centred = seg - seg.mean()
+    flags = pulse_flags(centred, ar_order, opts.outlier_cut)
+    state["flags"] = flags
+    s, kept = window_poles(seg, dt, order, rows, ar_order, opts.outlier_cut, opts.detect_ratio, flags)
+    w = np.abs(s)
+    zeta = -s.real / np.maximum(w, 1e-300)
+    ok = (s.imag > 0) & (w < nyquist) & (zeta >= MIN_DAMPING) & (zeta <= opts.max_damping)
+    cand = np.log(w[ok])
+    if cand.size == 0:
+        return kept
+    dist = np.abs(cand[:, None] - np.log(ref)[None, :])
+    cost = np.where(dist <= limit, dist, 1e6)
+    rr, cc = scipy.optimize.linear_sum_assignment(cost)
+    hit = cost[rr, cc] < 1e6
+    freq[cc[hit]] = np.exp(cand[rr[hit]])
+    found[cc[hit]] = True
+    if opts.refine and found.any():
+        last_w, last_z = state["last_w"], state["last_z"]
+        zc = np.clip(zeta[ok][rr[hit]], 1e-4, opts.max_damping)
+        w0 = np.where(found, freq, np.where(np.isfinite(last_w), last_w, ref))
+        z0 = np.where(np.isfinite(last_z), last_z, 0.005)
+        z0[cc[hit]] = zc
+        runs = _segments.segments(flags, min_segment)
+        refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
+        found[:] = False
+        freq[:] = np.nan
+        if refined is not None:
+            wr, zr, sr = refined
+            good = _labelled(wr, zr, sr, ref, limit, opts.max_phase_std / ((seg.size - 1) * dt), opts.max_damping)
+            freq[good], wstd[good], found[good] = wr[good], sr[good], True
+            state["last_w"] = np.where(good, wr, last_w)
+            state["last_z"] = np.where(good, zr, last_z)
+    state["ref"] = usable_prior(np.where(found, freq, ref), prior, nyquist)
+    return kept

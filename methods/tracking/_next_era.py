@@ -16,6 +16,7 @@ No energy test, no warm start of a search, no uncertainty (``std`` NaN): the nai
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,17 +25,21 @@ import scipy.signal
 
 import methods
 from methods.estimate import flat_record, make_options
-from methods.tracking._track import Track, check_window, window_ends
-from methods.tracking._windowed import DEFAULT_HOP_SAMPLES, DEFAULT_WINDOW_SAMPLES
+from methods.tracking import _defaults
+from methods.tracking._track import Track, window_ends
 
 
 @dataclass
 class Options:
-    """Options of ``next_era``: window W and hop H in samples, the correlation lags L = lags_fraction·W,
-    the ERA order 2m + 1 + extra_order, and the matching band and damping limit."""
+    """Options of ``next_era``: window W and hop H in samples or in s (None: the same rule as every windowed
+    tracker's, :mod:`methods.tracking._defaults`, so that every ratio to this baseline compares equal windows),
+    the correlation lags L = lags_fraction·W, the ERA order 2m + 1 + extra_order, and the matching band and
+    damping limit."""
 
-    window_samples: int = DEFAULT_WINDOW_SAMPLES
-    hop_samples: int = DEFAULT_HOP_SAMPLES
+    window_samples: int | None = None
+    hop_samples: int | None = None
+    window_s: float | None = None
+    hop_s: float | None = None
     lags_fraction: float = 0.5
     extra_order: int = 3
     band: float = 0.3
@@ -43,8 +48,7 @@ class Options:
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     methods.require("era")          # python-control, the optional extra .[peers]
-    opts = make_options(Options, options, name)
-    check_window(opts.window_samples, opts.hop_samples, name, n_samples)
+    opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
     if not 0 < opts.lags_fraction <= 1:
         raise ValueError(f"{name}: lags_fraction = {opts.lags_fraction} must be in (0, 1]")
     if isinstance(opts.extra_order, bool) or not isinstance(opts.extra_order, int) or opts.extra_order < 0:
@@ -60,10 +64,23 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     return opts
 
 
+def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = None) -> Options:
+    """``opts`` with the window and hop in samples (the user's, or the rule's of every windowed tracker)."""
+    if isinstance(opts.extra_order, bool) or not isinstance(opts.extra_order, int) or opts.extra_order < 0:
+        raise ValueError(f"{name}: extra_order = {opts.extra_order!r} must be an integer ≥ 0")
+    lags_fraction = opts.lags_fraction if 0 < opts.lags_fraction <= 1 else 0.5
+    # the ERA needs 2(2m + 1 + extra_order) + 1 lags of the window
+    minimum = int(np.ceil((2 * (2 * np.size(prior) + 1 + opts.extra_order) + 2) / lags_fraction))
+    W, H = _defaults.window_hop(name, prior, dt, window_s_=opts.window_s, window_samples=opts.window_samples,
+                                hop_s=opts.hop_s, hop_samples=opts.hop_samples, n_samples=n_samples,
+                                minimum=max(minimum, _defaults.min_window_samples(np.size(prior))))
+    return dataclasses.replace(opts, window_samples=W, hop_samples=H, window_s=None, hop_s=None)
+
+
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
     import control  # optional extra .[peers]
 
-    opts = make_options(Options, options, name)
+    opts = resolve(make_options(Options, options, name), name, prior, dt)
     W, H = opts.window_samples, opts.hop_samples
     ends = window_ends(y.size, W, H)
     m = prior.size

@@ -28,6 +28,7 @@ returns no covariance.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,6 +36,7 @@ import pandas as pd
 import scipy.optimize
 
 from methods.estimate import make_options
+from methods.tracking import _defaults
 from methods.tracking._track import Track
 
 # Wind-up guard: P/λ is skipped while tr P exceeds this multiple of its initial trace (p + q)·δ.
@@ -52,8 +54,9 @@ class Options:
     ma_order : int or None
         q of the ARMA(p, q) model fitted by pseudo-linear regression; None: 2m (the response of m modes to a
         white force, seen by an accelerometer with white noise, is ARMA(2m, 2m)); 0: the plain AR model.
-    forgetting : float
-        λ in (0, 1]; memory ≈ 1/(1 − λ) samples (0.998: 500 samples, 10 s at Δt = 0.02 s).
+    forgetting : float or None
+        λ in (0, 1]; memory ≈ 1/(1 − λ) samples. None: 1 − 1/W, a memory as long as the windowed trackers'
+        default window W (:mod:`methods.tracking._defaults`; 0.998, 486 samples = 9.7 s on the tracking grid).
     p0 : float
         δ, the initial P = δ I (a weak regularisation of θ towards 0).
     band : float
@@ -73,7 +76,7 @@ class Options:
 
     extra_order: int = 16
     ma_order: int | None = None
-    forgetting: float = 0.998
+    forgetting: float | None = None
     p0: float = 1e4
     band: float = 0.3
     damping_weight: float = 1.0
@@ -85,12 +88,15 @@ class Options:
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = make_options(Options, options, name)
+    if opts.forgetting is not None and (isinstance(opts.forgetting, bool)
+                                        or not isinstance(opts.forgetting, (int, float))):
+        raise ValueError(f"{name}: forgetting = {opts.forgetting!r} must be a number in (0, 1]")
     if isinstance(opts.extra_order, bool) or not isinstance(opts.extra_order, int) or opts.extra_order < 0:
         raise ValueError(f"{name}: extra_order = {opts.extra_order!r} must be an integer ≥ 0")
     if opts.ma_order is not None and (isinstance(opts.ma_order, bool) or not isinstance(opts.ma_order, int)
                                       or opts.ma_order < 0):
         raise ValueError(f"{name}: ma_order = {opts.ma_order!r} must be an integer ≥ 0 (or None: 2m)")
-    if not 0 < opts.forgetting <= 1:
+    if opts.forgetting is not None and not 0 < opts.forgetting <= 1:
         raise ValueError(f"{name}: forgetting = {opts.forgetting} must be in (0, 1]")
     if not (np.isfinite(opts.p0) and opts.p0 > 0):
         raise ValueError(f"{name}: p0 = {opts.p0} must be a positive number")
@@ -105,7 +111,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     order = 2 * np.size(prior) + opts.extra_order
     if n_samples is not None and n_samples <= order:
         raise ValueError(f"{name}: the record ({n_samples} samples) is not longer than the AR order {order}")
-    return opts
+    return resolve(opts, prior, dt)
 
 
 def rls(y: np.ndarray, order: int, forgetting: float, p0: float, ma_order: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -156,8 +162,16 @@ def ar_poles(theta: np.ndarray, chunk: int = 4096) -> np.ndarray:
     return roots
 
 
+def resolve(opts: Options, prior, dt: float) -> Options:
+    """``opts`` with ``forgetting`` set: the user's, or 1 − 1/W for the default window W."""
+    if opts.forgetting is not None:
+        return opts
+    W = max(int(round(_defaults.window_s(prior) / dt)), _defaults.min_window_samples(np.size(prior)))
+    return dataclasses.replace(opts, forgetting=_defaults.forgetting(W))
+
+
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
-    opts = make_options(Options, options, name)
+    opts = resolve(make_options(Options, options, name), prior, dt)
     m = prior.size
     order = 2 * m + opts.extra_order
     q = 2 * m if opts.ma_order is None else opts.ma_order

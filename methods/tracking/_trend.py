@@ -31,9 +31,15 @@ import numpy as np
 from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import KalmanFilter
 
+from methods.tracking import _defaults
+
 TREND_FIELDS = ("trend", "trend_rate_noise", "trend_meas_rel", "trend_gate", "trend_restart_after", "trend_rate0")
-DEFAULTS = {"trend": False, "trend_rate_noise": 1e-4, "trend_meas_rel": 0.005, "trend_gate": 9.0,
-            "trend_restart_after": 2, "trend_rate0": 0.002}
+# trend_rate_noise (s^-1.5) and trend_rate0 (s^-1): None = from the prior's slowest period
+# (:func:`methods.tracking._defaults.trend_noises`; 1e-4 and 0.002 on the tracking grid's records).
+DEFAULTS = {"trend": False, "trend_rate_noise": None, "trend_meas_rel": 0.005, "trend_gate": 9.0,
+            "trend_restart_after": 2, "trend_rate0": None}
+TYPES = {"trend": bool, "trend_rate_noise": float | None, "trend_meas_rel": float, "trend_gate": float,
+         "trend_restart_after": int, "trend_rate0": float | None}
 
 
 def check(opts, tracker: str) -> None:
@@ -42,6 +48,8 @@ def check(opts, tracker: str) -> None:
         raise ValueError(f"{tracker}: trend = {opts.trend!r} must be true or false")
     for name in ("trend_rate_noise", "trend_rate0"):
         value = getattr(opts, name)
+        if value is None:
+            continue
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (np.isfinite(value) and value >= 0):
             raise ValueError(f"{tracker}: {name} = {value!r} must be a finite number ≥ 0")
     for name in ("trend_meas_rel", "trend_gate"):
@@ -53,7 +61,93 @@ def check(opts, tracker: str) -> None:
         raise ValueError(f"{tracker}: trend_restart_after = {n!r} must be an integer ≥ 1")
 
 
-def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray, window_s: float, *,
+def settings(opts, prior) -> dict:
+    """The keywords of :class:`TrendBank` from ``opts``' ``trend_*`` options, the noises left None taken from
+    the prior (:func:`methods.tracking._defaults.trend_noises`)."""
+    noises = _defaults.trend_noises(prior)
+    return {"rate_noise": noises["trend_rate_noise"] if opts.trend_rate_noise is None else opts.trend_rate_noise,
+            "meas_rel": opts.trend_meas_rel, "gate": opts.trend_gate, "restart_after": opts.trend_restart_after,
+            "rate0": noises["trend_rate0"] if opts.trend_rate0 is None else opts.trend_rate0}
+
+
+class TrendBank:
+    """The local-linear-trend filters of m modes, fed one window at a time (module docstring).
+
+    :meth:`step` takes window j's centre time and half-span (per mode, or one for all), estimates,
+    determined flags and (optional) stds; it returns the estimates carried to the window's end, their std,
+    the converged flags and each mode's normalised innovation ν/√S (NaN where the mode was not updated or
+    not started), which a change detector reads. :meth:`restart` forgets a mode: it starts again at its
+    next determined estimate.
+    """
+
+    def __init__(self, m: int, *, rate_noise: float, meas_rel: float, gate: float, restart_after: int,
+                 rate0: float):
+        self.m, self.rate_noise, self.meas_rel = m, rate_noise, meas_rel
+        self.gate, self.restart_after, self.rate0 = gate, restart_after, rate0
+        self.kf: list = [None] * m
+        self.t_last = np.zeros(m)
+        self.w0 = np.zeros(m)
+        self.misses = np.zeros(m, dtype=int)
+        self.ok = np.zeros(m, dtype=bool)
+        self.restarts = np.zeros(m, dtype=int)
+
+    def restart(self, i: int) -> None:
+        self.kf[i] = None
+        self.misses[i] = 0
+        self.ok[i] = False
+
+    def step(self, t_c: float, lead: float, z: np.ndarray, determined: np.ndarray, meas_std=None):
+        out = np.full(self.m, np.nan)
+        std = np.full(self.m, np.nan)
+        nu_norm = np.full(self.m, np.nan)
+        t_c = np.broadcast_to(np.asarray(t_c, dtype=float), (self.m,))
+        lead = np.broadcast_to(np.asarray(lead, dtype=float), (self.m,))
+        for i in range(self.m):
+            ahead = np.array([[1.0, lead[i]], [0.0, 1.0]])
+            zi = z[i]
+            good = bool(determined[i]) and np.isfinite(zi) and zi > 0
+            r_std = self.meas_rel * zi
+            if meas_std is not None and np.isfinite(meas_std[i]):
+                r_std = float(np.hypot(meas_std[i], r_std))
+            kf = self.kf[i]
+            if kf is None:
+                if not good:
+                    continue
+                kf = self.kf[i] = KalmanFilter(dim_x=2, dim_z=1)
+                kf.H = np.array([[1.0, 0.0]])
+                kf.x = np.array([zi, 0.0])
+                kf.P = np.diag([r_std ** 2, (self.rate0 * zi) ** 2])
+                self.t_last[i], self.w0[i], self.ok[i] = t_c[i], zi, True
+            else:
+                tau = t_c[i] - self.t_last[i]
+                self.t_last[i] = t_c[i]
+                kf.F = np.array([[1.0, tau], [0.0, 1.0]])
+                kf.Q = Q_discrete_white_noise(dim=2, dt=tau, var=(self.rate_noise * self.w0[i]) ** 2)
+                kf.predict()
+                if good:
+                    kf.R = np.array([[r_std ** 2]])
+                    nu = zi - kf.x[0]
+                    s = kf.P[0, 0] + kf.R[0, 0]
+                    nu_norm[i] = nu / np.sqrt(s)
+                    if nu * nu / s <= self.gate:
+                        kf.update(np.array([zi]))
+                        self.misses[i], self.ok[i] = 0, True
+                    else:
+                        self.misses[i] += 1
+                        self.ok[i] = False
+                        if self.misses[i] >= self.restart_after:
+                            kf.x = np.array([zi, kf.x[1]])
+                            kf.P = np.diag([kf.R[0, 0], kf.P[1, 1]])
+                            self.misses[i], self.ok[i] = 0, True
+                            self.restarts[i] += 1
+            x = ahead @ kf.x
+            P = ahead @ kf.P @ ahead.T
+            out[i] = x[0]
+            std[i] = np.sqrt(max(P[0, 0], 0.0))
+        return out, std, self.ok & np.array([k is not None for k in self.kf]), nu_norm
+
+
+def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray, window_s, *,
            rate_noise: float, meas_rel: float, gate: float, restart_after: int, rate0: float,
            meas_std: np.ndarray | None = None):
     """Run the trend stage over a track's window estimates (module docstring).
@@ -61,7 +155,7 @@ def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray,
     Parameters
     ----------
     t_end_s : (K,) the windows' last sample times; ``frequencies``, ``determined`` : (K, m) their estimates
-    window_s : (W − 1)Δt, the span of a window.
+    window_s : (W − 1)Δt, the span of a window (a number, or (K,) spans of windows of varying length).
 
     Returns
     -------
@@ -69,62 +163,20 @@ def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray,
     """
     t_end_s = np.asarray(t_end_s, dtype=float)
     K, m = frequencies.shape
-    lead = window_s / 2.0
-    t_c = t_end_s - lead
-    ahead = np.array([[1.0, lead], [0.0, 1.0]])
+    lead = np.broadcast_to(np.asarray(window_s, dtype=float) / 2.0, (K,))
+    bank = TrendBank(m, rate_noise=rate_noise, meas_rel=meas_rel, gate=gate, restart_after=restart_after,
+                     rate0=rate0)
     out = np.full((K, m), np.nan)
     std = np.full((K, m), np.nan)
     conv = np.zeros((K, m), dtype=bool)
-    restarts = np.zeros(m, dtype=int)
-    for i in range(m):
-        kf = None
-        t_last = w0 = 0.0
-        misses = 0
-        ok = False
-        for j in range(K):
-            z = frequencies[j, i]
-            good = bool(determined[j, i]) and np.isfinite(z) and z > 0
-            r_std = meas_rel * z
-            if meas_std is not None and np.isfinite(meas_std[j, i]):
-                r_std = float(np.hypot(meas_std[j, i], r_std))
-            if kf is None:
-                if not good:
-                    continue
-                kf = KalmanFilter(dim_x=2, dim_z=1)
-                kf.H = np.array([[1.0, 0.0]])
-                kf.x = np.array([z, 0.0])
-                kf.P = np.diag([r_std ** 2, (rate0 * z) ** 2])
-                t_last, w0, ok = t_c[j], z, True
-            else:
-                tau = t_c[j] - t_last
-                t_last = t_c[j]
-                kf.F = np.array([[1.0, tau], [0.0, 1.0]])
-                kf.Q = Q_discrete_white_noise(dim=2, dt=tau, var=(rate_noise * w0) ** 2)
-                kf.predict()
-                if good:
-                    kf.R = np.array([[r_std ** 2]])
-                    nu = z - kf.x[0]
-                    if nu * nu / (kf.P[0, 0] + kf.R[0, 0]) <= gate:
-                        kf.update(np.array([z]))
-                        misses, ok = 0, True
-                    else:
-                        misses += 1
-                        ok = False
-                        if misses >= restart_after:
-                            kf.x = np.array([z, kf.x[1]])
-                            kf.P = np.diag([kf.R[0, 0], kf.P[1, 1]])
-                            misses, ok = 0, True
-                            restarts[i] += 1
-            x = ahead @ kf.x
-            P = ahead @ kf.P @ ahead.T
-            out[j, i] = x[0]
-            std[j, i] = np.sqrt(max(P[0, 0], 0.0))
-            conv[j, i] = ok
-    return out, std, conv, restarts
+    for j in range(K):
+        out[j], std[j], conv[j], _ = bank.step(t_end_s[j] - lead[j], lead[j], frequencies[j], determined[j],
+                                               None if meas_std is None else meas_std[j])
+    return out, std, conv, bank.restarts
 
 
-def apply(opts, t_end_s: np.ndarray, frequencies: np.ndarray, std, determined: np.ndarray, window_s: float,
-          extra: dict, meas_std: np.ndarray | None = None):
+def apply(opts, t_end_s: np.ndarray, frequencies: np.ndarray, std, determined: np.ndarray, window_s,
+          extra: dict, meas_std: np.ndarray | None = None, prior=None):
     """The trend stage as a windowed tracker runs it when ``opts.trend``: the raw window estimates kept in
     ``extra`` ("window_frequencies", "window_converged", and the restarts per mode), then :func:`smooth` with
     the ``trend_*`` options. Returns (frequencies, std, determined, restarts); ``opts.trend`` false: the
@@ -132,9 +184,7 @@ def apply(opts, t_end_s: np.ndarray, frequencies: np.ndarray, std, determined: n
     if not opts.trend:
         return frequencies, np.nan, determined, None
     extra |= {"window_frequencies": frequencies, "window_converged": determined}
-    freq, std, found, restarts = smooth(
-        t_end_s, frequencies, determined, window_s, rate_noise=opts.trend_rate_noise,
-        meas_rel=opts.trend_meas_rel, gate=opts.trend_gate, restart_after=opts.trend_restart_after,
-        rate0=opts.trend_rate0, meas_std=meas_std)
+    freq, std, found, restarts = smooth(t_end_s, frequencies, determined, window_s, meas_std=meas_std,
+                                        **settings(opts, prior))
     extra["trend_restarts"] = restarts
     return freq, std, found, restarts

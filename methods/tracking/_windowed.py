@@ -24,12 +24,14 @@ import numpy as np
 
 import methods
 from methods.estimate import make_options
-from methods.tracking import _trend
-from methods.tracking._track import Track, check_window, usable_prior, window_ends
+from methods.tracking import _defaults, _trend
+from methods.tracking._track import Track, usable_prior, window_ends
 
-DEFAULT_WINDOW_SAMPLES = 512      # 10.24 s at Δt = 0.02 s: 5 periods of the slowest mode (3.2 rad/s)
-DEFAULT_HOP_SAMPLES = 50          # 1 s at Δt = 0.02 s
-WINDOW_FIELDS = ("window_samples", "hop_samples", "warm_start") + _trend.TREND_FIELDS
+# The window's options: None = from Δt and the prior (methods/tracking/_defaults.py: 5 periods of the slowest
+# mode, at least two beats of the closest pair; 486 samples = 9.7 s on the tracking grid's records).
+WINDOW_OPTIONS = (("window_samples", int | None, None), ("hop_samples", int | None, None),
+                  ("window_s", float | None, None), ("hop_s", float | None, None))
+WINDOW_FIELDS = tuple(k for k, _, _ in WINDOW_OPTIONS) + ("warm_start",) + _trend.TREND_FIELDS
 
 # A method's defaults on a window (the caller's options win): pem answers a window's own frequency, not the
 # small-amplitude ω₀ it reports for a whole record whose residual is not white (a tracked frequency drifts
@@ -46,14 +48,26 @@ WARM_OPTIONS: dict[str, dict] = {
 
 @functools.cache
 def options_class(name: str):
-    """The tracking options of batch method ``name``: its own ``Options`` plus ``window_samples`` (W),
-    ``hop_samples`` (H), ``warm_start`` and the trend stage's (:mod:`methods.tracking._trend`)."""
+    """The tracking options of batch method ``name``: its own ``Options`` plus the window W and hop H (in
+    samples, ``window_samples``/``hop_samples``, or in s, ``window_s``/``hop_s``; None: from Δt and the prior),
+    ``warm_start`` and the trend stage's (:mod:`methods.tracking._trend`)."""
     base = methods.options_class(name)
     return dataclasses.make_dataclass(
         f"{base.__name__}Windowed",
-        [("window_samples", int, DEFAULT_WINDOW_SAMPLES), ("hop_samples", int, DEFAULT_HOP_SAMPLES),
-         ("warm_start", bool, True)] + [(k, type(v), v) for k, v in _trend.DEFAULTS.items()],
+        list(WINDOW_OPTIONS) + [("warm_start", bool, True)]
+        + [(k, _trend.TYPES[k], v) for k, v in _trend.DEFAULTS.items()],
         bases=(base,))
+
+
+def resolve(opts, name: str, prior, dt: float, n_samples: int | None = None, minimum: int | None = None):
+    """``opts`` with ``window_samples``/``hop_samples`` in samples (the user's, in s or samples, or the rule's
+    of :mod:`methods.tracking._defaults`) and ``window_s``/``hop_s`` None; ``ValueError`` (one line) for a pair
+    given twice or a window too short for the prior's modes (``minimum``: 12m samples) or longer than the
+    record."""
+    W, H = _defaults.window_hop(name, prior, dt, window_s_=opts.window_s, window_samples=opts.window_samples,
+                                hop_s=opts.hop_s, hop_samples=opts.hop_samples, n_samples=n_samples,
+                                minimum=_defaults.min_window_samples(np.size(prior)) if minimum is None else minimum)
+    return dataclasses.replace(opts, window_samples=W, hop_samples=H, window_s=None, hop_s=None)
 
 
 def split(options: dict) -> tuple[dict, dict]:
@@ -67,8 +81,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     tracking options dataclass."""
     methods.require(name)
     window, own = split(options)
-    opts = make_options(options_class(name), options, name)
-    check_window(opts.window_samples, opts.hop_samples, name, n_samples)
+    opts = resolve(make_options(options_class(name), options, name), name, prior, dt, n_samples)
     if not isinstance(opts.warm_start, bool):
         raise ValueError(f"{name}: warm_start = {opts.warm_start!r} must be true or false")
     _trend.check(opts, name)
@@ -82,7 +95,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     """Track with method ``name`` on sliding windows (module docstring). ``options``: the checked keywords."""
     window, own = split(options)
     own = {**WINDOW_DEFAULTS.get(name, {}), **own}
-    opts = make_options(options_class(name), options, name)
+    opts = resolve(make_options(options_class(name), options, name), name, prior, dt)
     identify = methods.get(name)
     W, H = opts.window_samples, opts.hop_samples
     ends = window_ends(y.size, W, H)
@@ -120,7 +133,8 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     if failures:
         message += f"; {len(failures)} windows failed (first: {failures[0]})"
     extra = {"window_end_sample": ends, "warm_started": warm_used, "window_failures": len(failures)}
-    freq, std, conv, restarts = _trend.apply(opts, ends * dt, freq, std, conv, (W - 1) * dt, extra)
+    freq, std, conv, restarts = _trend.apply(opts, ends * dt, freq, std, conv, (W - 1) * dt, extra,
+                                                  prior=prior)
     if restarts is not None:
         message += f"; trend stage (centre-stamped, carried to the window's end): {restarts.tolist()} restarts"
     return Track(ends * dt, freq, std, conv, message=message, extra=extra)

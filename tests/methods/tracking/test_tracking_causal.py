@@ -21,10 +21,14 @@ SLOW = {"bopdmd": {"window_samples": 100, "hop_samples": 250}}     # ~1 s per wi
 
 
 TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every windowed tracker's option
+# the defaults from Δt and the prior (window 413 samples here) and the change detector's window restarts
+DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory"]
 
 
 def _options(name):
     name, _, extra = name.partition("+")
+    if extra in ("defaults", "memory"):
+        return name, ({"memory": True, "change_threshold": 2.0} if extra == "memory" else {})
     fields = {f for f in methods.track_options_class(name).__dataclass_fields__}
     opts = SLOW.get(name) or {k: v for k, v in WINDOWED.items() if k in fields}
     return name, opts | ({"trend": True} if extra == "trend" else {})
@@ -38,7 +42,7 @@ def records():
     return y, changed
 
 
-@pytest.mark.parametrize("name", methods.track_names() + TREND)
+@pytest.mark.parametrize("name", methods.track_names() + TREND + DEFAULTS)
 def test_changing_later_samples_leaves_earlier_estimates_unchanged(name, records):
     y, changed = records
     name, opts = _options(name)
@@ -54,3 +58,5 @@ def test_changing_later_samples_leaves_earlier_estimates_unchanged(name, records
     np.testing.assert_array_equal(a.converged[early], b.converged[early])
     later_a, later_b = a.frequencies[~early], b.frequencies[~early]
     assert not np.array_equal(later_a, later_b, equal_nan=True), f"{name}: later samples changed nothing"
+    if opts.get("memory"):                       # the change detector did restart the window in this record
+        assert a.extra["memory_restart_samples"].size > 0, a.message
