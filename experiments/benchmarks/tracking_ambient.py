@@ -4,7 +4,7 @@
 
 Cells (``experiments.simulate.tracking_data``): the tracking grid's drift (+30/+20/+20/+10 % over 5 min) and
 step (+6 % mode 3, −4 % mode 4 at 60 s) under its white body force (5 N per sample) at 100 and 1000 µg; the
-three records of issue 31 (a white force with a +12 % drift over 150 s at 300 µg; a −7 % step of modes 2–4 at
+three records a first user tried (a white force with a +12 % drift over 150 s at 300 µg; a −7 % step of modes 2–4 at
 80 s at 100 µg; sloshing 2.5 % at 0.07 Hz on a 6 % drift with a pulse every 20 s on average, 300 µg); the
 grid's slosh (3 % at 0.05 Hz) under the white force at 100 µg; and two of the grid's thruster cells (drift at
 1000 µg, step at 100 µg), where ``gated_pencil`` is the tracker to beat. 120 s records (150 s for the
