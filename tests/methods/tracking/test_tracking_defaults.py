@@ -15,6 +15,10 @@ import methods
 from methods.tracking import _defaults
 
 PAPER_ROWS = {"akf", "wkf", "pll"}
+# The ambient filters state how fast a frequency may move in %/s over a horizon in s (rate_rel_per_s,
+# horizon_s): a physical assumption about the structure, not a size counted in samples, so a time-scaled record
+# is a different question to them. Their scaling in periods of the prior is open (methods/tracking/README.md).
+ABSOLUTE_RATE = {"akf_ambient", "rpem_ambient"}
 DT = 0.02
 PRIOR = np.array([6.0, 15.0])                     # W = 5 periods of 6 rad/s = 262 samples at Δt = 0.02 s
 RTOL = {"pem": 3e-3}
@@ -35,7 +39,7 @@ def record():
     return driven_modes(w, noise_ug=300.0, seed=5, gain=[3.0, 1.0])
 
 
-@pytest.mark.parametrize("name", [n for n in methods.track_names() if n not in PAPER_ROWS])
+@pytest.mark.parametrize("name", [n for n in methods.track_names() if n not in PAPER_ROWS | ABSOLUTE_RATE])
 @pytest.mark.parametrize("scale", [5.0, 0.2])
 def test_a_time_scaled_record_gives_the_same_relative_track(name, scale, record):
     y = record[:300] if name in SLOW else record
