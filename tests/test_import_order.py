@@ -4,8 +4,9 @@ In the spirit of scikit-learn's import-consistency checks: the walls of the hous
 
 - ``experiments/`` stages import one way: io, paths, provenance (and the other modules at the top of
   ``experiments/``) -> recordings / simulate (data read, data made) -> report -> runlog (MLflow run logging)
-  -> jobs -> workflow (the Snakemake rules' Python) / tuning / benchmarks / paper. A stage imports only its
-  own modules and earlier stages'; stages of one rank do not import each other.
+  -> hydra_app (what every Hydra app runs before its task) -> jobs -> workflow (the Snakemake rules' Python)
+  / tuning / benchmarks / paper. A stage imports only its own modules and earlier stages'; stages of one rank
+  do not import each other.
 - No module imports itself through others: the graph of imports among the project's modules (module level
   and inside functions) has no cycle.
 - An import inside a function says why, in a comment on its line, or above it or above its group of imports.
@@ -24,8 +25,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 # rank of each stage; modules directly under experiments/ (io.py, config_schema.py) are the ground floor
-STAGE_RANK = {"": 0, "recordings": 1, "simulate": 1, "report": 2, "runlog": 3, "jobs": 4,
-              "workflow": 5, "tuning": 5, "benchmarks": 5, "paper": 5}
+STAGE_RANK = {"": 0, "recordings": 1, "simulate": 1, "report": 2, "runlog": 3, "hydra_app": 4, "jobs": 5,
+              "workflow": 6, "tuning": 6, "benchmarks": 6, "paper": 6}
 FORBIDDEN_IN_METHODS = ("experiments", "hydra", "omegaconf", "mlflow", "snakemake")
 
 

@@ -32,7 +32,7 @@ import numpy as np  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.io import atomic_write_text  # noqa: E402
-from experiments.jobs.track_variants import variant_options  # noqa: E402
+from experiments.tracker_variants import variant_options  # noqa: E402
 from experiments.simulate.datasets import UG  # noqa: E402
 from experiments.simulate.plant import build_plant  # noqa: E402
 
@@ -60,7 +60,7 @@ def pulsed_record(n: int, seed: int = 0) -> np.ndarray:
 
 def parse_row(spec: str) -> tuple[str, dict]:
     """``name``, ``name:key=value+...`` (those options over the tracker's defaults) or ``name:variant`` (the
-    options of ``configs/tracker/<name>_<variant>.yaml``, ``experiments.jobs.track_variants``)."""
+    options of ``configs/tracker/<name>_<variant>.yaml``, ``experiments.tracker_variants``)."""
     name, _, rest = spec.partition(":")
     if rest and "=" not in rest:
         return name, variant_options(spec)
