@@ -56,7 +56,7 @@ __all__ = ["DEFAULT_TRACKER", "EXPERIMENT", "FIRST_STRETCH_FRACTION", "FIRST_STR
            "TrackFileConfig", "changed_options", "check", "first_stretch", "load", "main", "register", "task",
            "track_csv", "tracker_named_on", "tracker_of", "tracker_schema"]
 
-# The tracker the README's "which tracker to fly" names (methods/tracking/README.md).
+# The tracker to fly as shipped (docs/measured/tracking.md, "As shipped, on records unlike the grid's").
 DEFAULT_TRACKER = "gated_pencil"
 EXPERIMENT = "measurement-tracks"
 SOURCE = "experiments/jobs/track_file.py"
