@@ -116,6 +116,50 @@ def test_tests_may_reach_inside_a_family():
     assert not [v for v in violations(source_files("tests"), is_test=True) if "private" in v]
 
 
+def jobs_folder_strays(paths) -> list[str]:
+    """What in ``experiments/jobs/`` is not a job: a public module that a user cannot run (no ``main`` and no
+    ``if __name__ == "__main__"``), or a private ``_module`` that is not used by exactly one job of the folder
+    (a helper of several jobs belongs to the stage that names what it is)."""
+    jobs = [p for p in paths if p.parent.name == "jobs" and p.parent.parent.name == "experiments"]
+    found = []
+    for path in jobs:
+        if path.name == "__init__.py":
+            continue
+        text = path.read_text()
+        if not path.name.startswith("_"):
+            tree = ast.parse(text)
+            runnable = any(isinstance(n, ast.FunctionDef) and n.name == "main" for n in tree.body) or \
+                '__name__ == "__main__"' in text
+            if not runnable:
+                found.append(f"{path.relative_to(ROOT)} is not a job a user runs (no main)")
+            continue
+        users = [other for other in jobs if other != path and
+                 any(t.split(".")[-1] == path.stem for _, t in imported_modules(other))]
+        if len(users) != 1:
+            found.append(f"{path.relative_to(ROOT)} is private but used by {len(users)} jobs")
+    return found
+
+
+def test_the_jobs_folder_holds_only_jobs():
+    assert jobs_folder_strays(source_files("experiments")) == []
+
+
+@pytest.mark.parametrize("files, expected", [
+    ({"experiments/jobs/app.py": "def run_app():\n    pass\n"}, "is not a job a user runs"),
+    ({"experiments/jobs/_flow.py": "X = 1\n",
+      "experiments/jobs/a.py": "from experiments.jobs import _flow\ndef main(): pass\n",
+      "experiments/jobs/b.py": "from experiments.jobs._flow import X\ndef main(): pass\n"}, "used by 2 jobs"),
+    ({"experiments/jobs/_flow.py": "X = 1\n", "experiments/jobs/a.py": "def main(): pass\n"}, "used by 0 jobs"),
+])
+def test_the_jobs_check_sees_a_stray(files, expected, monkeypatch, tmp_path):
+    for where, source in files.items():
+        (tmp_path / where).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / where).write_text(source)
+    monkeypatch.setitem(globals(), "ROOT", tmp_path)
+    found = jobs_folder_strays(sorted(tmp_path / w for w in files))
+    assert len(found) == 1 and expected in found[0], found
+
+
 @pytest.mark.parametrize("source, where, expected", [
     ("from experiments.jobs import config\n", "experiments/runlog/x.py", "may not import stage jobs"),
     ("def f():\n    from experiments.tuning.objective import objective\n", "experiments/jobs/x.py",
