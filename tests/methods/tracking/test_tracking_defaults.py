@@ -7,6 +7,7 @@ converged frequencies / a. The paper's own rows (``akf``, ``wkf``, ``pll``: the 
 excluded by design.
 """
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -105,6 +106,20 @@ def test_a_users_window_is_honoured_in_seconds_or_samples(name):
     with pytest.raises(ValueError, match="give window_s or window_samples, not both") as err:
         methods.check_track_options(name, PRIOR, DT, {"window_s": 1.5, "window_samples": 75})
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("name", [n for n in methods.track_names() if "hop_fraction" in _fields(n)])
+def test_a_hop_as_a_fraction_of_the_window_follows_the_prior(name):
+    """The grids' coarser hop (hop_fraction) counts no samples: half the rule's window at any Δt."""
+    for dt, prior in ((DT, PRIOR), (DT / 50, PRIOR * 50)):
+        opts = methods.check_track_options(name, prior, dt, {"hop_fraction": 0.5})
+        assert opts.hop_samples == max(1, round(0.5 * opts.window_samples))
+    for bad, words in (({"hop_fraction": 0.0}, "hop_fraction = 0.0 must be a number in (0, 1]"),
+                       ({"hop_fraction": 1.5}, "hop_fraction = 1.5"),
+                       ({"hop_fraction": 0.5, "hop_samples": 10}, "give hop_fraction or hop_samples, not both")):
+        with pytest.raises(ValueError, match=re.escape(words)) as err:
+            methods.check_track_options(name, PRIOR, DT, bad)
+        assert "\n" not in str(err.value)
 
 
 @pytest.mark.parametrize("name", ["gated_pencil", "next_era", "fft", "era"])
