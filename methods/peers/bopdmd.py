@@ -26,7 +26,9 @@ import numpy as np
 from methods.peers import hdmd
 from methods.peers._mode_picker import check_peer_options, identify_peer, too_short
 
-__all__ = ["Options", "check_options", "identify"]
+__all__ = ["Options", "STARTS", "check_options", "identify"]
+
+STARTS = ("dmd", "trapezoid")
 
 
 @dataclass
@@ -36,16 +38,40 @@ class Options(hdmd.Options):
     num_trials: int = 0              # BOPDMD bags; > 0 gives the library's eigenvalue std
     trial_size: float = 0.6          # fraction of the snapshots per bag
     seed: int = 0                    # numpy's global seed for the bags (pydmd draws from np.random)
+    start: str = "dmd"               # eigenvalues the variable projection starts from: "dmd" or "trapezoid"
+    eps_stall: float = 1e-12         # pydmd's stall test: stop when an iteration lowers the error less
 
     def check(self) -> None:
         super().check()
         if self.num_trials < 0:
             raise ValueError(f"num_trials = {self.num_trials} must be ≥ 0")
+        if self.start not in STARTS:
+            raise ValueError(f"start = {self.start!r} must be one of {', '.join(map(repr, STARTS))}")
+        if not 0 <= self.eps_stall < 1:
+            raise ValueError(f"eps_stall = {self.eps_stall} must be in [0, 1)")
 
 
 def check_options(prior, dt, **options) -> Options:
     """The options contract of :mod:`methods`: every check that needs no record, before any work."""
     return check_peer_options(Options, options, "bopdmd")
+
+
+def _dmd_start(H: np.ndarray, order: int, dt: float):
+    """(projection basis, initial eigenvalues) for ``pydmd.BOPDMD`` from the d × M delay embedding H: its
+    leading ``order`` left singular vectors U (``numpy.linalg.svd``, the basis BOPDMD would compute itself)
+    and the continuous-time poles log(λ)/Δt of the exact DMD of the projected snapshots X = UᵀH,
+    Ã = X₂X₁⁺ (least squares; ERA's and Hankel DMD's poles, the noise bias included). Written here because
+    pydmd's own start is a trapezoidal-rule (Tustin) DMD, whose map s = (2/Δt)(λ − 1)/(λ + 1) warps every
+    frequency (by 8 % at ωΔt = 0.9) and whose variable projection then spends about ten iterations getting
+    back (measured: relative error 0.70 at the start against 1e-4 after, 100 µg, N = 1024)."""
+    U, sv, Vh = np.linalg.svd(H, full_matrices=False)
+    X = sv[:order, None] * Vh[:order]
+    A = np.linalg.lstsq(X[:, :-1].T, X[:, 1:].T, rcond=None)[0].T
+    lam = np.linalg.eigvals(A).astype(complex)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        alpha = np.log(lam) / dt
+    # a pole at z = 0 (no continuous-time image): a fast decay, which the constraints keep stable
+    return U[:, :order], np.where(np.isfinite(alpha), alpha, -1.0 / dt)
 
 
 def _fit(y, dt, prior, opts: Options):
@@ -55,13 +81,21 @@ def _fit(y, dt, prior, opts: Options):
     from pydmd import BOPDMD  # optional extra (.[peers])
     from pydmd.preprocessing import hankel_preprocessing  # optional extra (.[peers])
 
-    dmd = hankel_preprocessing(BOPDMD(svd_rank=order, eig_constraints={"stable", "conjugate_pairs"},
-                                      num_trials=opts.num_trials, trial_size=opts.trial_size), d=d)
+    settings = dict(svd_rank=order, eig_constraints={"stable", "conjugate_pairs"}, num_trials=opts.num_trials,
+                    trial_size=opts.trial_size, varpro_opts_dict={"eps_stall": opts.eps_stall})
+    t = np.arange(y.size - d + 1) * dt
+    if opts.start == "dmd":
+        # the delay embedding as pydmd's hankel_preprocessing builds it (row i = y[i : i + N − d + 1])
+        H = np.lib.stride_tricks.sliding_window_view(y, y.size - d + 1)
+        basis, alpha = _dmd_start(H, order, dt)
+        dmd, X = BOPDMD(proj_basis=basis, init_alpha=alpha, **settings), H
+    else:
+        dmd, X = hankel_preprocessing(BOPDMD(**settings), d=d), y[None, :]
     if opts.num_trials:
         np.random.seed(opts.seed)  # noqa: NPY002 - pydmd draws its bags from numpy's global generator
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        dmd.fit(y[None, :], t=np.arange(y.size - d + 1) * dt)
+        dmd.fit(X, t=t)
     s = np.asarray(dmd.eigs, dtype=complex)
     est = opts.estimate(s, y, dt, prior, order=order, delays=d)
     if opts.num_trials and dmd.eigenvalues_std is not None:
