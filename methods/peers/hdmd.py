@@ -8,9 +8,10 @@ realisation up to the choice of basis; the libraries differ in how they truncate
 
 Settings (methods/peers/README.md): rank 2m + 1 + ``extra_order``; d = ``delays_fraction``·N delays
 (at least the rank), chosen on tuning seed 1 (never the scoring seed); ``rows_periods`` caps d by what the
-prior needs (:func:`methods.peers._hankel.hankel_rows`: pydmd takes full SVDs of the d × (N − d + 1)
-embedding), off by default here (it cost accuracy on long records), on for :mod:`methods.peers.bopdmd`.
-No uncertainty: ``std`` is NaN.
+prior needs (:func:`methods.peers._hankel.hankel_rows`), off by default here (it cost accuracy on long
+records), on for :mod:`methods.peers.bopdmd`. pydmd is given the embedding already projected on its r
+leading left singular vectors (:func:`leading_subspace`; ``svd: full`` gives it the record and pydmd's
+``HankelDMD`` its three full SVDs): the same eigenvalues. No uncertainty: ``std`` is NaN.
 """
 
 from __future__ import annotations
