@@ -70,7 +70,8 @@ case "${1:-}" in
     shift
     ruff check .
     snakemake --lint
-    exec python -m pytest "$@" ;;
+    # the suite in parallel, one worker per core; a test file stays on one worker (its module fixtures run once)
+    exec python -m pytest -n "${TEST_WORKERS:-$CORES}" --dist loadfile "$@" ;;
   "" | -h | --help) sed -n '2,7p' "$0" ;;
   *) exec "$@" ;;
 esac

@@ -12,6 +12,8 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+from _apt import apt_lock
+
 
 def free_port() -> int:
     with socket.socket() as s:
@@ -30,8 +32,10 @@ def unavailable() -> str | None:
         if os.geteuid() != 0 or not shutil.which("apt-get"):
             return "PostgreSQL is not installed, and installing it needs root and apt-get"
         env = os.environ | {"DEBIAN_FRONTEND": "noninteractive"}
-        subprocess.run(["apt-get", "update", "-qq"], check=True, env=env, capture_output=True)
-        subprocess.run(["apt-get", "install", "-y", "-qq", "postgresql"], check=True, env=env, capture_output=True)
+        with apt_lock():
+            subprocess.run(["apt-get", "update", "-qq"], check=True, env=env, capture_output=True)
+            subprocess.run(["apt-get", "install", "-y", "-qq", "postgresql"], check=True, env=env,
+                           capture_output=True)
     return None if server_bindir() is not None else "apt-get installed postgresql but no initdb was found"
 
 

@@ -15,6 +15,7 @@ import subprocess
 
 import pytest
 import yaml
+from _apt import apt_lock
 from _smoke import ROOT, result_tables, snakemake
 
 pytestmark = pytest.mark.slow
@@ -35,8 +36,9 @@ def slurm():
     reason = _skip_reason()
     if reason:
         pytest.skip(reason)
-    proc = subprocess.run(["bash", str(ROOT / ".ci" / "slurm-single-node.sh")], capture_output=True, text=True,
-                          timeout=900)
+    with apt_lock():
+        proc = subprocess.run(["bash", str(ROOT / ".ci" / "slurm-single-node.sh")], capture_output=True,
+                              text=True, timeout=900)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     # the partition and account as a user's environment gives them to sbatch (read by profiles/slurm)
     return {"SBATCH_PARTITION": "main", "SBATCH_ACCOUNT": "research"}

@@ -17,6 +17,7 @@ from pathlib import Path
 import matplotlib.image
 import numpy as np
 import pytest
+from _apt import apt_lock
 
 from experiments.report import catalog
 
@@ -72,10 +73,11 @@ def _chromium() -> str:
                     "chromium)")
     env = os.environ | {"DEBIAN_FRONTEND": "noninteractive"}
     install = ["apt-get", "install", "-y", "chromium"]
-    if subprocess.run(install, capture_output=True, env=env, timeout=900).returncode != 0:
-        subprocess.run(["apt-get", "update"], capture_output=True, env=env, timeout=600)   # stale package lists
-        proc = subprocess.run(install, capture_output=True, text=True, env=env, timeout=900)
-        assert proc.returncode == 0, f"apt-get install chromium failed: {proc.stderr[-2000:]}"
+    with apt_lock():
+        if subprocess.run(install, capture_output=True, env=env, timeout=900).returncode != 0:
+            subprocess.run(["apt-get", "update"], capture_output=True, env=env, timeout=600)   # stale lists
+            proc = subprocess.run(install, capture_output=True, text=True, env=env, timeout=900)
+            assert proc.returncode == 0, f"apt-get install chromium failed: {proc.stderr[-2000:]}"
     return shutil.which("chromium")
 
 
