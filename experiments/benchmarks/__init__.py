@@ -53,16 +53,21 @@ def blas_threads_now() -> int | None:
     return max(counts) if counts else None
 
 
-def interleaved_medians(fns: dict, repeats: int) -> dict:
+def interleaved_medians(fns: dict, repeats: int, cpu: bool = False):
     """Median wall time of each ``fn()`` over ``repeats`` rounds, one call of every fn per round, so that
-    a slow spell of the shared machine hits every row alike (the ratios are what to quote)."""
+    a slow spell of the shared machine hits every row alike (the ratios are what to quote). ``cpu``: also
+    the median process CPU time of the same calls (``time.process_time``; every thread of the process, so
+    an absolute number with one BLAS thread), returned as a second dict."""
     times = {name: [] for name in fns}
+    cpus = {name: [] for name in fns}
     for _ in range(repeats):
         for name, fn in fns.items():
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             fn()
             times[name].append(time.perf_counter() - t0)
-    return {name: statistics.median(t) for name, t in times.items()}
+            cpus[name].append(time.process_time() - c0)
+    wall = {name: statistics.median(t) for name, t in times.items()}
+    return (wall, {name: statistics.median(t) for name, t in cpus.items()}) if cpu else wall
 
 
 def median_seconds(fn, repeats: int) -> float:

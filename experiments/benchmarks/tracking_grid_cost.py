@@ -21,6 +21,7 @@ import os
 import time
 
 from experiments.jobs.track_job import check_tracker, grid_trackers, track_record, warm_up
+from experiments.simulate.laboratory import LaboratoryCellConfig, make_lab_cell
 from experiments.simulate.tracking_data import make_cell
 from experiments.simulate.tracking_grid import load_grid
 
@@ -34,7 +35,8 @@ def measure(grid: dict, cells: list[str], replicates: int) -> tuple[dict, dict]:
     data, sim = {}, {}
     for name in cells:
         t0 = time.process_time()
-        data[name] = make_cell(grid["cells"][name]["config"])
+        config = grid["cells"][name]["config"]
+        data[name] = make_lab_cell(config) if isinstance(config, LaboratoryCellConfig) else make_cell(config)
         sim[name] = time.process_time() - t0
     cpu = {}
     for spec in grid_trackers(grid):

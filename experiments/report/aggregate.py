@@ -26,8 +26,9 @@ from experiments.report import axes, catalog, htmltables, pareto, plots, variant
 from experiments.report.coverage import coverage_table, honesty_lines
 from experiments.report.summary import attach_yardstick, cell_keys, summarize
 
-__all__ = ["PRINTED", "read_results", "paper_tables", "PAPER_TABLES_INTRO", "render_paper_tables", "headline",
-           "bayes_headline", "main", "experiment_tables", "html_twins", "write_captions", "page", "experiments_section"]
+__all__ = ["PRINTED", "reference_noise", "read_results", "paper_tables", "PAPER_TABLES_INTRO", "render_paper_tables",
+           "headline", "bayes_headline", "main", "experiment_tables", "html_twins", "write_captions", "page",
+           "experiments_section"]
 
 PRINTED = paths.CONFIGS / "paper" / "printed.yaml"
 
@@ -168,6 +169,13 @@ def bayes_headline(summary: pd.DataFrame) -> str:
             + markdown_table(per_method))
 
 
+def reference_noise(levels) -> float:
+    """The grid's noise level nearest 1 mg on a log scale (1000 µg itself where the grid has it): the level of
+    the figures drawn at one noise. Always a level of the grid (the median of an even count is not)."""
+    levels = np.unique(np.asarray(levels, float))
+    return float(levels[np.argmin(np.abs(np.log10(levels / 1000.0)))])
+
+
 def main(argv=None) -> int:
     ap = ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--grid", required=True, help="grid name (a title for the page)")
@@ -194,7 +202,7 @@ def main(argv=None) -> int:
     out = args.out
     tables, figs = out / "tables", out / "figures"
     longest = int(summary["n_samples"].max())
-    noise_ref = 1000.0 if 1000.0 in set(summary["noise_ug"]) else float(np.median(summary["noise_ug"]))
+    noise_ref = reference_noise(summary["noise_ug"])
     context = {"grid": args.grid, "longest": longest, "noise_ref": f"{noise_ref:g}"}
 
     files = write_table(summary, tables / "comparison")

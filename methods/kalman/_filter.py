@@ -131,8 +131,9 @@ class FilterSettings:
     r_f: float = 0.0
 
 
-def settings_from(opts, prior: np.ndarray, method: str, **more) -> FilterSettings:
-    """Check the options shared by ``akf`` and ``wkf`` and turn them into plain filter settings."""
+def settings_from(opts, prior: np.ndarray, method: str, *, dt: float | None = None, **more) -> FilterSettings:
+    """Check the options shared by ``akf`` and ``wkf`` and turn them into plain filter settings (Δt = ``dt``
+    s turns ``qd_frequency_rel`` into ``qd_frequency``)."""
     if opts.measurement not in MEASUREMENTS:
         raise ValueError(f"{method}: measurement must be one of {MEASUREMENTS}, got '{opts.measurement}'")
     if not 0.0 <= opts.damping_ratio < 1.0:
@@ -141,6 +142,16 @@ def settings_from(opts, prior: np.ndarray, method: str, **more) -> FilterSetting
         val = getattr(opts, name)
         if not (np.isfinite(val) and val >= 0):
             raise ValueError(f"{method}: {name} = {val} must be a non-negative number")
+    qd_frequency = float(opts.qd_frequency)
+    rel = getattr(opts, "qd_frequency_rel", None)
+    if rel is not None and dt is not None:  # eq. (21)'s walk in units of the prior: per period of ω_min
+        if isinstance(rel, bool) or not isinstance(rel, (int, float)) or not (np.isfinite(rel) and rel >= 0):
+            raise ValueError(f"{method}: qd_frequency_rel = {rel!r} must be a non-negative number")
+        if opts.qd_frequency != type(opts).qd_frequency:
+            raise ValueError(f"{method}: give qd_frequency_rel or qd_frequency, not both (qd_frequency_rel = "
+                             f"{rel!r}, qd_frequency = {opts.qd_frequency!r})")
+        w_min = float(np.min(prior))
+        qd_frequency = rel * w_min**2 * dt / (2.0 * np.pi / w_min)
     if not opts.max_variance_growth > 1:
         raise ValueError(f"{method}: max_variance_growth = {opts.max_variance_growth} must exceed 1")
     prior_std = getattr(opts, "prior_std_rad_s", None)
@@ -162,7 +173,7 @@ def settings_from(opts, prior: np.ndarray, method: str, **more) -> FilterSetting
         raise ValueError(f"{method}: p0_frequency_var = {list(opts.p0_frequency_var)} must be one "
                          f"non-negative variance or one per prior frequency ({prior.size})")
     return FilterSettings(measurement=opts.measurement, zeta=float(opts.damping_ratio),
-                          qd_modal=float(opts.qd_modal), qd_frequency=float(opts.qd_frequency),
+                          qd_modal=float(opts.qd_modal), qd_frequency=qd_frequency,
                           rd=float(opts.rd), p0_frequency_var=p0, p0_modal_scale=float(opts.p0_modal_scale),
                           estimate_bias=bool(opts.estimate_bias),
                           max_variance_growth=float(opts.max_variance_growth), **more)

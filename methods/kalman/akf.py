@@ -38,6 +38,12 @@ class Options:
         because 1e-4 m² on a tip displacement would be ω⁴·1e-4 ≈ 1000 (m/s²)² of acceleration at mode 4.
     qd_frequency : float
         Qd on each frequency random walk, (rad/s)² per step (§4.1: Qd = 1e-4).
+    qd_frequency_rel : float or None
+        The same random walk in units of the prior that scale with the record: the variance of
+        Δω/ω_min accumulated over one period T = 2π/ω_min of the slowest prior mode, so that
+        qd_frequency = qd_frequency_rel · ω_min² · Δt/T (a walk of fixed physical rate: ∝ Δt). A record
+        time-scaled by a (Δt × a, ω / a) then gets the same filter in samples. Given, it sets
+        ``qd_frequency`` (then left at its default; giving both is refused). None: ``qd_frequency``.
     rd : float
         Rd, variance of the measurement fed to the filter: m² (position) or (m/s²)² (acceleration)
         (§4.1: Rd = 1e-2).
@@ -64,6 +70,7 @@ class Options:
     damping_ratio: float = 0.005
     qd_modal: float = 1e-4
     qd_frequency: float = 1e-4
+    qd_frequency_rel: float | None = None
     rd: float = 1e-2
     p0_frequency_var: list[float] | None = None
     prior_std_rad_s: Any = None          # P0 of the frequencies = prior_std_rad_s² (Any: a number or a list)
@@ -105,11 +112,11 @@ def identify_batch(y, dt, priors, **options) -> list[Estimate]:
 
 def _settings(prior, dt, options: dict):
     """The checked filter settings for a prior (options checked by :func:`check_options`)."""
-    return settings_from(check_options(prior, dt, **options), prior, "akf")
+    return settings_from(check_options(prior, dt, **options), prior, "akf", dt=dt)
 
 
 def check_options(prior, dt, **options) -> Options:
     """The options contract of :mod:`methods` (validated without a record, before any work)."""
     opts = make_options(Options, options, "akf")
-    settings_from(opts, prior, "akf")
+    settings_from(opts, prior, "akf", dt=dt)
     return opts

@@ -36,6 +36,10 @@ class Options(akf.Options):
         K of eq. (38), the DC gain of the weighting filter (§4.2: 10).
     weight_omega0_rad_s : float
         ω0 of eq. (38) (§4.2: 3 rad/s).
+    weight_omega0_rel : float or None
+        ω0 in units of the slowest prior frequency, ω0 = weight_omega0_rel · ω_min, so that a time-scaled
+        record gets the same weighting in samples. Given, it sets ω0 (``weight_omega0_rad_s`` then left at its
+        default; giving both is refused). None: ``weight_omega0_rad_s``.
     weight_damping : float
         ξ of eq. (38) (§4.2: 0.2).
     r_f : float
@@ -44,6 +48,7 @@ class Options(akf.Options):
 
     weight_gain: float = 10.0
     weight_omega0_rad_s: float = 3.0
+    weight_omega0_rel: float | None = None
     weight_damping: float = 0.2
     r_f: float = 0.005
 
@@ -105,8 +110,15 @@ def identify_batch(y, dt, priors, **options) -> list[Estimate]:
 def _settings(prior, dt, options: dict):
     """The checked filter settings for a prior, with the discretised weighting filter of eq. (38)."""
     opts = check_options(prior, dt, **options)
-    wf = weighting_filter(opts.weight_gain, opts.weight_omega0_rad_s, opts.weight_damping, dt)
-    return settings_from(opts, prior, "wkf", weighting=wf, r_f=float(opts.r_f))
+    wf = weighting_filter(opts.weight_gain, weight_omega0(opts, prior), opts.weight_damping, dt)
+    return settings_from(opts, prior, "wkf", dt=dt, weighting=wf, r_f=float(opts.r_f))
+
+
+def weight_omega0(opts: Options, prior) -> float:
+    """ω0 of eq. (38), rad/s: ``weight_omega0_rel`` · ω_min when given, else ``weight_omega0_rad_s``."""
+    if opts.weight_omega0_rel is None:
+        return float(opts.weight_omega0_rad_s)
+    return float(opts.weight_omega0_rel * np.min(prior))
 
 
 def check_options(prior, dt, **options) -> Options:
@@ -118,5 +130,12 @@ def check_options(prior, dt, **options) -> Options:
             raise ValueError(f"wkf: {name} = {val} must be a positive number")
     if not (np.isfinite(opts.r_f) and opts.r_f >= 0):
         raise ValueError(f"wkf: r_f = {opts.r_f} must be a non-negative number")
-    settings_from(opts, prior, "wkf")
+    if opts.weight_omega0_rel is not None:
+        val = opts.weight_omega0_rel
+        if isinstance(val, bool) or not isinstance(val, (int, float)) or not (np.isfinite(val) and val > 0):
+            raise ValueError(f"wkf: weight_omega0_rel = {val!r} must be a positive number")
+        if opts.weight_omega0_rad_s != Options.weight_omega0_rad_s:
+            raise ValueError(f"wkf: give weight_omega0_rel or weight_omega0_rad_s, not both (weight_omega0_rel = "
+                             f"{val!r}, weight_omega0_rad_s = {opts.weight_omega0_rad_s!r})")
+    settings_from(opts, prior, "wkf", dt=dt)
     return opts

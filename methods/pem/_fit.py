@@ -627,9 +627,13 @@ def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray, band: floa
     lab = labels.assign(w[good], prior, band=band)
     slot, placed = np.empty(m, int), np.zeros(m, bool)
     slot[lab.slot], placed[lab.slot] = good, lab.placed
-    rest = np.setdiff1d(np.arange(m), good)
+    taken = np.zeros(m, bool)                     # np.setdiff1d's values from two masks (a tenth of its time)
+    taken[good] = True
+    rest = np.flatnonzero(~taken)
     rest = rest[np.argsort(w[rest])]
-    free_slots = np.setdiff1d(np.arange(m), lab.slot)                 # in prior order
+    taken[:] = False
+    taken[lab.slot] = True
+    free_slots = np.flatnonzero(~taken)                               # in prior order
     slot[free_slots] = rest
     if good.size < m:
         f = w[slot]

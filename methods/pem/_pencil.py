@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from methods.pem.predictor import symmetric_eigh
+
 
 def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
                   amplitude_samples: int = 128) -> tuple[np.ndarray, np.ndarray]:
@@ -36,7 +38,8 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
         rank the poles by energy; a fit to all N samples would cost O(N·M²)).
 
     The dominant right singular vectors of the Hankel matrix Y are the dominant eigenvectors of its
-    (L+1) × (L+1) Gram matrix YᵀY (``numpy.linalg.eigh``, a third of the SVD's time here). Squaring loses the
+    (L+1) × (L+1) Gram matrix YᵀY (numpy's ``eigh`` kernel without its wrapper,
+    :func:`methods.pem.predictor.symmetric_eigh`; a third of the SVD's time here). Squaring loses the
     directions below 1e-8 of the largest singular value, which a start never needs.
     """
     y = np.asarray(y, dtype=float)
@@ -48,7 +51,7 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
     rows = n - cols
     # the Hankel matrix as a read-only view of y (sliding_window_view's, without its argument checks)
     Y = np.lib.stride_tricks.as_strided(y, (rows, cols + 1), (y.strides[0],) * 2, writeable=False)
-    lam, vecs = np.linalg.eigh(Y.T @ Y)                # ascending
+    lam, vecs = symmetric_eigh(Y.T @ Y)                # ascending
     if not lam[-1] > 0:
         return np.zeros(0, complex), np.zeros(0, complex)
     order = min(order, int(np.count_nonzero(lam > lam[-1] * 1e-16)))

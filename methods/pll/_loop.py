@@ -59,6 +59,8 @@ class Options:
 
     # Table 6 columns, one entry per loop (a single entry is used for every loop); None: from the prior
     loop_bandwidth_rad_s: list[float] | None = None   # ω_L
+    # ω_L in units of each loop's prior ω₀ (ω_L = loop_bandwidth_rel·ω₀): scales with a time-scaled record
+    loop_bandwidth_rel: list[float] | None = None
     t_vco_s: list[float] | None = None                # eq. (36); None: 0.5/ω_L
     t1_s: list[float] | None = None                   # eq. (37); None: the rule under eq. (37) at ω_L
     t2_s: list[float] | None = None
@@ -213,6 +215,11 @@ def _loop_parameters(opts: Options, prior: np.ndarray, dt: float) -> list[LoopPa
     given = {name: _per_loop(getattr(opts, name), m, name) for name in PER_LOOP_OPTIONS
              if getattr(opts, name) is not None}
     omega_l = given.get("loop_bandwidth_rad_s")
+    if opts.loop_bandwidth_rel is not None:
+        if omega_l is not None:
+            raise ValueError(f"pll: give loop_bandwidth_rel or loop_bandwidth_rad_s, not both (loop_bandwidth_rel "
+                             f"= {opts.loop_bandwidth_rel!r}, loop_bandwidth_rad_s = {opts.loop_bandwidth_rad_s!r})")
+        omega_l = _per_loop(opts.loop_bandwidth_rel, m, "loop_bandwidth_rel") * prior
     if omega_l is None:
         omega_l = default_loop_bandwidth(prior, dt)
     gain = given.get("gain", np.ones(m))

@@ -26,6 +26,11 @@ Minimum window (samples) for m modes
     amplitude, phase); ``gated_pencil``: 3(n + 1), n = 2m + ``extra_order`` the pencil's order (the Hankel
     matrix needs L ≥ n rows and ≥ 2L columns). After a detected change (:mod:`methods.tracking._memory`)
     the window restarts and estimates again from max(this minimum, ``RESTART_PERIODS`` · T) samples.
+Pencil order (``gated_pencil``)
+    n = 2m + e, the spare poles e (for the noise's colour) = clip(⌊W/4⌋ − 1 − 2m, 2, 8): at most eight, and
+    no more than a window of W samples affords with room for one pulse, W ≥ 4(n + 1) (a window of a few
+    samples per period — five periods of 6 samples — would otherwise be held at the 3(2m + 9) minimum by
+    spare poles it cannot fit, and lose most windows to one flagged sample). The tracking grid: e = 8.
 Hankel rows (``gated_pencil``)
     L = clip(round(W/8), n, W/3 − 1): an eighth of the window (so that a column seldom straddles a pulse and
     ≥ 2L columns survive), never fewer than the order.
@@ -42,9 +47,11 @@ Trend noises
     multiplies them by a^(−3/2) and a⁻¹, as their units ask); ``trend_meas_rel``, ``trend_gate`` and
     ``trend_restart_after`` are dimensionless and stay.
 
-Options a user gives win: ``window_s``/``hop_s`` (s) or ``window_samples``/``hop_samples``; giving both of a
-pair is refused. A user's window is honoured: the sizes above scale to it, and it is refused only when it is
-shorter than the minimum for m modes (the message gives it in s and samples).
+Options a user gives win: ``window_s``/``hop_s`` (s) or ``window_samples``/``hop_samples``, or the hop as a
+fraction of the window (``hop_fraction``, what a grid uses to thin the costliest trackers' windows on records
+of any Δt); giving a window or a hop twice is refused. A user's window is honoured: the sizes above scale to
+it, and it is refused only when it is shorter than the minimum for m modes (the message gives it in s and
+samples).
 """
 
 from __future__ import annotations
@@ -108,10 +115,12 @@ def _pair(tracker: str, s_name: str, s_value, n_name: str, n_value, dt: float, l
 
 
 def window_hop(tracker: str, prior, dt: float, *, window_s_=None, window_samples=None, hop_s=None,
-               hop_samples=None, minimum: int, n_samples: int | None = None) -> tuple[int, int]:
-    """(W, H) in samples: the user's (in s or samples) or the rule's; ``ValueError`` (one line) for a pair
-    given twice, a window shorter than ``minimum`` samples (the minimum for the prior's modes) or longer than
-    the record."""
+               hop_samples=None, hop_fraction=None, minimum: int, n_samples: int | None = None) -> tuple[int, int]:
+    """(W, H) in samples: the user's (in s or samples) or the rule's; the hop may also be given as a fraction
+    of the window, H = max(1, round(``hop_fraction`` · W)) (a grid's coarser hop that follows the prior: it
+    counts no samples). ``ValueError`` (one line) for a window or a hop given twice, a ``hop_fraction``
+    outside (0, 1], a window shorter than ``minimum`` samples (the minimum for the prior's modes) or longer
+    than the record."""
     W = _pair(tracker, "window_s", window_s_, "window_samples", window_samples, dt, 8)
     given = W is not None
     if W is None:
@@ -120,13 +129,30 @@ def window_hop(tracker: str, prior, dt: float, *, window_s_=None, window_samples
         raise ValueError(f"{tracker}: a window of {W} samples ({W * dt:.4g} s) is too short for "
                          f"{np.size(prior)} mode(s): needs at least {minimum} samples ({minimum * dt:.4g} s)")
     H = _pair(tracker, "hop_s", hop_s, "hop_samples", hop_samples, dt, 1)
+    if hop_fraction is not None:
+        if H is not None:
+            given_hop = "hop_s" if hop_s is not None else "hop_samples"
+            raise ValueError(f"{tracker}: give hop_fraction or {given_hop}, not both (hop_fraction = "
+                             f"{hop_fraction!r}, {given_hop} = {hop_s if hop_s is not None else hop_samples!r})")
+        if isinstance(hop_fraction, bool) or not isinstance(hop_fraction, (int, float, np.integer, np.floating)) \
+                or not (0 < hop_fraction <= 1):
+            raise ValueError(f"{tracker}: hop_fraction = {hop_fraction!r} must be a number in (0, 1] (the hop "
+                             "as a fraction of the window)")
     if H is None:
-        H = max(1, int(round(HOP_FRACTION * W)))
+        H = max(1, int(round((HOP_FRACTION if hop_fraction is None else hop_fraction) * W)))
     if n_samples is not None and W > n_samples:
         what = "window_samples" if given else "the default window (5 periods of the slowest mode)"
         raise ValueError(f"{tracker}: {what} = {W} is longer than the record ({n_samples} samples; the window "
                          f"is {W * dt:.4g} s)")
     return W, H
+
+
+EXTRA_ORDER_MIN, EXTRA_ORDER_MAX = 2, 8
+
+
+def pencil_extra_order(W: int, m: int) -> int:
+    """The pencil's spare poles e for a window of W samples and m modes (module docstring)."""
+    return int(np.clip(W // 4 - 1 - 2 * m, EXTRA_ORDER_MIN, EXTRA_ORDER_MAX))
 
 
 def pencil_sizes(W: int, m: int, order: int, rows=None, ar_order=None, min_segment=None) -> tuple[int, int, int]:

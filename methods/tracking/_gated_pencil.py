@@ -62,14 +62,16 @@ MIN_DAMPING = -0.02
 class Options:
     """Options of ``gated_pencil`` (module docstring). None: from Δt and the prior, or scaled to the window
     (methods/tracking/_defaults.py): W = 5 periods of the slowest mode (≥ two beats of the closest pair),
-    H = W/10, L = W/8, AR order W/20 within [2m + 2, 2m + 16], min segment max(2(2m + 1), W/25)."""
+    H = W/10, spare poles ``extra_order`` clip(⌊W/4⌋ − 1 − 2m, 2, 8), L = W/8 (grown to W/3 where the pulses
+    leave the columns), AR order W/20 within [2m + 2, 2m + 16], min segment max(2(2m + 1), W/25)."""
 
     window_samples: int | None = None
     hop_samples: int | None = None
     window_s: float | None = None
     hop_s: float | None = None
+    hop_fraction: float | None = None
     rows: int | None = None
-    extra_order: int = 8
+    extra_order: int | None = None
     ar_order: int | None = None
     outlier_cut: float = 4.0
     detect_ratio: float = 3.0
@@ -99,18 +101,24 @@ def _int(value, name: str, low: int, tracker: str) -> None:
 def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = None) -> Options:
     """``opts`` with every size in samples: the window and hop (the user's, in s or samples, or the rule's),
     then rows, AR order and min segment scaled to that window unless given (:mod:`methods.tracking._defaults`).
-    A window is refused only when shorter than 3(n + 1) samples, n = 2m + ``extra_order``."""
-    _int(opts.extra_order, "extra_order", 0, name)
+    A window is refused only when shorter than 3(n + 1) samples, n = 2m + ``extra_order`` (the smallest
+    default ``extra_order``, 2, when none is given)."""
+    if opts.extra_order is not None:
+        _int(opts.extra_order, "extra_order", 0, name)
     m = int(np.size(prior))
-    order = 2 * m + opts.extra_order
+    order = 2 * m + (_defaults.EXTRA_ORDER_MIN if opts.extra_order is None else opts.extra_order)
     W, H = _defaults.window_hop(name, prior, dt, window_s_=opts.window_s, window_samples=opts.window_samples,
-                                hop_s=opts.hop_s, hop_samples=opts.hop_samples, n_samples=n_samples,
+                                hop_s=opts.hop_s, hop_samples=opts.hop_samples, hop_fraction=opts.hop_fraction,
+                                n_samples=n_samples,
                                 minimum=_defaults.min_window_samples(m, order))
     for key, low in (("rows", 4), ("ar_order", 2), ("min_segment", 4)):
         if getattr(opts, key) is not None:
             _int(getattr(opts, key), key, low, name)
+    extra = _defaults.pencil_extra_order(W, m) if opts.extra_order is None else opts.extra_order
+    order = 2 * m + extra
     rows, ar_order, min_segment = _defaults.pencil_sizes(W, m, order, opts.rows, opts.ar_order, opts.min_segment)
-    return dataclasses.replace(opts, window_samples=W, hop_samples=H, window_s=None, hop_s=None, rows=rows,
+    return dataclasses.replace(opts, extra_order=extra, window_samples=W, hop_samples=H, window_s=None, hop_s=None,
+                               hop_fraction=None, rows=rows,
                                ar_order=ar_order, min_segment=min_segment)
 
 
@@ -153,6 +161,27 @@ def pulse_flags(seg: np.ndarray, ar_order: int, cut: float, iterations: int = 3)
     return flags
 
 
+def widest_rows(flags: np.ndarray, rows: int, candidates: int = 6) -> int:
+    """The most Hankel rows L, from ``rows`` (the rule's W/8) up to W/3 − 1 in ``candidates`` steps, that
+    leaves ≥ 2L pulse-free columns in a window with pulse ``flags``.
+
+    A pencil resolves two modes about 2π/L rad per sample apart: the rule's W/8 rows (chosen so that a column
+    seldom straddles a pulse) merge modes a few % apart when the window holds six modes over a decade, while a
+    window with few pulses has the columns for W/3 (Hua & Sarkar's best noise performance lies at L between
+    N/3 and N/2). So the rows grow with the pulse-free columns there are; a window full of pulses keeps W/8."""
+    n = flags.size
+    top = n // 3 - 1
+    if top <= rows:
+        return rows
+    cum = np.concatenate(([0], np.cumsum(flags)))
+    best = rows
+    for L in np.unique(np.linspace(rows, top, candidates).round().astype(int)):
+        k = np.arange(n - L)
+        if int(np.count_nonzero(cum[k + L + 1] - cum[k + 1] == 0)) >= 2 * L:
+            best = int(L)
+    return best
+
+
 def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: int, cut: float,
                  detect_ratio: float, flags: np.ndarray | None = None):
     """(continuous poles s of the gated pencil, share of Hankel columns kept) for one window."""
@@ -185,11 +214,17 @@ def _labelled(w: np.ndarray, zeta: np.ndarray, std: np.ndarray, ref: np.ndarray,
     is under ``max_std_rad_s`` (the window's phase-std test). A mode that lies nearer another mode's last
     estimate than its own counts only if that other mode is itself determined at a distinct pole (more than
     3 combined std away): else it is that mode's pole picked up by a component whose own mode has died away.
-    Of two modes on one pole (within 3 combined std) only the one nearer its own last estimate counts."""
+    Of two modes on one pole (within 3 combined std) only the one nearer its own last estimate counts. When
+    every mode passes and no two share a pole, all count (their labels then follow their ranks)."""
     dist = np.abs(np.log(w)[:, None] - np.log(ref)[None, :])
     own = np.diag(dist)
     ok = (own <= limit) & np.isfinite(std) & (std <= max_std_rad_s) & (zeta <= max_damping)
     apart = np.abs(w[:, None] - w[None, :]) > 3 * np.hypot(std[:, None], std[None, :])
+    if ok.all() and apart[np.triu_indices(w.size, 1)].all():
+        # every mode determined at a pole of its own: the m poles are the m modes, labelled by rank
+        # (_in_order) — after a step larger than the gap between two modes a mode's new pole may lie nearer
+        # a neighbour's last estimate than its own, which the test below would refuse
+        return ok
     good = ok.copy()
     for i in np.flatnonzero(ok):
         k = int(np.argmin(dist[i]))
@@ -199,6 +234,21 @@ def _labelled(w: np.ndarray, zeta: np.ndarray, std: np.ndarray, ref: np.ndarray,
         if good[i] and good[k]:
             good[i if own[i] > own[k] else k] = False
     return good
+
+
+def _in_order(w: np.ndarray, zeta: np.ndarray, std: np.ndarray, good: np.ndarray):
+    """The determined modes' refined (ω, ζ, std) relabelled by rank: the i-th smallest determined ω to the
+    i-th determined mode in prior order. The fit starts each component at its mode's last estimate, but after
+    a step it may converge on a neighbour's pole and the neighbour on its own (two crossed labels, each within
+    ``band`` of its reference); the modes keep their order (the references are increasing,
+    ``usable_prior``), so the ranks are the labels."""
+    idx = np.flatnonzero(good)
+    order = idx[np.argsort(w[idx], kind="stable")]
+    if np.array_equal(order, idx):
+        return w, zeta, std
+    w, zeta, std = w.copy(), zeta.copy(), std.copy()
+    w[idx], zeta[idx], std[idx] = w[order], zeta[order], std[order]
+    return w, zeta, std
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
@@ -217,6 +267,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     wstd = np.full((ends.size, m), np.nan)
     span = np.full(ends.size, np.nan)
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
+             "rows_free": given.rows is None,
              "seg_start": 0}
     limit = np.log1p(opts.band)
     bank = _trend.TrendBank(m, **_trend.settings(opts, prior)) if (opts.trend or opts.memory) else None
@@ -305,6 +356,8 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     centred = seg - seg.mean()
     flags = pulse_flags(centred, ar_order, opts.outlier_cut)
     state["flags"] = flags
+    if state["rows_free"]:
+        rows = widest_rows(flags, rows)
     s, kept = window_poles(seg, dt, order, rows, ar_order, opts.outlier_cut, opts.detect_ratio, flags)
     w = np.abs(s)
     zeta = -s.real / np.maximum(w, 1e-300)
@@ -313,7 +366,10 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     if cand.size == 0:
         return kept
     dist = np.abs(cand[:, None] - np.log(ref)[None, :])
-    cost = np.where(dist <= limit, dist, 1e6)
+    # squared log distance: strictly convex, so the optimal assignment keeps the modes' order (two crossed
+    # pairs always cost more than the same pairs uncrossed) — after a step larger than the gap between two
+    # modes the nearest reference is a neighbour's, the rank is still right
+    cost = np.where(dist <= limit, dist * dist, 1e6)
     rr, cc = scipy.optimize.linear_sum_assignment(cost)
     hit = cost[rr, cc] < 1e6
     freq[cc[hit]] = np.exp(cand[rr[hit]])
@@ -331,6 +387,7 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         if refined is not None:
             wr, zr, sr = refined
             good = _labelled(wr, zr, sr, ref, limit, opts.max_phase_std / ((seg.size - 1) * dt), opts.max_damping)
+            wr, zr, sr = _in_order(wr, zr, sr, good)
             freq[good], wstd[good], found[good] = wr[good], sr[good], True
             state["last_w"] = np.where(good, wr, last_w)
             state["last_z"] = np.where(good, zr, last_z)

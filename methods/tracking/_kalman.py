@@ -26,11 +26,15 @@ class _Online:
     warmup_s : float
         The first ``warmup_s`` seconds scale P0 of the modal and drift states (the batch filter uses the
         whole record's largest magnitude); the track starts at the end of the warm-up.
+    warmup_periods : float or None
+        The warm-up in periods of the slowest prior mode, 2π/ω_min (a variant that scales with the record);
+        given, it sets the warm-up (``warmup_s`` then left at its default; giving both is refused).
     max_restarts : int
         Restarts after a divergence (0: the track ends at the first divergence).
     """
 
     warmup_s: float = 1.0
+    warmup_periods: float | None = None
     max_restarts: int = 20
 
 
@@ -53,7 +57,14 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     opts = make_options(OPTIONS[name], options, name)
     if not (np.isfinite(opts.warmup_s) and dt <= opts.warmup_s):
         raise ValueError(f"{name}: warmup_s = {opts.warmup_s} s must be at least one sample ({dt} s)")
-    warmup = _warmup_samples(opts, dt)
+    if opts.warmup_periods is not None:
+        val = opts.warmup_periods
+        if isinstance(val, bool) or not isinstance(val, (int, float)) or not (np.isfinite(val) and val > 0):
+            raise ValueError(f"{name}: warmup_periods = {val!r} must be a positive number of periods")
+        if opts.warmup_s != _Online.warmup_s:
+            raise ValueError(f"{name}: give warmup_periods or warmup_s, not both (warmup_periods = {val!r}, "
+                             f"warmup_s = {opts.warmup_s!r})")
+    warmup = _warmup_samples(opts, dt, prior)
     if n_samples is not None and warmup > n_samples:
         raise ValueError(f"{name}: warmup_s = {opts.warmup_s} s is longer than the record ({n_samples} samples)")
     if isinstance(opts.max_restarts, bool) or not isinstance(opts.max_restarts, int) or opts.max_restarts < 0:
@@ -66,13 +77,15 @@ def _filter_options(options: dict) -> dict:
     return {k: v for k, v in options.items() if k not in ONLINE_FIELDS}
 
 
-def _warmup_samples(opts, dt: float) -> int:
+def _warmup_samples(opts, dt: float, prior) -> int:
+    if opts.warmup_periods is not None:
+        return max(1, int(round(opts.warmup_periods * 2.0 * np.pi / float(np.min(prior)) / dt)))
     return max(1, int(round(opts.warmup_s / dt)))
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
     opts = make_options(OPTIONS[name], options, name)
-    warmup = _warmup_samples(opts, dt)
+    warmup = _warmup_samples(opts, dt, prior)
     out = online.track_filter(y, dt, prior, name, _filter_options(options), warmup_samples=warmup,
                               max_restarts=opts.max_restarts)
     k = np.arange(warmup - 1, y.size)

@@ -40,6 +40,7 @@ class Options:
     hop_samples: int | None = None
     window_s: float | None = None
     hop_s: float | None = None
+    hop_fraction: float | None = None
     lags_fraction: float = 0.5
     extra_order: int = 3
     band: float = 0.3
@@ -72,9 +73,10 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
     # the ERA needs 2(2m + 1 + extra_order) + 1 lags of the window
     minimum = int(np.ceil((2 * (2 * np.size(prior) + 1 + opts.extra_order) + 2) / lags_fraction))
     W, H = _defaults.window_hop(name, prior, dt, window_s_=opts.window_s, window_samples=opts.window_samples,
-                                hop_s=opts.hop_s, hop_samples=opts.hop_samples, n_samples=n_samples,
+                                hop_s=opts.hop_s, hop_samples=opts.hop_samples, hop_fraction=opts.hop_fraction,
+                                n_samples=n_samples,
                                 minimum=max(minimum, _defaults.min_window_samples(np.size(prior))))
-    return dataclasses.replace(opts, window_samples=W, hop_samples=H, window_s=None, hop_s=None)
+    return dataclasses.replace(opts, window_samples=W, hop_samples=H, window_s=None, hop_s=None, hop_fraction=None)
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:

@@ -59,6 +59,8 @@ def lead_in_samples(opts, prior: np.ndarray, dt: float) -> int:
     4π/(ω₀Δt)) per loop, T_AGC = agc_time_factor/ω_L); the track starts at the last of them."""
     if opts.loop_bandwidth_rad_s is not None:
         omega_l = np.broadcast_to(np.asarray(opts.loop_bandwidth_rad_s, float).reshape(-1), prior.shape)
+    elif opts.loop_bandwidth_rel is not None:        # ω_L in units of each loop's ω₀
+        omega_l = np.broadcast_to(np.asarray(opts.loop_bandwidth_rel, float).reshape(-1), prior.shape) * prior
     else:
         omega_l = design.default_loop_bandwidth(prior, dt)
     t_agc = opts.agc_time_factor / omega_l

@@ -30,7 +30,8 @@ from methods.tracking._track import Track, usable_prior, window_ends
 # The window's options: None = from Δt and the prior (methods/tracking/_defaults.py: 5 periods of the slowest
 # mode, at least two beats of the closest pair; 486 samples = 9.7 s on the tracking grid's records).
 WINDOW_OPTIONS = (("window_samples", int | None, None), ("hop_samples", int | None, None),
-                  ("window_s", float | None, None), ("hop_s", float | None, None))
+                  ("window_s", float | None, None), ("hop_s", float | None, None),
+                  ("hop_fraction", float | None, None))
 WINDOW_FIELDS = tuple(k for k, _, _ in WINDOW_OPTIONS) + ("warm_start",) + _trend.TREND_FIELDS
 
 # A method's defaults on a window (the caller's options win): pem answers a window's own frequency, not the
@@ -49,7 +50,8 @@ WARM_OPTIONS: dict[str, dict] = {
 @functools.cache
 def options_class(name: str):
     """The tracking options of batch method ``name``: its own ``Options`` plus the window W and hop H (in
-    samples, ``window_samples``/``hop_samples``, or in s, ``window_s``/``hop_s``; None: from Δt and the prior),
+    samples, ``window_samples``/``hop_samples``, or in s, ``window_s``/``hop_s``, or the hop as a fraction of
+    the window, ``hop_fraction``; None: from Δt and the prior),
     ``warm_start`` and the trend stage's (:mod:`methods.tracking._trend`)."""
     base = methods.options_class(name)
     return dataclasses.make_dataclass(
@@ -65,9 +67,10 @@ def resolve(opts, name: str, prior, dt: float, n_samples: int | None = None, min
     given twice or a window too short for the prior's modes (``minimum``: 12m samples) or longer than the
     record."""
     W, H = _defaults.window_hop(name, prior, dt, window_s_=opts.window_s, window_samples=opts.window_samples,
-                                hop_s=opts.hop_s, hop_samples=opts.hop_samples, n_samples=n_samples,
+                                hop_s=opts.hop_s, hop_samples=opts.hop_samples, hop_fraction=opts.hop_fraction,
+                                n_samples=n_samples,
                                 minimum=_defaults.min_window_samples(np.size(prior)) if minimum is None else minimum)
-    return dataclasses.replace(opts, window_samples=W, hop_samples=H, window_s=None, hop_s=None)
+    return dataclasses.replace(opts, window_samples=W, hop_samples=H, window_s=None, hop_s=None, hop_fraction=None)
 
 
 def split(options: dict) -> tuple[dict, dict]:

@@ -190,6 +190,10 @@ def identify_runtime(wildcards, attempt):
     return _grid(lambda: resources.identify_runtime(WF, wildcards.grid, wildcards.method, attempt))
 
 
+def identify_priority(wildcards):
+    return resources.identify_priority(WF.root, wildcards.grid, wildcards.method)
+
+
 def dataset_runtime(grid):
     """The runtime request of the datasets batch of a grid (datasets.smk)."""
     return lambda wildcards, attempt: resources.dataset_runtime(WF, grid, attempt)

@@ -44,7 +44,7 @@ def track(name, y, dt, prior, **options):
                         time.process_time() - t0, "stand-in")
 
 
-# the windowed trackers the grids give options to, played by the same stand-in (they accept hop_samples)
+# the windowed trackers the grids give options to, played by the same stand-in (they accept a hop)
 WINDOWED = ["n4sid", "ssi_cov", "ssi_data", "lsce", "hdmd", "bopdmd"]
 
 
@@ -56,7 +56,7 @@ def check_track_options(name, prior, dt, options=None, *, n_samples=None):
     if name not in track_names():
         raise ValueError(f"unknown tracker '{name}'")
     for key in options or {}:
-        if not (name in WINDOWED and key == "hop_samples"):
+        if not (name in WINDOWED and key in ("hop_samples", "hop_fraction")):
             raise ValueError(f"{name}: unknown option '{key}'")
 
 

@@ -10,18 +10,19 @@ from experiments.report.scoring import COLUMNS
 TRUE = [3.23, 20.24, 22.0, 56.67]
 
 
-def results_csv(path, method="pem", std_scale=1.0, replicates=12, seed=3):
+def results_csv(path, method="pem", std_scale=1.0, replicates=12, seed=3, noise_levels=(1000.0,)):
     rng = np.random.default_rng(seed)           # not the scoring seed
     rows = []
     for r in range(replicates):
         for mode, true in enumerate(TRUE, start=1):
-            sigma = 1e-3 * true
-            err = sigma * rng.standard_normal()
-            rows.append(dict(method=method, noise_ug=1000.0, n_samples=256, replicate=r, mode=mode,
-                             prior_rad_s=true, true_rad_s=true, estimate_rad_s=true + err,
-                             std_rad_s=std_scale * sigma, error_rad_s=err, crlb_std_rad_s=sigma,
-                             crlb_offset_std_rad_s=sigma, identifiable=True, converged=True, iterations=3,
-                             runtime_s=0.01, message=""))
+            for noise in noise_levels:
+                sigma = 1e-3 * true * noise / 1000.0
+                err = sigma * rng.standard_normal()
+                rows.append(dict(method=method, noise_ug=noise, n_samples=256, replicate=r, mode=mode,
+                                 prior_rad_s=true, true_rad_s=true, estimate_rad_s=true + err,
+                                 std_rad_s=std_scale * sigma, error_rad_s=err, crlb_std_rad_s=sigma,
+                                 crlb_offset_std_rad_s=sigma, identifiable=True, converged=True, iterations=3,
+                                 runtime_s=0.01, message=""))
     pd.DataFrame(rows, columns=COLUMNS).to_csv(path, index=False)
     return path
 
@@ -63,3 +64,15 @@ def test_a_figure_someone_else_adds_gets_a_caption_that_says_it_has_none(tmp_pat
     (written,) = aggregate.write_captions(tmp_path, "png", {})
     assert written.name == "basin_of_attraction_xyz.rst"
     assert "no caption written yet" in written.read_text()
+
+
+def test_a_grid_without_1_mg_draws_its_figures_at_a_level_it_has(tmp_path):
+    # an even number of levels, none of them 1000 µg: the median (5050 µg) is no level of the grid, and the
+    # one-noise figures found no data there
+    assert aggregate.reference_noise([100.0, 10000.0]) == 100.0
+    assert aggregate.reference_noise([10.0, 3000.0, 1e5]) == 3000.0
+    assert aggregate.reference_noise([1000.0, 10.0]) == 1000.0
+    results = results_csv(tmp_path / "pem.csv", replicates=4, noise_levels=(100.0, 10000.0))
+    out = tmp_path / "out"
+    assert aggregate.main(["--grid", "t", "--out", str(out), "--", str(results)]) == 0
+    assert sorted(p.name for p in (out / "figures").glob("*.png"))

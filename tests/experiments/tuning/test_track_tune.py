@@ -89,7 +89,7 @@ def test_tiny_tracking_study_writes_a_variant_the_track_face_accepts(tmp_path, m
     for fragment in ("tuning seed 11", "Trials: 2", "step_1000ug_12s", "best trial", "Command:", "tracker: akf"):
         assert fragment in text, text
     options = variant_options("akf:tiny", root=root)
-    assert set(options) == {"measurement", "qd_modal", "qd_frequency", "rd", "p0_modal_scale"}
+    assert set(options) == {"measurement", "qd_modal", "qd_frequency_rel", "rd", "p0_modal_scale"}
     prior = np.array([3.3, 20.0, 22.3, 56.0])
     methods.check_track_options("akf", prior, 0.02, options, n_samples=600)
     y = np.random.default_rng(0).normal(size=600) * 1e-3
@@ -105,7 +105,7 @@ def test_benchmark_rows_take_a_variant_file():
     from experiments.benchmarks.tracking_cpu import parse_row
 
     name, options = parse_row("akf:tuned")
-    assert name == "akf" and options == variant_options("akf:tuned") and "qd_frequency" in options
+    assert name == "akf" and options == variant_options("akf:tuned") and "qd_frequency_rel" in options
     assert parse_row("pem:trend=true") == ("pem", {"trend": True})
     with pytest.raises(ValueError, match="unknown tracker variant 'akf:nope'"):
         parse_row("akf:nope")

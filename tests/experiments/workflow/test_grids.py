@@ -18,6 +18,7 @@ from experiments.workflow.command_line import (
     unknown_rule_targets,
 )
 from experiments.workflow.grids import GridError, Grids, method_config
+from experiments.workflow.tracking import TRACKING_GRIDS, tracking_grid
 from experiments.workflow.triggers import resolved_config
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -185,3 +186,38 @@ def test_an_old_rule_name_is_found_with_one_note_naming_the_new_one(capsys):
                      "note: rule 'tracking_mlflow' is now 'tracking_runlog'; the old name works until the next "
                      "release"]
     assert renamed_rules(["--forcerun", "runlog", "tracking", "tracking_runlog"]) == []
+
+
+def test_identify_priority_is_the_batch_s_known_cpu_time(tmp_path):
+    # the last run's Snakemake benchmark first, then the cost model's per-cell fits (R x CPU per fit), else 0
+    from experiments.workflow.resources import batch_cpu_s, identify_priority
+
+    assert batch_cpu_s(tmp_path, "full", "bopdmd") is None and identify_priority(tmp_path, "full", "bopdmd") == 0
+    model = tmp_path / "results" / "bench" / "sweep_cost" / "full.csv"
+    model.parent.mkdir(parents=True)
+    model.write_text("entry,noise_ug,n_samples,cpu_s_per_fit,replicates\nbopdmd,100,256,0.5,100\n"
+                     "bopdmd,100,2048,1.25,100\nakf:tuned,100,256,0.01,100\n")
+    assert batch_cpu_s(tmp_path, "full", "bopdmd") == pytest.approx(175.0)
+    assert identify_priority(tmp_path, "full", "akf_tuned") == 1           # ceil(1.0)
+    assert identify_priority(tmp_path, "full", "era") == 0                  # not in the model
+    bench = tmp_path / "results" / "full" / "benchmarks" / "identify" / "bopdmd.tsv"
+    bench.parent.mkdir(parents=True)
+    bench.write_text("s\th:m:s\tmax_rss\tcpu_time\n61.2\t0:01:01\t120.5\t58.4\n")
+    assert identify_priority(tmp_path, "full", "bopdmd") == 59
+    bench.write_text("s\th:m:s\n61.2\t0:01:01\n")                           # no cpu_time column: wall
+    assert identify_priority(tmp_path, "full", "bopdmd") == 62
+    bench.write_text("garbage")
+    assert identify_priority(tmp_path, "full", "bopdmd") == 175
+
+
+def test_every_shipped_grid_passes_its_own_check():
+    # what `snakemake results/<grid>/README.md` checks before it builds the DAG, for every grid file of the
+    # repository: a grid that ships refused (a variant's per-loop option on a cell with another mode count) fails
+    grids = Grids(ROOT)
+    batch = [g for g in grids.grid_names() if g not in TRACKING_GRIDS]
+    assert batch and TRACKING_GRIDS
+    for name in batch:
+        assert grids.cells(name), name
+    for name in TRACKING_GRIDS:
+        tracking_grid.cache_clear()
+        assert tracking_grid(name)["tracker_list"], name

@@ -82,3 +82,46 @@ def test_bopdmd_bagging_gives_the_librarys_spread(noisy_record):
     est = methods.get("bopdmd")(noisy_record(64, 1000.0, seed=4), DT, PRIOR, num_trials=5)
     assert np.all(np.isfinite(est.std[np.isfinite(est.frequencies)]))
     assert np.all(est.std[np.isfinite(est.frequencies)] > 0)
+
+
+@pytest.mark.parametrize("n, noise_ug", [(64, 100.0), (512, 10.0), (1024, 10000.0)])
+def test_hdmd_truncated_svd_gives_pydmd_s_own_eigenvalues(noisy_record, n, noise_ug):
+    """DMD of the delay snapshots projected on their leading singular vectors (ARPACK) has the eigenvalues
+    of pydmd's HankelDMD with its full SVDs, to rounding: the same poles, picks and flags."""
+    from pydmd import DMD, HankelDMD
+
+    from methods.peers import hdmd
+
+    y = noisy_record(n, noise_ug, seed=11)
+    d, order = hdmd.delays_and_order(y.size, PRIOR, DT, hdmd.Options())
+    full = HankelDMD(svd_rank=order, d=d).fit(y[None, :]).eigs
+    H = hdmd.delay_embedding(y, d)
+    np.testing.assert_array_equal(H[3], y[3:3 + y.size - d + 1])
+    cut = DMD(svd_rank=order).fit(hdmd.leading_subspace(H, order).T @ H).eigs
+    np.testing.assert_allclose(np.sort_complex(cut), np.sort_complex(full), rtol=1e-9, atol=1e-12)
+    a, b = (methods.get("hdmd")(y, DT, PRIOR, svd=s) for s in ("full", "truncated"))
+    np.testing.assert_allclose(a.frequencies, b.frequencies, rtol=1e-9)
+    assert a.converged_per_mode.tolist() == b.converged_per_mode.tolist()
+
+
+def test_hdmd_leading_subspace_leaves_a_square_rank_to_the_full_svd():
+    H = np.lib.stride_tricks.sliding_window_view(np.arange(12.0), 6)      # 7 x 6: X1 is 7 x 5
+    from methods.peers import hdmd
+
+    assert hdmd.leading_subspace(H, 5) is None and hdmd.leading_subspace(H, 4).shape == (7, 4)
+
+
+@pytest.mark.parametrize("name, option, value", [("hdmd", "svd", "randomised"), ("bopdmd", "start", "prior"),
+                                                 ("bopdmd", "eps_stall", 1.0), ("bopdmd", "eps_stall", -1e-3)])
+def test_the_cost_options_are_checked_before_any_record(name, option, value):
+    with pytest.raises(ValueError, match=f"{option} = "):
+        methods.check_options(name, [5.0], DT, {option: value})
+
+
+def test_bopdmd_dmd_start_reaches_pydmd_s_own_optimum(noisy_record):
+    """From the exact-DMD start in the projected coordinates, with the stall test at 1e-12 (pydmd's
+    default), the variable projection ends where pydmd's own path (trapezoidal start, its SVDs) ends."""
+    y = noisy_record(512, 100.0, seed=12)
+    own = methods.get("bopdmd")(y, DT, PRIOR, start="trapezoid", eps_stall=1e-12)
+    ours = methods.get("bopdmd")(y, DT, PRIOR, start="dmd", eps_stall=1e-12)
+    np.testing.assert_allclose(ours.frequencies, own.frequencies, rtol=2e-6)

@@ -7,8 +7,12 @@ converged frequencies / a. The paper's own rows (``akf``, ``wkf``, ``pll``: the 
 excluded by design.
 """
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
+import yaml
 from _tracking_signals import anyrate_record, driven_modes, schedule, score_steps
 
 import methods
@@ -57,6 +61,29 @@ def test_a_time_scaled_record_gives_the_same_relative_track(name, scale, record)
     np.testing.assert_allclose(b.frequencies[both] * scale, a.frequencies[both], rtol=RTOL.get(name, 1e-4))
 
 
+VARIANTS = sorted((Path(__file__).resolve().parents[3] / "configs" / "tracker").glob("*_tuned.yaml"))
+
+
+@pytest.mark.parametrize("path", VARIANTS, ids=[p.stem for p in VARIANTS])
+@pytest.mark.parametrize("scale", [5.0, 0.2])
+def test_the_paper_rows_tuned_variants_scale_with_the_record(path, scale):
+    """akf, wkf, pll keep the paper's numbers; their tuned variants (configs/tracker/*_tuned.yaml, tuned at
+    Δt = 0.02 s) are written in units of the prior, so a time-scaled four-mode record gives the same relative
+    track."""
+    variant = yaml.safe_load(path.read_text())
+    name, options = variant["tracker"], variant["options"]
+    assert not {"qd_frequency", "weight_omega0_rad_s", "loop_bandwidth_rad_s"} & set(options), path.name
+    y = driven_modes(schedule(1500, step_at=900, step=0.04), noise_ug=300.0, seed=6)
+    prior = np.array([3.3, 19.8, 22.4, 57.0])
+    a = methods.track(name, y, DT, prior, **options)
+    b = methods.track(name, y, DT * scale, prior / scale, **options)
+    np.testing.assert_allclose(b.t_s, a.t_s * scale, rtol=1e-9)
+    assert np.array_equal(a.converged, b.converged), name
+    ok = np.isfinite(a.frequencies)
+    assert ok.mean() > 0.9, a.message
+    np.testing.assert_allclose(b.frequencies[ok] * scale, a.frequencies[ok], rtol=1e-6)
+
+
 def test_the_rule_in_numbers():
     grid = np.array([3.23, 20.24, 22.0, 56.67])       # the tracking grid's modes at Δt = 0.02 s
     W, H = _defaults.window_hop("x", grid, 0.02, minimum=8)
@@ -79,6 +106,20 @@ def test_a_users_window_is_honoured_in_seconds_or_samples(name):
     with pytest.raises(ValueError, match="give window_s or window_samples, not both") as err:
         methods.check_track_options(name, PRIOR, DT, {"window_s": 1.5, "window_samples": 75})
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("name", [n for n in methods.track_names() if "hop_fraction" in _fields(n)])
+def test_a_hop_as_a_fraction_of_the_window_follows_the_prior(name):
+    """The grids' coarser hop (hop_fraction) counts no samples: half the rule's window at any Δt."""
+    for dt, prior in ((DT, PRIOR), (DT / 50, PRIOR * 50)):
+        opts = methods.check_track_options(name, prior, dt, {"hop_fraction": 0.5})
+        assert opts.hop_samples == max(1, round(0.5 * opts.window_samples))
+    for bad, words in (({"hop_fraction": 0.0}, "hop_fraction = 0.0 must be a number in (0, 1]"),
+                       ({"hop_fraction": 1.5}, "hop_fraction = 1.5"),
+                       ({"hop_fraction": 0.5, "hop_samples": 10}, "give hop_fraction or hop_samples, not both")):
+        with pytest.raises(ValueError, match=re.escape(words)) as err:
+            methods.check_track_options(name, PRIOR, DT, bad)
+        assert "\n" not in str(err.value)
 
 
 @pytest.mark.parametrize("name", ["gated_pencil", "next_era", "fft", "era"])

@@ -61,7 +61,7 @@ def test_the_trend_stage_is_on_by_default_and_its_options_are_checked():
     assert opts.hop_samples == round(five_periods / 10) and opts.rows == round(five_periods / 8)
     for bad, words in (({"rows": 3}, "rows = 3"), ({"rows": 10}, "rows = 10 must be at least"),
                        ({"outlier_cut": 0}, "outlier_cut = 0"), ({"trend_gate": -1.0}, "trend_gate = -1.0"),
-                       ({"window_samples": 40}, "40 samples (0.8 s) is too short for 4 mode(s)"),
+                       ({"window_samples": 30}, "30 samples (0.6 s) is too short for 4 mode(s)"),
                        ({"window_s": 2.0, "window_samples": 100}, "give window_s or window_samples, not both"),
                        ({"refine": "yes"}, "refine = 'yes'"), ({"refine_steps": 0}, "refine_steps = 0"),
                        ({"min_segment": 2}, "min_segment = 2"), ({"max_phase_std": 0.0}, "max_phase_std = 0.0"),
