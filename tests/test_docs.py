@@ -122,3 +122,76 @@ def test_the_issue_pattern_catches_ticket_references(words):
                                   "color #ffaa00", "x[#]"])
 def test_the_issue_pattern_leaves_other_text_alone(text):
     assert not ISSUE_NUMBER.search(text)
+
+
+# ---- a family README describes; its numbers are on the family's benchmark page ------------------------------
+
+FAMILY_READMES = sorted(ROOT.glob("methods/*/README.md"))
+# A section or paragraph of measurements: a heading or a bold lead-in that opens with "Measured" ("## Measured
+# (the paper grid's ...)", "**Measured on the scoring seed** ...").
+MEASURED = re.compile(r"^\s*(?:#+\s*|\*\*)(?:Measured|What was measured)\b", re.IGNORECASE)
+# A table or the line that introduces it, saying that its numbers no longer hold.
+STALE = re.compile(r"\bout of date\b|\boutdated\b|\bpredates?\b|\bno longer (?:hold|current)|\bstale\b", re.IGNORECASE)
+
+
+def measured_sections(text: str) -> list[str]:
+    return [line.strip()[:100] for line in text.splitlines() if MEASURED.match(line)]
+
+
+def stale_tables(text: str) -> list[str]:
+    """The lines of a table, the line that introduces it and the paragraph that follows it, that say the
+    table's numbers are out of date."""
+    lines = text.splitlines()
+    near = set()
+    for i, line in enumerate(lines):
+        if not line.lstrip().startswith("|"):
+            continue
+        near.add(i)
+        if i > 0 and not lines[i - 1].lstrip().startswith("|"):
+            near.add(i - 1)                          # the line above the table
+        if i + 1 < len(lines) and not lines[i + 1].lstrip().startswith("|"):
+            k = i + 1 if lines[i + 1].strip() else i + 2         # the paragraph after it
+            while k < len(lines) and lines[k].strip() and not lines[k].startswith("#"):
+                near.add(k)
+                k += 1
+    return [lines[i].strip()[:100] for i in sorted(near) if STALE.search(lines[i])]
+
+
+def test_every_family_has_a_benchmark_page():
+    assert {p.parent.name for p in FAMILY_READMES} >= {"kalman", "pem", "pll", "peers", "tracking"}
+    missing = [p.parent.name for p in FAMILY_READMES
+               if not (ROOT / "docs" / "measured" / f"{p.parent.name}.md").is_file()]
+    assert not missing, f"families without a page of numbers under docs/measured/: {missing}"
+
+
+@pytest.mark.parametrize("readme", FAMILY_READMES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_a_family_readme_points_to_its_benchmark_page_for_numbers(readme):
+    text = readme.read_text(encoding="utf-8")
+    assert f"docs/measured/{readme.parent.name}.md" in text, f"{readme.relative_to(ROOT)} links no page of numbers"
+    found = measured_sections(text)
+    assert not found, (f"{readme.relative_to(ROOT)}: measurements go to docs/measured/{readme.parent.name}.md, "
+                       "the README says what the code does:\n" + "\n".join(found))
+
+
+@pytest.mark.parametrize("page", [p for p in tracked_text_files() if p.suffix == ".md"],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_table_says_it_is_out_of_date(page):
+    found = stale_tables(page.read_text(encoding="utf-8"))
+    assert not found, f"{page.relative_to(ROOT)}: rerun the table or drop it:\n" + "\n".join(found)
+
+
+@pytest.mark.parametrize("text, measured, stale", [
+    ("## Measured (the paper grid's 35 cells)\n", True, False),
+    ("**Measured on the scoring seed** (`python -m x`):\n", True, False),
+    ("**What was measured while building them** (design seed 7)\n", True, False),
+    ("The peer rows below predate the picker:\n| a | b |\n|---|---|\n", False, True),
+    ("| method | RMSE |\n|---|---|\n| era | 1.2 (out of date) |\n", False, True),
+    ("Speed: [docs/measured/kalman.md](../../docs/measured/kalman.md#speed)\n", False, False),
+    ("measured in place on a busy machine; the table below is current\n| a |\n", False, False),
+    ("| a | b |\n|---|---|\n| 1 | 2 |\n`pem` wins here. The peers'\nrows predate their picker.\n", False, True),
+    ("| a |\n|---|\n\nThe peers' rows predate the picker.\n", False, True),
+    ("| a |\n|---|\n\n## Next\n\nolder rows predate the picker.\n", False, False),
+])
+def test_the_family_and_table_checks_see_a_breach(text, measured, stale):
+    assert bool(measured_sections(text)) is measured
+    assert bool(stale_tables(text)) is stale

@@ -4,8 +4,9 @@ In the spirit of scikit-learn's import-consistency checks: the walls of the hous
 
 - ``experiments/`` stages import one way: io, paths, provenance (and the other modules at the top of
   ``experiments/``) -> recordings / simulate (data read, data made) -> report -> runlog (MLflow run logging)
-  -> jobs -> workflow (the Snakemake rules' Python) / tuning / benchmarks / paper. A stage imports only its
-  own modules and earlier stages'; stages of one rank do not import each other.
+  -> hydra_app (what every Hydra app runs before its task) -> jobs -> workflow (the Snakemake rules' Python)
+  / tuning / benchmarks / paper. A stage imports only its own modules and earlier stages'; stages of one rank
+  do not import each other.
 - No module imports itself through others: the graph of imports among the project's modules (module level
   and inside functions) has no cycle.
 - An import inside a function says why, in a comment on its line, or above it or above its group of imports.
@@ -24,8 +25,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 # rank of each stage; modules directly under experiments/ (io.py, config_schema.py) are the ground floor
-STAGE_RANK = {"": 0, "recordings": 1, "simulate": 1, "report": 2, "runlog": 3, "jobs": 4,
-              "workflow": 5, "tuning": 5, "benchmarks": 5, "paper": 5}
+STAGE_RANK = {"": 0, "recordings": 1, "simulate": 1, "report": 2, "runlog": 3, "hydra_app": 4, "jobs": 5,
+              "workflow": 6, "tuning": 6, "benchmarks": 6, "paper": 6}
 FORBIDDEN_IN_METHODS = ("experiments", "hydra", "omegaconf", "mlflow", "snakemake")
 
 
@@ -113,6 +114,50 @@ def test_every_stage_folder_has_a_rank():
 def test_tests_may_reach_inside_a_family():
     """Tests are exempt from the private-module rule only (a test of jobs/ may import tuning/ fixtures)."""
     assert not [v for v in violations(source_files("tests"), is_test=True) if "private" in v]
+
+
+def jobs_folder_strays(paths) -> list[str]:
+    """What in ``experiments/jobs/`` is not a job: a public module that a user cannot run (no ``main`` and no
+    ``if __name__ == "__main__"``), or a private ``_module`` that is not used by exactly one job of the folder
+    (a helper of several jobs belongs to the stage that names what it is)."""
+    jobs = [p for p in paths if p.parent.name == "jobs" and p.parent.parent.name == "experiments"]
+    found = []
+    for path in jobs:
+        if path.name == "__init__.py":
+            continue
+        text = path.read_text()
+        if not path.name.startswith("_"):
+            tree = ast.parse(text)
+            runnable = any(isinstance(n, ast.FunctionDef) and n.name == "main" for n in tree.body) or \
+                '__name__ == "__main__"' in text
+            if not runnable:
+                found.append(f"{path.relative_to(ROOT)} is not a job a user runs (no main)")
+            continue
+        users = [other for other in jobs if other != path and
+                 any(t.split(".")[-1] == path.stem for _, t in imported_modules(other))]
+        if len(users) != 1:
+            found.append(f"{path.relative_to(ROOT)} is private but used by {len(users)} jobs")
+    return found
+
+
+def test_the_jobs_folder_holds_only_jobs():
+    assert jobs_folder_strays(source_files("experiments")) == []
+
+
+@pytest.mark.parametrize("files, expected", [
+    ({"experiments/jobs/app.py": "def run_app():\n    pass\n"}, "is not a job a user runs"),
+    ({"experiments/jobs/_flow.py": "X = 1\n",
+      "experiments/jobs/a.py": "from experiments.jobs import _flow\ndef main(): pass\n",
+      "experiments/jobs/b.py": "from experiments.jobs._flow import X\ndef main(): pass\n"}, "used by 2 jobs"),
+    ({"experiments/jobs/_flow.py": "X = 1\n", "experiments/jobs/a.py": "def main(): pass\n"}, "used by 0 jobs"),
+])
+def test_the_jobs_check_sees_a_stray(files, expected, monkeypatch, tmp_path):
+    for where, source in files.items():
+        (tmp_path / where).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / where).write_text(source)
+    monkeypatch.setitem(globals(), "ROOT", tmp_path)
+    found = jobs_folder_strays(sorted(tmp_path / w for w in files))
+    assert len(found) == 1 and expected in found[0], found
 
 
 @pytest.mark.parametrize("source, where, expected", [

@@ -17,13 +17,40 @@ import time
 from datetime import UTC, datetime
 from pathlib import Path
 
+from threadpoolctl import threadpool_info, threadpool_limits
+
 from experiments.io import atomic_write_text
 from experiments.provenance import git_state
 
 PAGE_DIR = Path("results") / "bench"
 _PAGE_ENV = "EXPERIMENTS_BENCH_PAGE"     # set while a page is being recorded: a child benchmark writes none
 
-__all__ = ["interleaved_medians", "median_seconds"]
+__all__ = ["interleaved_medians", "median_seconds", "blas_threads", "blas_threads_now", "one_blas_thread",
+           "page_text", "run_with_page"]
+
+# The benchmarks multiply small matrices: more than one BLAS thread only adds overhead on a busy machine.
+BLAS_THREADS = 1
+
+
+def blas_threads() -> int:
+    """The BLAS threads a benchmark runs with: ``OPENBLAS_NUM_THREADS`` when the user set it, else
+    :data:`BLAS_THREADS`."""
+    return int(os.environ.get("OPENBLAS_NUM_THREADS") or BLAS_THREADS)
+
+
+def one_blas_thread():
+    """The process's BLAS thread pools limited to :func:`blas_threads` while a benchmark runs (threadpoolctl).
+
+    Setting ``OPENBLAS_NUM_THREADS`` inside the process would come too late: under ``python -m
+    experiments.benchmarks.<name>`` this package's imports have loaded numpy, and OpenBLAS read the variable
+    then."""
+    return threadpool_limits(limits=blas_threads(), user_api="blas")
+
+
+def blas_threads_now() -> int | None:
+    """The threads of the process's BLAS thread pool as it stands (None: no BLAS loaded)."""
+    counts = [pool["num_threads"] for pool in threadpool_info() if pool.get("user_api") == "blas"]
+    return max(counts) if counts else None
 
 
 def interleaved_medians(fns: dict, repeats: int, cpu: bool = False):
@@ -71,7 +98,7 @@ class _Tee(io.TextIOBase):
 
 def page_text(name: str, argv: list[str], printed: str, when: datetime | None = None) -> str:
     """The Markdown page of one benchmark run: a header (command, UTC time, commit, CPUs, load average,
-    ``OPENBLAS_NUM_THREADS``) and the printed output — as is when it holds Markdown tables, else fenced."""
+    BLAS threads) and the printed output — as is when it holds Markdown tables, else fenced."""
     when = when or datetime.now(UTC)
     state = git_state()
     commit = state["commit"][:12] + (" + uncommitted changes" if state.get("dirty") else "")
@@ -81,7 +108,7 @@ def page_text(name: str, argv: list[str], printed: str, when: datetime | None = 
               f"- command: `{command}`",
               f"- run: {when:%Y-%m-%d %H:%M} UTC, commit {commit}",
               f"- machine: {os.cpu_count()} CPUs, load average {load} (1, 5, 15 min), "
-              f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}",
+              f"BLAS threads {blas_threads_now()}",
               "- times are medians on the machine as it was; compare rows of one run, not runs", ""]
     tables = any(line.startswith("|---") for line in printed.splitlines())
     body = printed if tables else f"```\n{printed.rstrip()}\n```\n"

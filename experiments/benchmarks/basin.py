@@ -33,25 +33,21 @@ The method's options are those of ``configs/method/<method>[_<variant>].yaml`` (
 
 from __future__ import annotations
 
-import os
+import argparse
+import sys
+import time
+from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np
+import pandas as pd
+import yaml
 
-import argparse  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-import yaml  # noqa: E402
-
-import methods  # noqa: E402
+import methods
 from experiments import paths
-from experiments.io import write_json  # noqa: E402
-from experiments.report.scoring import identifiable  # noqa: E402
-from experiments.report.success import mode_success, tolerance  # noqa: E402
-from experiments.simulate.crlb import crlb_std  # noqa: E402
+from experiments.io import write_json
+from experiments.report.scoring import identifiable
+from experiments.report.success import mode_success, tolerance
+from experiments.simulate.crlb import crlb_std
 
 __all__ = ["STREAM", "SCORING_SEED", "DT_S", "ZETA", "METHOD_DIR", "method_options", "draw_structure", "record",
            "trials", "run", "report", "main"]
@@ -243,6 +239,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    from experiments.benchmarks import run_with_page
+    from experiments.benchmarks import one_blas_thread, run_with_page
 
-    raise SystemExit(run_with_page(main, "basin"))   # prints, and writes results/bench/basin.md
+    with one_blas_thread():
+        raise SystemExit(run_with_page(main, "basin"))   # prints, and writes results/bench/basin.md

@@ -15,19 +15,16 @@ experiments.benchmarks.kalman`` shows the difference); the grid jobs should set 
 
 from __future__ import annotations
 
+import argparse
 import os
+from functools import partial
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # before numpy loads OpenBLAS; see the docstring
+import numpy as np
 
-import argparse  # noqa: E402
-from functools import partial  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-from experiments.benchmarks import median_seconds  # noqa: E402
-from experiments.simulate.datasets import UG  # noqa: E402
-from experiments.simulate.plant import build_plant  # noqa: E402
-from methods.kalman import akf, wkf  # noqa: E402
+from experiments.benchmarks import blas_threads_now, median_seconds
+from experiments.simulate.datasets import UG
+from experiments.simulate.plant import build_plant
+from methods.kalman import akf, wkf
 
 __all__ = ["PRIOR", "DT_S", "TARGET_S", "REPLICATES", "main"]
 
@@ -46,8 +43,8 @@ def main(argv=None) -> None:
                         help="records of the lock-step batch (a cell's replicates)")
     args = parser.parse_args(argv)
     plant = build_plant()
-    print(f"Kalman filters, 4 modes, dt = {DT_S} s, 10 ug noise, OPENBLAS_NUM_THREADS="
-          f"{os.environ.get('OPENBLAS_NUM_THREADS')}, load average {os.getloadavg()[0]:.1f}")
+    print(f"Kalman filters, 4 modes, dt = {DT_S} s, 10 ug noise, BLAS threads "
+          f"{blas_threads_now()}, load average {os.getloadavg()[0]:.1f}")
     print(f"one record: filterpy's EKF per record (median of {args.repeats}); lock-step: identify_batch on "
           f"{args.replicates} records (noise seeds 0..{args.replicates - 1}; median of 3), its time per record")
     print(f"{'samples':>8} {'measurement':>13} {'method':>7} {'one ms':>8} {'lock-step ms':>13} {'speed-up':>9} "
@@ -79,6 +76,7 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    from experiments.benchmarks import run_with_page
+    from experiments.benchmarks import one_blas_thread, run_with_page
 
-    raise SystemExit(run_with_page(main, "kalman"))   # prints, and writes results/bench/kalman.md
+    with one_blas_thread():
+        raise SystemExit(run_with_page(main, "kalman"))   # prints, and writes results/bench/kalman.md

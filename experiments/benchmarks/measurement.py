@@ -49,14 +49,14 @@ ROOT = paths.ROOT
 JOB = ["-m", "experiments.jobs.identify", "method=pem"]
 # The job's phases, as (label, profiled function: file suffix, function name), in the order they run.
 PHASES = [
-    ("command line composed and checked before Hydra starts (app.run_app's pre-check)", "hydra/compose.py", "compose"),
+    ("command line composed and checked before Hydra starts (run_app's pre-check)", "hydra/compose.py", "compose"),
     ("file read (read_record)", "recordings/read.py", "read_record"),
     ("segmented, decimated (choose_segment)", "recordings/segment.py", "choose_segment"),
     ("stabilisation diagram (pyOMA2 SSI-cov, clusters, detection)", "peers/stabilisation.py", "stabilisation_diagram"),
     ("pem refines the modes (run_records)", "jobs/identify.py", "run_records"),
     ("figure, PNG and SVG (measurement_figure)", "report/measurement_figure.py", "measurement_figure"),
     ("the job's record: provenance of the code and packages (job_record)", "jobs/identify.py", "job_record"),
-    ("MLflow: the run logged (previous) or queued, its logger started (measurements.log)", "jobs/measurements.py",
+    ("MLflow: the run logged (previous) or queued, its logger started (_identify_file.log)", "jobs/_identify_file.py",
      "log"),
     ("Hydra's run (output dir, logging) around the task", "hydra/core/utils.py", "run_job"),
     ("the whole job after start-up (identify.main)", "jobs/identify.py", "main"),

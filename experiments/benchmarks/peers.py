@@ -21,27 +21,23 @@ start-up (Hydra, imports), which on a busy machine costs more than most peers' f
 
 from __future__ import annotations
 
-import os
+import argparse
+import itertools
+import time
+from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # small SVDs on a busy 2-core machine
+import numpy as np
+import yaml
 
-import argparse  # noqa: E402
-import itertools  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-import yaml  # noqa: E402
-
-import methods  # noqa: E402
+import methods
 from experiments import paths
-from experiments.io import atomic_write_text  # noqa: E402
-from experiments.jobs.identify import rows_to_csv  # noqa: E402
+from experiments.io import atomic_write_text
+from experiments.jobs.identify import rows_to_csv
 from experiments.report.scoring import (
-    identifiable,  # noqa: E402
-    replicate_rows,  # noqa: E402
+    identifiable,
+    replicate_rows,
 )
-from experiments.simulate.datasets import DatasetConfig, make_cell  # noqa: E402
+from experiments.simulate.datasets import DatasetConfig, make_cell
 
 __all__ = ["PEERS", "PRIOR", "EXTRA", "FRACTION", "score", "run_grid", "main"]
 
@@ -140,6 +136,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    from experiments.benchmarks import run_with_page
+    from experiments.benchmarks import one_blas_thread, run_with_page
 
-    raise SystemExit(run_with_page(main, "peers"))   # prints, and writes results/bench/peers.md
+    with one_blas_thread():
+        raise SystemExit(run_with_page(main, "peers"))   # prints, and writes results/bench/peers.md

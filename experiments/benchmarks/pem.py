@@ -27,29 +27,26 @@ BLAS threads: ``OPENBLAS_NUM_THREADS=1`` unless already set (small SVDs on a bus
 
 from __future__ import annotations
 
+import argparse
 import os
+import statistics
+import time
+from concurrent.futures import ProcessPoolExecutor
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # before numpy loads OpenBLAS; see the docstring
+import numpy as np
+import scipy.optimize
+from omegaconf import OmegaConf
 
-import argparse  # noqa: E402
-import statistics  # noqa: E402
-import time  # noqa: E402
-from concurrent.futures import ProcessPoolExecutor  # noqa: E402
-
-import numpy as np  # noqa: E402
-import scipy.optimize  # noqa: E402
-from omegaconf import OmegaConf  # noqa: E402
-
-from experiments import io, paths  # noqa: E402
-from experiments.benchmarks import pem_speed  # noqa: E402
-from experiments.config_schema import stated_options  # noqa: E402
-from experiments.report.scoring import identifiable  # noqa: E402
-from experiments.simulate.crlb import crlb_std  # noqa: E402
-from experiments.simulate.datasets import UG, replicate_rng  # noqa: E402
-from experiments.simulate.plant import build_plant  # noqa: E402
-from methods import pem  # noqa: E402
-from methods.pem import predictor as pp  # noqa: E402
-from methods.pem import search  # noqa: E402
+from experiments import io, paths
+from experiments.benchmarks import blas_threads_now, pem_speed
+from experiments.config_schema import stated_options
+from experiments.report.scoring import identifiable
+from experiments.simulate.crlb import crlb_std
+from experiments.simulate.datasets import UG, replicate_rng
+from experiments.simulate.plant import build_plant
+from methods import pem
+from methods.pem import predictor as pp
+from methods.pem import search
 
 __all__ = ["PRIOR", "DT_S", "NOISE_UG", "N_SAMPLES", "FAIL_CRLB", "SETTINGS", "run_cell", "accuracy", "grid",
            "starts", "speed", "main"]
@@ -236,7 +233,7 @@ def _median_ms(fn, repeats: int) -> tuple[float, object]:
 
 def speed(repeats: int, seed: int) -> None:
     plant = build_plant()
-    print(f"\n## Speed (median of {repeats} runs, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}, "
+    print(f"\n## Speed (median of {repeats} runs, BLAS threads {blas_threads_now()}, "
           f"load average {os.getloadavg()[0]:.2f})")
     print("| record | fit | median ms | iterations | result |")
     print("|---|---|---|---|---|")
@@ -336,6 +333,7 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    from experiments.benchmarks import run_with_page
+    from experiments.benchmarks import one_blas_thread, run_with_page
 
-    raise SystemExit(run_with_page(main, "pem"))   # prints, and writes results/bench/pem.md
+    with one_blas_thread():
+        raise SystemExit(run_with_page(main, "pem"))   # prints, and writes results/bench/pem.md

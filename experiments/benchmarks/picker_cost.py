@@ -13,21 +13,17 @@ modes are determined is measured by ``experiments.benchmarks.basin``.
 
 from __future__ import annotations
 
-import os
+import argparse
+import functools
+import sys
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np
+import yaml
 
-import argparse  # noqa: E402
-import functools  # noqa: E402
-import sys  # noqa: E402
-
-import numpy as np  # noqa: E402
-import yaml  # noqa: E402
-
-import methods  # noqa: E402
-from experiments.benchmarks import interleaved_medians  # noqa: E402
-from experiments.benchmarks.basin import METHOD_DIR, method_options  # noqa: E402
-from experiments.simulate.plant import PlantConfig, build_plant  # noqa: E402
+import methods
+from experiments.benchmarks import interleaved_medians
+from experiments.benchmarks.basin import METHOD_DIR, method_options
+from experiments.simulate.plant import PlantConfig, build_plant
 
 __all__ = ["PEERS", "main"]
 
@@ -68,6 +64,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    from experiments.benchmarks import run_with_page
+    from experiments.benchmarks import one_blas_thread, run_with_page
 
-    raise SystemExit(run_with_page(main, "picker_cost"))   # prints, and writes results/bench/picker_cost.md
+    with one_blas_thread():
+        raise SystemExit(run_with_page(main, "picker_cost"))   # prints, and writes results/bench/picker_cost.md

@@ -29,22 +29,20 @@ grids' scoring seed 20261121 is refused. Timing figures depend on the machine's 
 
 from __future__ import annotations
 
+import argparse
 import os
+import sys
+import time
+from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np
 
-import argparse  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-import methods  # noqa: E402
-from experiments.benchmarks.basin import method_options  # noqa: E402
-from experiments.io import atomic_write_text  # noqa: E402
-from experiments.simulate import bayes  # noqa: E402
-from experiments.simulate.crlb import crlb_std  # noqa: E402
+import methods
+from experiments.benchmarks import one_blas_thread
+from experiments.benchmarks.basin import method_options
+from experiments.io import atomic_write_text
+from experiments.simulate import bayes
+from experiments.simulate.crlb import crlb_std
 
 __all__ = ["TRUE_RAD_S", "AMPLITUDE_M_S2", "PHASE_RAD", "ZETA", "DT_S", "UG", "SCORING_SEED", "STREAM", "cell",
            "report", "filters", "yardstick", "main"]
@@ -310,4 +308,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    with one_blas_thread():
+        sys.exit(main())

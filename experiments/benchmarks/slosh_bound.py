@@ -25,20 +25,16 @@ sits on. Prints the table and writes it to results/bench/slosh_bound.md.
 
 from __future__ import annotations
 
-import os
+import argparse
+import itertools
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # small matrices: BLAS threads only add overhead
+import numpy as np
 
-import argparse  # noqa: E402
-import itertools  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-from experiments.simulate.pcrb import prior_covariance  # noqa: E402
-from experiments.simulate.pcrb_force import unknown_force_pcrb  # noqa: E402
-from experiments.simulate.plant import build_plant  # noqa: E402
-from experiments.simulate.timevarying import modal_model  # noqa: E402
-from experiments.simulate.tracking_data import TrackingCellConfig, make_cell  # noqa: E402
+from experiments.simulate.pcrb import prior_covariance
+from experiments.simulate.pcrb_force import unknown_force_pcrb
+from experiments.simulate.plant import build_plant
+from experiments.simulate.timevarying import modal_model
+from experiments.simulate.tracking_data import TrackingCellConfig, make_cell
 
 __all__ = ["AMPLITUDES", "FREQS_HZ", "NOISE_UG", "WINDOWS_S", "lag", "main", "slosh_row"]
 
@@ -127,6 +123,7 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    from experiments.benchmarks import run_with_page
+    from experiments.benchmarks import one_blas_thread, run_with_page
 
-    raise SystemExit(run_with_page(main, "slosh_bound"))   # prints, and writes results/bench/slosh_bound.md
+    with one_blas_thread():
+        raise SystemExit(run_with_page(main, "slosh_bound"))   # prints, and writes results/bench/slosh_bound.md

@@ -22,26 +22,21 @@ Writes results/bench/tracking_ambient.md.
 from __future__ import annotations
 
 import os
+import sys
+from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # small matrices: BLAS threads only add overhead
+import numpy as np
+import pandas as pd
 
-import argparse  # noqa: E402
-import sys  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-import methods  # noqa: E402
-from experiments.benchmarks.tracking_cpu import parse_row  # noqa: E402
-from experiments.io import atomic_write_text  # noqa: E402
-from experiments.report.tracking_metrics import score_track  # noqa: E402
-from experiments.simulate.tracking_data import TrackingCellConfig, check_cell_config, make_cell  # noqa: E402
+from experiments.benchmarks import one_blas_thread
+from experiments.benchmarks.tracking_beats import BASELINE, track_cells, tracker_rows_command
+from experiments.io import atomic_write_text
+from experiments.report.tracking_metrics import score_track
+from experiments.simulate.tracking_data import TrackingCellConfig, check_cell_config, make_cell
 
 __all__ = ["CELLS", "DEFAULT_TRACKERS", "OUT", "configs", "run", "summary", "markdown", "main"]
 
 OUT = Path("results/bench/tracking_ambient.md")
-BASELINE = "next_era"
 DEFAULT_TRACKERS = "next_era,gated_pencil,akf_ambient,rpem_ambient"
 SETTLE_S = 30.0
 _WHITE = {"disturbance_force_n": 5.0}
@@ -95,17 +90,9 @@ def _record_row(label: str, spec: str, r: int, tr, cell: dict) -> dict:
 
 
 def run(specs: list[str], seed: int, replicates: int) -> pd.DataFrame:
-    parsed = {spec: parse_row(spec) for spec in specs}
-    rows = []
-    for label, cfg in configs(seed, replicates).items():
-        cell = make_cell(cfg)
-        for r in range(replicates):
-            for spec in specs:
-                name, opts = parsed[spec]
-                tr = methods.track(name, cell["accel_m_s2"][r], float(cell["dt_s"]), cell["prior_rad_s"][r], **opts)
-                rows.append(_record_row(label, spec, r, tr, cell))
-        print(f"{label}: done", flush=True)
-    return pd.DataFrame(rows)
+    cells = ((label, make_cell(cfg)) for label, cfg in configs(seed, replicates).items())
+    return pd.DataFrame([_record_row(label, spec, r, tr, cell)
+                         for label, cell, r, spec, tr in track_cells(cells, specs, replicates)])
 
 
 def summary(df: pd.DataFrame) -> pd.DataFrame:
@@ -135,20 +122,9 @@ def markdown(s: pd.DataFrame, seed: int, replicates: int, load: float) -> str:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seed", type=int, default=20261121)
-    parser.add_argument("--replicates", type=int, default=2)
-    parser.add_argument("--trackers", default=DEFAULT_TRACKERS)
-    parser.add_argument("--out", default=str(OUT))
-    args = parser.parse_args(argv)
-    if args.replicates < 1:
-        raise ValueError(f"--replicates = {args.replicates} must be at least 1")
-    specs = [n for n in args.trackers.split(",") if n]
-    if BASELINE not in specs:
-        raise ValueError(f"--trackers must include the baseline {BASELINE}")
-    for spec in specs:
-        name, options = parse_row(spec)
-        methods.check_track_options(name, [3.8, 16.0, 26.0, 46.0], 0.02, options, n_samples=6000)
+    # every row checked on the grid's 120 s record, as tracking_beats checks its rows
+    args, specs = tracker_rows_command(argv, __doc__.splitlines()[0], replicates=2, trackers=DEFAULT_TRACKERS,
+                                       out=OUT, check_duration_s=120.0)
     load = os.getloadavg()[0]
     text = markdown(summary(run(specs, args.seed, args.replicates)), args.seed, args.replicates, load)
     print(text)
@@ -157,7 +133,8 @@ def main(argv=None) -> None:
 
 if __name__ == "__main__":
     try:
-        main()
+        with one_blas_thread():
+            main()
     except ValueError as exc:           # a bad tracker name or option: one line, exit 2, nothing written
         print(f"error: {exc}", file=sys.stderr)
         sys.exit(2)

@@ -18,25 +18,23 @@ tracking report). Writes results/bench/tracking_beats.md.
 
 from __future__ import annotations
 
+import argparse
 import os
+import sys
+from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # small matrices: BLAS threads only add overhead
+import pandas as pd
 
-import argparse  # noqa: E402
-import sys  # noqa: E402
-from pathlib import Path  # noqa: E402
+import methods
+from experiments.benchmarks import one_blas_thread
+from experiments.benchmarks.tracking_cpu import parse_row
+from experiments.io import atomic_write_text
+from experiments.report import tracking_metrics
+from experiments.report.tracking_metrics import summarize_cell
+from experiments.simulate.tracking_data import TrackingCellConfig, make_cell
 
-import pandas as pd  # noqa: E402
-
-import methods  # noqa: E402
-from experiments.benchmarks.tracking_cpu import parse_row  # noqa: E402
-from experiments.io import atomic_write_text  # noqa: E402
-from experiments.report import tracking_metrics  # noqa: E402
-from experiments.report.tracking_metrics import summarize_cell  # noqa: E402
-from experiments.simulate.tracking_data import TrackingCellConfig, make_cell  # noqa: E402
-
-__all__ = ["SCHEDULES", "EXCITATIONS", "NOISE_UG", "DEFAULT_TRACKERS", "OUT", "cells", "score_record", "run",
-           "summary", "markdown", "main"]
+__all__ = ["SCHEDULES", "EXCITATIONS", "NOISE_UG", "DEFAULT_TRACKERS", "OUT", "CHECK_PRIOR_RAD_S", "CHECK_DT_S",
+           "cells", "score_record", "track_cells", "run", "summary", "markdown", "tracker_rows_command", "main"]
 
 SCHEDULES = {"drift": {"drift": [0.3, 0.2, 0.2, 0.1], "ramp_end_s": 300.0},
              "step": {"step": [0.0, 0.0, 0.06, -0.04], "step_time_s": 60.0}}
@@ -61,28 +59,34 @@ def score_record(t_s, freq, conv, runtime, cell, r):
     return tracking_metrics.score_record(t_s, freq, conv, runtime, cell, r)
 
 
+def track_cells(cells, specs: list[str], replicates: int):
+    """(cell name, cell, replicate, row, Track) of every row of ``--trackers`` on every replicate of every
+    cell, in that order; a line on the terminal as each cell is done. ``cells``: (name, cell) pairs."""
+    parsed = {spec: parse_row(spec) for spec in specs}
+    for cell_name, cell in cells:
+        dt = float(cell["dt_s"])
+        for r in range(replicates):
+            y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
+            for spec in specs:
+                name, opts = parsed[spec]
+                yield cell_name, cell, r, spec, methods.track(name, y, dt, prior, **opts)
+        print(f"{cell_name}: done", flush=True)
+
+
 def run(specs: list[str], seed: int, replicates: int, duration_s: float) -> pd.DataFrame:
     parsed = {spec: parse_row(spec) for spec in specs}
     derived = {spec: f"{name}:trend=true" for spec, (name, opts) in parsed.items()
                if not opts and f"{name}:trend=true" in specs}          # plain X from X:trend=true's raw windows
     rows = []
-    for cell_name, cell in cells(seed, replicates, duration_s):
-        dt = float(cell["dt_s"])
-        for r in range(replicates):
-            y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
-            for spec in specs:
-                if spec in derived:
-                    continue
-                name, opts = parsed[spec]
-                tr = methods.track(name, y, dt, prior, **opts)
-                rows.append({"cell": cell_name, "tracker": spec, "r": r,
-                             **score_record(tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, cell, r)})
-                for plain, source in derived.items():
-                    if source == spec:
-                        rows.append({"cell": cell_name, "tracker": plain, "r": r,
-                                     **score_record(tr.t_s, tr.extra["window_frequencies"],
-                                                    tr.extra["window_converged"], tr.runtime_s, cell, r)})
-        print(f"{cell_name}: done", flush=True)
+    for cell_name, cell, r, spec, tr in track_cells(cells(seed, replicates, duration_s),
+                                                    [s for s in specs if s not in derived], replicates):
+        rows.append({"cell": cell_name, "tracker": spec, "r": r,
+                     **score_record(tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, cell, r)})
+        for plain, source in derived.items():
+            if source == spec:
+                rows.append({"cell": cell_name, "tracker": plain, "r": r,
+                             **score_record(tr.t_s, tr.extra["window_frequencies"],
+                                            tr.extra["window_converged"], tr.runtime_s, cell, r)})
     return pd.DataFrame(rows)
 
 
@@ -121,23 +125,40 @@ def markdown(s: pd.DataFrame, seed: int, replicates: int, duration_s: float, loa
     return "\n".join(lines) + "\n"
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+# The record every tracker row is checked against before any work (Table 3's modes, the paper's step).
+CHECK_PRIOR_RAD_S = [3.8, 16.0, 26.0, 46.0]
+CHECK_DT_S = 0.02
+
+
+def tracker_rows_command(argv, description: str, *, replicates: int, trackers: str, out: Path,
+                         duration_s: float | None = None, check_duration_s: float | None = None):
+    """The command line the tracker benchmarks share: ``--seed``, ``--replicates``, ``--trackers`` (rows, the
+    baseline among them), ``--out`` and, with ``duration_s``, ``--duration-s``. Every row is checked on a
+    record of ``--duration-s`` (else ``check_duration_s``) before any work; ``ValueError`` (one line) for a bad
+    one. Returns (args, rows)."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--seed", type=int, default=20261121)
-    parser.add_argument("--replicates", type=int, default=3)
-    parser.add_argument("--duration-s", type=float, default=120.0)
-    parser.add_argument("--trackers", default=DEFAULT_TRACKERS)
-    parser.add_argument("--out", default=str(OUT))
+    parser.add_argument("--replicates", type=int, default=replicates)
+    if duration_s is not None:
+        parser.add_argument("--duration-s", type=float, default=duration_s)
+    parser.add_argument("--trackers", default=trackers)
+    parser.add_argument("--out", default=str(out))
     args = parser.parse_args(argv)
     if args.replicates < 1:
         raise ValueError(f"--replicates = {args.replicates} must be at least 1")
     specs = [n for n in args.trackers.split(",") if n]
     if BASELINE not in specs:
         raise ValueError(f"--trackers must include the baseline {BASELINE}")
-    n = int(round(args.duration_s / 0.02))
+    n = int(round((args.duration_s if duration_s is not None else check_duration_s) / CHECK_DT_S))
     for spec in specs:
         name, options = parse_row(spec)
-        methods.check_track_options(name, [3.8, 16.0, 26.0, 46.0], 0.02, options, n_samples=n)
+        methods.check_track_options(name, CHECK_PRIOR_RAD_S, CHECK_DT_S, options, n_samples=n)
+    return args, specs
+
+
+def main(argv=None) -> None:
+    args, specs = tracker_rows_command(argv, __doc__.splitlines()[0], replicates=3, trackers=DEFAULT_TRACKERS,
+                                       out=OUT, duration_s=120.0)
     load = os.getloadavg()[0]
     s = summary(run(specs, args.seed, args.replicates, args.duration_s))
     text = markdown(s, args.seed, args.replicates, args.duration_s, load)
@@ -147,7 +168,8 @@ def main(argv=None) -> None:
 
 if __name__ == "__main__":
     try:
-        main()
+        with one_blas_thread():
+            main()
     except ValueError as exc:           # a bad tracker name or option: one line, exit 2, nothing written
         print(f"error: {exc}", file=sys.stderr)
         sys.exit(2)

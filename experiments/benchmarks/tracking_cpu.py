@@ -19,22 +19,20 @@ Writes results/bench/tracking_cpu.md.
 
 from __future__ import annotations
 
+import argparse
 import os
+import statistics
+import sys
+from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # small matrices: BLAS threads only add overhead
+import numpy as np
 
-import argparse  # noqa: E402
-import statistics  # noqa: E402
-import sys  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-import methods  # noqa: E402
-from experiments.io import atomic_write_text  # noqa: E402
-from experiments.jobs.track_variants import variant_options  # noqa: E402
-from experiments.simulate.datasets import UG  # noqa: E402
-from experiments.simulate.plant import build_plant  # noqa: E402
+import methods
+from experiments.benchmarks import blas_threads_now, one_blas_thread
+from experiments.io import atomic_write_text
+from experiments.simulate.datasets import UG
+from experiments.simulate.plant import build_plant
+from experiments.tracker_variants import variant_options
 
 __all__ = ["PRIOR", "DT_S", "PULSE_EVERY_S", "NOISE_UG", "ON_BOARD_BUDGET_S", "SLOWDOWN", "OUT", "pulsed_record",
            "parse_row", "default_rows", "measure", "markdown", "main"]
@@ -60,7 +58,7 @@ def pulsed_record(n: int, seed: int = 0) -> np.ndarray:
 
 def parse_row(spec: str) -> tuple[str, dict]:
     """``name``, ``name:key=value+...`` (those options over the tracker's defaults) or ``name:variant`` (the
-    options of ``configs/tracker/<name>_<variant>.yaml``, ``experiments.jobs.track_variants``)."""
+    options of ``configs/tracker/<name>_<variant>.yaml``, ``experiments.tracker_variants``)."""
     name, _, rest = spec.partition(":")
     if rest and "=" not in rest:
         return name, variant_options(spec)
@@ -145,7 +143,7 @@ def main(argv=None) -> None:
     load = os.getloadavg()[0]
     y = pulsed_record(args.samples)
     print(f"trackers on {args.samples} samples, dt = {DT_S} s; load average {load:.1f}; "
-          f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}")
+          f"BLAS threads {blas_threads_now()}")
     print(f"{'tracker':>20} {'runs':>4} {'CPU s':>8} {'us/sample':>10} {'ms@100x':>10} {'fits':>5} {'K':>6} "
           f"{'conv':>6}")
     rows = measure(specs, y, args.repeats, args.budget_s)
@@ -155,7 +153,8 @@ def main(argv=None) -> None:
 
 if __name__ == "__main__":
     try:
-        main()
+        with one_blas_thread():
+            main()
     except ValueError as exc:           # a bad tracker name or option: one line, exit 2, nothing written
         print(f"error: {exc}", file=sys.stderr)
         sys.exit(2)

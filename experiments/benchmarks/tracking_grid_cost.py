@@ -16,17 +16,14 @@ average. Prints the tables and writes them to results/bench/tracking_grid_cost.m
 
 from __future__ import annotations
 
+import argparse
 import os
+import time
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # as the grid's jobs: small matrices
-
-import argparse  # noqa: E402
-import time  # noqa: E402
-
-from experiments.jobs.track_job import check_tracker, grid_trackers, track_record, warm_up  # noqa: E402
-from experiments.simulate.laboratory import LaboratoryCellConfig, make_lab_cell  # noqa: E402
-from experiments.simulate.tracking_data import make_cell  # noqa: E402
-from experiments.simulate.tracking_grid import load_grid  # noqa: E402
+from experiments.jobs.track_job import check_tracker, grid_trackers, track_record, warm_up
+from experiments.simulate.laboratory import LaboratoryCellConfig, make_lab_cell
+from experiments.simulate.tracking_data import make_cell
+from experiments.simulate.tracking_grid import load_grid
 
 __all__ = ["CORES_BUSY", "main", "measure"]
 
@@ -94,6 +91,7 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    from experiments.benchmarks import run_with_page
+    from experiments.benchmarks import one_blas_thread, run_with_page
 
-    raise SystemExit(run_with_page(main, "tracking_grid_cost"))   # prints, writes results/bench/<name>.md
+    with one_blas_thread():
+        raise SystemExit(run_with_page(main, "tracking_grid_cost"))   # prints, writes results/bench/<name>.md

@@ -29,23 +29,19 @@ defaults do not fit it) is a row "refused" with its one-line reason.
 
 from __future__ import annotations
 
-import os
+import argparse
+from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # small matrices: BLAS threads only add overhead
+import numpy as np
+import pandas as pd
 
-import argparse  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-import methods  # noqa: E402
-from experiments.benchmarks.tracking_beats import score_record, summary  # noqa: E402
-from experiments.io import atomic_write_text  # noqa: E402
-from experiments.report import tracking_metrics  # noqa: E402
-from experiments.simulate.laboratory import LaboratoryCellConfig, check_laboratory, make_lab_cell  # noqa: E402
-from experiments.simulate.plant import PlantConfig  # noqa: E402
-from experiments.simulate.tracking_data import TrackingCellConfig, check_cell_config, make_cell  # noqa: E402
+import methods
+from experiments.benchmarks.tracking_beats import score_record, summary
+from experiments.io import atomic_write_text
+from experiments.report import tracking_metrics
+from experiments.simulate.laboratory import LaboratoryCellConfig, check_laboratory, make_lab_cell
+from experiments.simulate.plant import PlantConfig
+from experiments.simulate.tracking_data import TrackingCellConfig, check_cell_config, make_cell
 
 __all__ = ["AMBIENT_CELLS", "CELLS", "RECORDS", "OTHER_RATE_CELLS", "LAB_CELLS", "SETS", "configs", "other_configs",
            "run", "main"]
@@ -240,7 +236,7 @@ def main(argv=None) -> None:
         parser.exit(2, f"error: {exc}\n")
     from threadpoolctl import threadpool_limits  # only the command sets the thread pool
 
-    # One BLAS thread (the OPENBLAS_NUM_THREADS above comes too late under `python -m`: the package's
+    # One BLAS thread (OPENBLAS_NUM_THREADS set here would come too late under `python -m`: the package's
     # __init__ has imported numpy by then); as the grid's jobs, experiments/jobs/track_job.py
     with threadpool_limits(limits=1):
         s = run(trackers, args.seed, args.replicates, args.set, records=args.records)

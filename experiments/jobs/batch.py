@@ -29,8 +29,8 @@ from hydra import compose, initialize_config_module
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import OmegaConf, open_dict
 
-from experiments.jobs.app import CONFIG_MODULE, fail, one_line
-from experiments.jobs.config import methods_named_on, register
+from experiments.hydra_app.command_line import CONFIG_MODULE, fail, one_line
+from experiments.hydra_app.config_store import methods_named_on, register
 
 __all__ = ["APPS", "parse_jobs", "PER_JOB_KEYS", "Composer", "main"]
 

@@ -29,9 +29,9 @@ from tqdm import tqdm
 import methods
 from experiments import provenance
 from experiments.config_schema import variant_label
+from experiments.hydra_app.command_line import fail, run_app
+from experiments.hydra_app.config_store import methods_named_on, register
 from experiments.io import CHECKSUM_KEY, atomic_write_text, read_npz, write_json
-from experiments.jobs.app import fail, run_app
-from experiments.jobs.config import methods_named_on, register
 from experiments.report.scoring import COLUMNS, replicate_rows
 from experiments.runlog.store import check_store
 from experiments.simulate.datasets import CELL_KEYS
@@ -43,14 +43,14 @@ __all__ = ["load_data", "prior_of", "priors_of", "scenario_of", "check", "LONG_R
 
 def load_data(cfg) -> dict:
     """The records to identify: ``y`` (R × N), ``dt`` and, for a dataset cell, the truth; for a measurement
-    file, the segment chosen (:mod:`experiments.jobs.measurements`)."""
+    file, the segment chosen (:mod:`experiments.jobs._identify_file`)."""
     d = cfg.data
     if (d.dataset is None) == (d.path is None):
         raise ValueError("give exactly one of data.dataset (a generated cell) or data.path (a measurement file)")
     if d.path is not None:
-        from experiments.jobs import measurements  # pandas and the readers: only for a user's file
+        from experiments.jobs import _identify_file  # pandas and the readers: only for a user's file
 
-        return measurements.load(d, None if cfg.prior is None else list(cfg.prior))
+        return _identify_file.load(d, None if cfg.prior is None else list(cfg.prior))
 
     cell = read_npz(d.dataset, required=CELL_KEYS)
     y = cell["accel_m_s2"]
@@ -241,21 +241,21 @@ def rows_to_csv(rows: list[dict]) -> str:
 def _run_measurement(cfg, data: dict, run_dir: Path, config_name: str | None, options: dict) -> None:
     """A user's measurement: the notes on what was read and chosen, the modes (the prior, or the
     stabilisation diagram's), the method, then the answer, the figure and the MLflow run."""
-    from experiments.jobs import measurements  # pandas and the readers: only for a user's file
+    from experiments.jobs import _identify_file  # pandas and the readers: only for a user's file
 
-    measurements.print_notes(data)
+    _identify_file.print_notes(data)
     diagram = None
     if cfg.prior is None:
-        prior, diagram = measurements.find_modes(data, cfg.n_modes)
+        prior, diagram = _identify_file.find_modes(data, cfg.n_modes)
         print(f"{diagram.how}: {', '.join(f'{w / (2 * np.pi):.5g}' for w in prior)} Hz")
     else:
         prior = prior_of(cfg)
         methods.check_inputs(data["y"][0], data["dt"], prior)
-    options = measurements.method_options(options, data)
+    options = _identify_file.method_options(options, data)
     est = run_records(cfg.method.name, data["y"], data["dt"], prior, options, cfg.progress)[0][0]
-    paths = measurements.report(cfg.method.name, prior, est, data, run_dir, diagram)
+    paths = _identify_file.report(cfg.method.name, prior, est, data, run_dir, diagram)
     if cfg.runlog.enabled:
-        measurements.log(job_record(cfg, data, config_name), est, paths, run_dir, cfg.runlog.background)
+        _identify_file.log(job_record(cfg, data, config_name), est, paths, run_dir, cfg.runlog.background)
 
 
 def job_record(cfg, data, config_name: str | None) -> dict:

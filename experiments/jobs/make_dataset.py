@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 from omegaconf import OmegaConf
 
-from experiments.jobs.app import run_app
-from experiments.jobs.config import register
+from experiments.hydra_app.command_line import run_app
+from experiments.hydra_app.config_store import register
 from experiments.simulate.datasets import DatasetConfig, check_dataset_config, write_cell
 
 __all__ = ["to_config", "MAX_CELL_BYTES", "cell_bytes", "check", "check_cell_memory", "task", "main"]

@@ -15,8 +15,8 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from experiments.jobs.app import run_app
-from experiments.jobs.config import register
+from experiments.hydra_app.command_line import run_app
+from experiments.hydra_app.config_store import register
 from experiments.provenance import canonical_json, digest, git_state
 from experiments.runlog.store import log_run, source_tags
 

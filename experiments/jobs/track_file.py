@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import functools
 import io
 import os
 import subprocess
@@ -48,8 +47,8 @@ from omegaconf import MISSING, OmegaConf
 
 import methods
 from experiments.config_schema import DataConfig, RunlogConfig
+from experiments.hydra_app.command_line import fail, run_app
 from experiments.io import atomic_write_text, write_json
-from experiments.jobs.app import fail, run_app
 from experiments.paths import TRACKER_CONFIGS
 from methods.tracking import track_options_class
 
@@ -57,7 +56,7 @@ __all__ = ["DEFAULT_TRACKER", "EXPERIMENT", "FIRST_STRETCH_FRACTION", "FIRST_STR
            "TrackFileConfig", "changed_options", "check", "first_stretch", "load", "main", "register", "task",
            "track_csv", "tracker_named_on", "tracker_of", "tracker_schema"]
 
-# The tracker the README's "which tracker to fly" names (methods/tracking/README.md).
+# The tracker to fly as shipped (docs/measured/tracking.md, "As shipped, on records unlike the grid's").
 DEFAULT_TRACKER = "gated_pencil"
 EXPERIMENT = "measurement-tracks"
 SOURCE = "experiments/jobs/track_file.py"
@@ -143,29 +142,11 @@ def load(cfg) -> dict:
     if d.path is None:
         raise ValueError("give the measurement file: data.path=<file> (.csv, .uff/.unv, .lvm, .tdms, .mat)")
     prior = None if cfg.prior is None else [float(w) for w in cfg.prior]
-    path = Path(d.path)
-    band = d.band_hz if isinstance(d.band_hz, str | int | float) or d.band_hz is None else tuple(d.band_hz)
     cover = 1.25 * max(prior) / (2 * np.pi) if prior and all(np.isfinite(prior)) else 0.0
-    stamp = os.stat(path).st_mtime_ns if path.is_file() else None
-    return _load(str(path), stamp, d.channel, d.units, d.dt, d.start_s, d.stop_s, band, cover)
+    from experiments.recordings.load import load_segment  # the readers: only once the file is read
 
-
-@functools.lru_cache(maxsize=4)
-def _load(path, _stamp, channel, units, dt, start_s, stop_s, band_hz, cover_hz) -> dict:
-    from experiments.jobs.modes_found import INSTALL_HINT  # the readers: only once the file is read
-    from experiments.recordings import choose_segment, read_record  # (cached per file, the pre-check and the task ask)
-
-    try:
-        rec = read_record(path, channel=channel, units=units, dt=dt)
-    except ModuleNotFoundError as exc:
-        raise ValueError(f"{path}: reading this format needs the package '{exc.name}': {INSTALL_HINT}") from None
-    # a tracked record is the whole file: no impulse is looked for, the span starts at the first sample
-    seg = choose_segment(rec.accel_m_s2, rec.dt_s, rec.t0_s, start_s=rec.t0_s if start_s is None else start_s,
-                         stop_s=stop_s, band_hz=list(band_hz) if isinstance(band_hz, tuple) else band_hz,
-                         cover_hz=cover_hz, where=path)
-    if start_s is None:
-        seg.notes[0] = seg.notes[0].replace("(data.start_s)", "(the record's start; set data.start_s= to choose)")
-    return {"y": seg.y, "dt": seg.dt, "t0": seg.t0, "source": path, "record": rec, "segment": seg}
+    rec, seg = load_segment(d, cover, whole_record=True)
+    return {"y": seg.y, "dt": seg.dt, "t0": seg.t0, "source": str(Path(d.path)), "record": rec, "segment": seg}
 
 
 def first_stretch(data: dict, stretch_s: float | None) -> int:
@@ -225,7 +206,7 @@ def _task(cfg) -> None:
         print(f"{name}: {note}")
     how, short = f"the prior given ({label} from it)", "from the prior given"
     if cfg.prior is None:
-        from experiments.jobs.modes_found import find_modes  # pyOMA2 (0.4 s): only without a prior
+        from experiments.recordings.modes_found import find_modes  # pyOMA2 (0.4 s): only without a prior
 
         n0 = first_stretch(data, cfg.first_stretch_s)
         stretch = {**data, "segment": dataclasses.replace(data["segment"], y=data["y"][:n0])}

@@ -34,12 +34,12 @@ from threadpoolctl import threadpool_limits
 
 import methods
 from experiments.cli import ArgumentParser
+from experiments.hydra_app.command_line import fail
 from experiments.io import read_npz, write_json, write_npz
-from experiments.jobs.app import fail
-from experiments.jobs.track_variants import split, variant_options
 from experiments.provenance import digest, git_state
 from experiments.report.tracking_metrics import score_record
 from experiments.simulate.tracking_grid import load_grid, make_grid_cell, nominal_prior_rad_s
+from experiments.tracker_variants import split, variant_options
 
 __all__ = ["WARM_UP_SAMPLES", "check_tracker", "grid_trackers", "main", "rescore_tracker", "run_cell", "run_data",
            "run_tracker", "score_cell", "track_record", "tracker_names", "warm_up"]
@@ -55,7 +55,7 @@ def tracker_names() -> list[str]:
 
 def grid_trackers(grid: dict) -> list[str]:
     """The grid's trackers: ``[all]`` is every registered tracker (``all`` may stand beside variants, e.g.
-    ``[all, akf:tuned]``); ``name:variant`` is a tracker variant (``experiments.jobs.track_variants``); an
+    ``[all, akf:tuned]``); ``name:variant`` is a tracker variant (``experiments.tracker_variants``); an
     unknown name or variant is refused."""
     known = tracker_names()
     listed = list(grid["trackers"])

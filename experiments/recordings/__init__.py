@@ -9,7 +9,10 @@ The lowest stage of the pipeline beside :mod:`experiments.io` (it imports nothin
 - :mod:`~experiments.recordings.segment`: the free decay after the largest impulse (or the span asked
   for) and the decimation to the band of interest with an anti-alias filter
   (:mod:`~experiments.recordings.spectral`: scipy.signal's filter and Welch estimate, in numpy);
-- :mod:`~experiments.recordings.modal_fit`: the identified modes' amplitudes, model and residual.
+- :mod:`~experiments.recordings.modal_fit`: the identified modes' amplitudes, model and residual;
+- :mod:`~experiments.recordings.load`: the record and segment a job on a user's file works on (read once);
+- :mod:`~experiments.recordings.modes_found`: the modes of a segment without a prior, from a stabilisation
+  diagram (:mod:`methods.peers.stabilisation`).
 
 See docs/measurements.md.
 """

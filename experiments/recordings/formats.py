@@ -14,7 +14,10 @@ from pathlib import Path
 import numpy as np
 import scipy.io
 
-__all__ = ["TIME_NAMES", "RawFile", "UFF_ACCELERATION", "UFF_TIME_RESPONSE", "FORMATS"]
+__all__ = ["TIME_NAMES", "RawFile", "UFF_ACCELERATION", "UFF_TIME_RESPONSE", "FORMATS", "INSTALL_HINT"]
+
+# The optional extra that brings the readers of UFF, LabVIEW and TDMS files and the stabilisation diagram.
+INSTALL_HINT = "pip install -e '.[measurements]'"
 
 TIME_NAMES = ("t", "time", "x_value")
 

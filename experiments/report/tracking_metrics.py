@@ -103,6 +103,53 @@ def lag_s(t_s: np.ndarray, est: np.ndarray, truth_t_s: np.ndarray, truth: np.nda
     return float(np.median(lags))
 
 
+def _relative_errors(t_s, frequencies, truth: np.ndarray, dt_s: float):
+    """(t_s, est, k, err, rel, ok): the track at the samples ``k`` of its instants, its absolute (rad/s) and
+    relative errors against the truth there (a missing estimate: an infinite error)."""
+    t_s = np.asarray(t_s, dtype=float)
+    est = np.asarray(frequencies, dtype=float)
+    n, m = truth.shape
+    if est.shape != (t_s.size, m):
+        raise ValueError(f"track frequencies of shape {est.shape}; expected ({t_s.size}, {m})")
+    k = sample_index(t_s, dt_s, n)
+    err = np.abs(est - truth[k])
+    rel = np.where(np.isfinite(err), err / truth[k], np.inf)
+    return t_s, est, k, err, rel
+
+
+def _cost(runtime_s: float, n: int) -> dict:
+    """The track's CPU time, per sample, and whether that fits the on-board budget."""
+    out = {"n_samples": n, "cpu_s": float(runtime_s), "cpu_per_sample_s": float(runtime_s) / n}
+    out["onboard_ok"] = bool(out["cpu_per_sample_s"] * ONBOARD_SLOWDOWN <= ONBOARD_BUDGET_S)
+    return out
+
+
+def _late(t_s: np.ndarray) -> np.ndarray:
+    """The instants of the record's second half."""
+    return t_s >= t_s[0] + 0.5 * (t_s[-1] - t_s[0])
+
+
+def _percentile(values: np.ndarray, q: float) -> float:
+    return float(np.percentile(values, q, method="inverted_cdf"))
+
+
+def _mode_medians(rel: np.ndarray, scored: np.ndarray) -> dict:
+    """Each mode's median relative error over the scored instants."""
+    return {f"err_rel_median_mode{i + 1}": float(np.median(rel[scored, i])) if scored.any() else math.nan
+            for i in range(rel.shape[1])}
+
+
+def _tail_verdicts(t_s: np.ndarray, rel: np.ndarray, converged, tol: float) -> dict:
+    """Over the record's last TAIL: ``diverged`` (a mode's median error above DIVERGED_REL) and ``false_lock``
+    (not diverged, but a mode the tracker flags as converged is off by more than ``tol``)."""
+    m = rel.shape[1]
+    tail = t_s >= t_s[0] + (1 - TAIL) * (t_s[-1] - t_s[0])
+    med = np.median(rel[tail], axis=0) if tail.any() else np.full(m, np.inf)
+    diverged = bool(np.any(med > DIVERGED_REL))
+    flagged = np.asarray(converged, dtype=bool)[tail].mean(axis=0) > 0.5 if tail.any() else np.zeros(m, bool)
+    return {"diverged": diverged, "false_lock": bool(not diverged and np.any(flagged & (med > tol)))}
+
+
 def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray, dt_s: float, *,
                 bound: np.ndarray | None = None, bound_unknown_force: np.ndarray | None = None,
                 step_time_s: float | None = None, drift_span_s=None, tol: float = TOL,
@@ -125,41 +172,29 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
     -------
     dict of float
     """
-    t_s = np.asarray(t_s, dtype=float)
-    est = np.asarray(frequencies, dtype=float)
-    n, m = truth.shape
-    if est.shape != (t_s.size, m):
-        raise ValueError(f"track frequencies of shape {est.shape}; expected ({t_s.size}, {m})")
-    k = sample_index(t_s, dt_s, n)
-    w = truth[k]
-    err = np.abs(est - w)
-    rel = np.where(np.isfinite(err), err / w, np.inf)
+    t_s, est, k, err, rel = _relative_errors(t_s, frequencies, truth, dt_s)
+    n = truth.shape[0]
     ok = np.all(rel <= tol, axis=1)
     t_conv = converged_from(t_s, ok, float(t_s[0]), hold_s)
-    out = {"t_converge_s": t_conv, "share_within_1pct": float(ok.mean()), "n_samples": n,
-           "cpu_s": float(runtime_s), "cpu_per_sample_s": float(runtime_s) / n}
-    out["onboard_ok"] = bool(out["cpu_per_sample_s"] * ONBOARD_SLOWDOWN <= ONBOARD_BUDGET_S)
+    out = {"t_converge_s": t_conv, "share_within_1pct": float(ok.mean()), **_cost(runtime_s, n)}
     after = t_s >= t_conv if math.isfinite(t_conv) else np.zeros(t_s.size, bool)
     for name, q in (("median", 50), ("p90", 90)):
-        out[f"err_rel_{name}"] = (float(np.percentile(rel[after], q, method="inverted_cdf")) if after.any()
-                                  else math.nan)
+        out[f"err_rel_{name}"] = _percentile(rel[after], q) if after.any() else math.nan
         for key, b in (("err_bound", bound), ("err_ufbound", bound_unknown_force)):
             if b is not None and after.any():
                 ratio = err[after] / np.asarray(b)[k][after]
                 ratio = np.where(np.isfinite(ratio), ratio, np.inf)     # a missing estimate is no small error
-                out[f"{key}_{name}"] = float(np.percentile(ratio, q, method="inverted_cdf"))
+                out[f"{key}_{name}"] = _percentile(ratio, q)
             else:
                 out[f"{key}_{name}"] = math.nan
-    late = t_s >= t_s[0] + 0.5 * (t_s[-1] - t_s[0])
-    out["err_rel_median_late"] = float(np.percentile(rel[late], 50, method="inverted_cdf"))
+    late = _late(t_s)
+    out["err_rel_median_late"] = _percentile(rel[late], 50)
     out["err_ufbound_median_late"] = math.nan
     if bound_unknown_force is not None:
         ratio = err[late] / np.asarray(bound_unknown_force)[k][late]
-        out["err_ufbound_median_late"] = float(np.percentile(np.where(np.isfinite(ratio), ratio, np.inf), 50,
-                                                             method="inverted_cdf"))
-    out["err_rel_p90_late"] = float(np.percentile(rel[late], 90, method="inverted_cdf"))
-    for i in range(m):
-        out[f"err_rel_median_mode{i + 1}"] = float(np.median(rel[after, i])) if after.any() else math.nan
+        out["err_ufbound_median_late"] = _percentile(np.where(np.isfinite(ratio), ratio, np.inf), 50)
+    out["err_rel_p90_late"] = _percentile(rel[late], 90)
+    out.update(_mode_medians(rel, after))
     out["t_reconverge_s"] = math.nan
     if step_time_s is not None and math.isfinite(step_time_s):
         t_re = converged_from(t_s, ok, float(step_time_s), hold_s)
@@ -168,11 +203,7 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
     if drift_span_s is not None and np.all(np.isfinite(drift_span_s)) and math.isfinite(t_conv):
         lo, hi = drift_span_s
         out["lag_s"] = lag_s(t_s, est, np.arange(n) * dt_s, truth, (max(lo, t_conv), hi))
-    tail = t_s >= t_s[0] + (1 - TAIL) * (t_s[-1] - t_s[0])
-    med = np.median(rel[tail], axis=0) if tail.any() else np.full(m, np.inf)
-    out["diverged"] = bool(np.any(med > DIVERGED_REL))
-    flagged = np.asarray(converged, dtype=bool)[tail].mean(axis=0) > 0.5 if tail.any() else np.zeros(m, bool)
-    out["false_lock"] = bool(not out["diverged"] and np.any(flagged & (med > tol)))
+    out.update(_tail_verdicts(t_s, rel, converged, tol))
     return out
 
 
@@ -192,14 +223,8 @@ def score_dwells(t_s, frequencies, converged, runtime_s: float, truth: np.ndarra
     dict of float
         The keys of :func:`score_track`, plus ``reconverge_periods`` and ``reconverged_share``.
     """
-    t_s = np.asarray(t_s, dtype=float)
-    est = np.asarray(frequencies, dtype=float)
-    n, m = truth.shape
-    if est.shape != (t_s.size, m):
-        raise ValueError(f"track frequencies of shape {est.shape}; expected ({t_s.size}, {m})")
-    k = sample_index(t_s, dt_s, n)
-    w = truth[k]
-    rel = np.where(np.isfinite(est), np.abs(est - w) / w, np.inf)
+    t_s, _, _, _, rel = _relative_errors(t_s, frequencies, truth, dt_s)
+    n = truth.shape[0]
     ok = np.all(rel <= tol, axis=1)
     edges = np.concatenate([[0.0], np.asarray(step_times_s, float).reshape(-1), [n * dt_s]])
     scored = np.zeros(t_s.size, bool)
@@ -218,20 +243,17 @@ def score_dwells(t_s, frequencies, converged, runtime_s: float, truth: np.ndarra
         r = (t_s[first] - lo) if first is not None else math.inf
         reconv_s.append(r)
         reconv_periods.append(r / period)
-    out = {"n_samples": n, "cpu_s": float(runtime_s), "cpu_per_sample_s": float(runtime_s) / n}
-    out["onboard_ok"] = bool(out["cpu_per_sample_s"] * ONBOARD_SLOWDOWN <= ONBOARD_BUDGET_S)
+    out = _cost(runtime_s, n)
     out["share_within_1pct"] = float(ok[scored].mean()) if scored.any() else math.nan
     for name, q in (("median", 50), ("p90", 90)):
-        out[f"err_rel_{name}"] = (float(np.percentile(rel[scored], q, method="inverted_cdf")) if scored.any()
-                                  else math.nan)
+        out[f"err_rel_{name}"] = _percentile(rel[scored], q) if scored.any() else math.nan
         out[f"err_bound_{name}"] = math.nan
         out[f"err_ufbound_{name}"] = math.nan                # no bound is computed for a laboratory record
-    late = t_s >= t_s[0] + 0.5 * (t_s[-1] - t_s[0])
-    out["err_rel_median_late"] = float(np.percentile(rel[late], 50, method="inverted_cdf"))
-    out["err_rel_p90_late"] = float(np.percentile(rel[late], 90, method="inverted_cdf"))
+    late = _late(t_s)
+    out["err_rel_median_late"] = _percentile(rel[late], 50)
+    out["err_rel_p90_late"] = _percentile(rel[late], 90)
     out["err_ufbound_median_late"] = math.nan
-    for i in range(m):
-        out[f"err_rel_median_mode{i + 1}"] = float(np.median(rel[scored, i])) if scored.any() else math.nan
+    out.update(_mode_medians(rel, scored))
     moves = np.asarray(reconv_s[1:] or [math.nan])
     med = float(np.median(moves))
     out["t_converge_s"] = reconv_s[0] if math.isfinite(reconv_s[0]) else math.nan
@@ -241,11 +263,7 @@ def score_dwells(t_s, frequencies, converged, runtime_s: float, truth: np.ndarra
     out["reconverged_share"] = (float(np.mean(np.asarray(reconv_periods[1:]) <= settle_periods))
                                 if len(reconv_periods) > 1 else math.nan)
     out["lag_s"] = math.nan
-    tail = t_s >= t_s[0] + (1 - TAIL) * (t_s[-1] - t_s[0])
-    med_tail = np.median(rel[tail], axis=0)
-    out["diverged"] = bool(np.any(med_tail > DIVERGED_REL))
-    flagged = np.asarray(converged, dtype=bool)[tail].mean(axis=0) > 0.5
-    out["false_lock"] = bool(not out["diverged"] and np.any(flagged & (med_tail > tol)))
+    out.update(_tail_verdicts(t_s, rel, converged, tol))
     return out
 
 

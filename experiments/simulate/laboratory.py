@@ -45,14 +45,13 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 
 from experiments.simulate.timevarying import INPUTS, ModalModel, simulate
+from experiments.simulate.tracking_data import UG, cell_rng, check_replicates, replicate_priors
 
 __all__ = ["G_M_S2", "STREAMS", "LaboratoryConfig", "LaboratoryCellConfig", "LabRecord", "check_laboratory",
            "lab_record", "make_lab_cell", "schedule"]
 
 G_M_S2 = 9.80665
-UG = 9.80665e-6
 STREAMS = {"noise": 0, "schedule": 1, "impulses": 2, "damping": 3, "prior": 4, "signs": 5}   # per cell: r = 0
-MIN_SAMPLES = 64
 
 
 @dataclass
@@ -155,15 +154,7 @@ def check_laboratory(cfg: LaboratoryCellConfig) -> None:
         raise ValueError(f"laboratory.decimate = {lab.decimate!r} must be an integer ≥ 1")
     if not abs(lab.offset_v) < lab.range_v:
         raise ValueError(f"laboratory.offset_v = {lab.offset_v} must be inside the converter's ±{lab.range_v} V")
-    if not cfg.noise_ug > 0:
-        raise ValueError(f"noise_ug = {cfg.noise_ug} must be positive (the 1σ noise level in µg)")
-    if not (cfg.duration_s > 0 and cfg.n_samples >= MIN_SAMPLES):
-        raise ValueError(f"duration_s = {cfg.duration_s} gives {cfg.n_samples} samples after decimation; "
-                         f"at least {MIN_SAMPLES}")
-    if cfg.replicates < 1:
-        raise ValueError(f"replicates = {cfg.replicates} must be at least 1")
-    if not 0 <= cfg.prior_spread < 1:
-        raise ValueError(f"prior_spread = {cfg.prior_spread} must be in [0, 1)")
+    check_replicates(cfg, "after decimation")
     nyquist_hz = 0.5 / cfg.dt_s
     if hi * (1 + cfg.prior_spread) >= 0.8 * nyquist_hz:
         raise ValueError(f"laboratory.band_hz top {hi:g} Hz (prior up to {hi * (1 + cfg.prior_spread):.4g} Hz) is not "
@@ -172,8 +163,7 @@ def check_laboratory(cfg: LaboratoryCellConfig) -> None:
 
 
 def _rng(cfg: LaboratoryCellConfig, replicate: int, stream: str) -> np.random.Generator:
-    return np.random.default_rng([int(cfg.seed), int(round(cfg.noise_ug * 1000)), cfg.n_samples, replicate,
-                                  STREAMS[stream]])
+    return cell_rng(cfg, replicate, STREAMS[stream])
 
 
 def schedule(cfg: LaboratoryCellConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -260,8 +250,7 @@ def make_lab_cell(cfg: LaboratoryCellConfig) -> dict[str, np.ndarray]:
     noisy = np.stack([_decimate(rec.accel_m_s2, q)[:n] for rec in recs])
     clean = np.stack([_decimate(rec.clean_m_s2, q)[:n] for rec in recs])
     truth = recs[0].freq_rad_s[::q][:n]                                        # (n, m): the cell's schedule
-    u_prior = np.stack([_rng(cfg, r, "prior").uniform(-1.0, 1.0, cfg.lab.n_modes) for r in range(cfg.replicates)])
-    prior = np.sort(truth[0][None, :] * (1.0 + cfg.prior_spread * u_prior), axis=1)
+    prior = replicate_priors(cfg, truth[0], lambda r: _rng(cfg, r, "prior"))
     return {
         "t_s": np.arange(n) * dt, "accel_m_s2": noisy, "accel_clean_m_s2": clean, "truth_freq_rad_s": truth,
         "truth_damping": recs[0].damping.copy(), "prior_rad_s": prior,

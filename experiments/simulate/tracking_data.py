@@ -100,19 +100,26 @@ class TrackingCellConfig:
         return int(round(self.duration_s / self.dt_s))
 
 
-def check_cell_config(cfg: TrackingCellConfig) -> np.ndarray:
-    """Raise ``ValueError`` (one line naming the value) for an impossible cell; return its schedule ω(t)."""
-    if not cfg.dt_s > 0:
-        raise ValueError(f"dt_s = {cfg.dt_s} must be positive")
+def check_replicates(cfg, samples_at: str) -> None:
+    """``ValueError`` (one line naming the value) for a cell's noise, length, replicates or prior spread that
+    cannot be simulated; ``cfg``: a spacecraft or a laboratory cell's config (``noise_ug``, ``duration_s``,
+    ``n_samples``, ``replicates``, ``prior_spread``); ``samples_at`` says at which rate N is counted."""
     if not cfg.noise_ug > 0:
         raise ValueError(f"noise_ug = {cfg.noise_ug} must be positive (the 1σ noise level in µg)")
     if not (cfg.duration_s > 0 and cfg.n_samples >= MIN_SAMPLES):
-        raise ValueError(f"duration_s = {cfg.duration_s} gives {cfg.n_samples} samples at dt_s = {cfg.dt_s}; "
+        raise ValueError(f"duration_s = {cfg.duration_s} gives {cfg.n_samples} samples {samples_at}; "
                          f"at least {MIN_SAMPLES}")
     if cfg.replicates < 1:
         raise ValueError(f"replicates = {cfg.replicates} must be at least 1")
     if not 0 <= cfg.prior_spread < 1:
         raise ValueError(f"prior_spread = {cfg.prior_spread} must be in [0, 1)")
+
+
+def check_cell_config(cfg: TrackingCellConfig) -> np.ndarray:
+    """Raise ``ValueError`` (one line naming the value) for an impossible cell; return its schedule ω(t)."""
+    if not cfg.dt_s > 0:
+        raise ValueError(f"dt_s = {cfg.dt_s} must be positive")
+    check_replicates(cfg, f"at dt_s = {cfg.dt_s}")
     ex = cfg.excitation
     for name in ("release", "thruster_torque_n_m", "disturbance_force_n"):
         value = getattr(ex, name)
@@ -138,9 +145,23 @@ def check_cell_config(cfg: TrackingCellConfig) -> np.ndarray:
     return w
 
 
-def _rng(cfg: TrackingCellConfig, replicate: int, stream: str) -> np.random.Generator:
+def cell_rng(cfg, replicate: int, stream: int) -> np.random.Generator:
+    """Replicate ``replicate``'s random stream number ``stream`` of a cell (a spacecraft or a laboratory cell):
+    ``numpy.random.default_rng([seed, round(noise_ug*1000), N, replicate, stream])``, so that a cell's records
+    do not depend on the other cells of its grid."""
     return np.random.default_rng([int(cfg.seed), int(round(cfg.noise_ug * 1000)), cfg.n_samples, replicate,
-                                  STREAMS[stream]])
+                                  stream])
+
+
+def replicate_priors(cfg, w0_rad_s: np.ndarray, prior_rng) -> np.ndarray:
+    """Each replicate's prior, shape (R, m): ωᵢ(0)·(1 + s·uᵢ), uᵢ ~ U(−1, 1) from ``prior_rng(r)`` (the
+    replicate's prior stream), s = ``cfg.prior_spread``, sorted."""
+    u_prior = np.stack([prior_rng(r).uniform(-1.0, 1.0, w0_rad_s.size) for r in range(cfg.replicates)])
+    return np.sort(w0_rad_s[None, :] * (1.0 + cfg.prior_spread * u_prior), axis=1)
+
+
+def _rng(cfg: TrackingCellConfig, replicate: int, stream: str) -> np.random.Generator:
+    return cell_rng(cfg, replicate, STREAMS[stream])
 
 
 def inputs(cfg: TrackingCellConfig) -> np.ndarray:
@@ -176,8 +197,7 @@ def make_cell(cfg: TrackingCellConfig, *, bounds: bool = True) -> dict[str, np.n
     clean, states = simulate(model, w, cfg.dt_s, u, xi0=xi0)
     sigma = cfg.noise_ug * UG
     noisy = np.stack([clean[r] + sigma * _rng(cfg, r, "noise").standard_normal(n) for r in range(cfg.replicates)])
-    u_prior = np.stack([_rng(cfg, r, "prior").uniform(-1.0, 1.0, w.shape[1]) for r in range(cfg.replicates)])
-    prior = np.sort(w[0][None, :] * (1.0 + cfg.prior_spread * u_prior), axis=1)
+    prior = replicate_priors(cfg, w[0], lambda r: _rng(cfg, r, "prior"))
     ev = schedules.events(cfg.schedule, t)
     out = {
         "t_s": t, "accel_m_s2": noisy, "accel_clean_m_s2": clean, "truth_freq_rad_s": w,
@@ -220,5 +240,5 @@ def cell_name(schedule: str, excitation: str, noise_ug: float, duration_s: float
     return f"{schedule}_{excitation}_noise{float(noise_ug):g}ug_{float(duration_s):g}s"
 
 
-__all__ = ["ExcitationConfig", "ScheduleConfig", "TrackingCellConfig", "cell_name", "check_cell_config",
-           "inputs", "make_cell", "write_cell"]
+__all__ = ["ExcitationConfig", "ScheduleConfig", "TrackingCellConfig", "cell_name", "cell_rng", "check_cell_config",
+           "check_replicates", "inputs", "make_cell", "replicate_priors", "write_cell"]

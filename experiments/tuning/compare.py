@@ -22,9 +22,9 @@ from omegaconf import OmegaConf
 from experiments import paths
 from experiments.cli import ArgumentParser
 from experiments.config_schema import method_of_config, variant_label
+from experiments.hydra_app.command_line import fail, one_line
+from experiments.hydra_app.config_store import register
 from experiments.io import atomic_write_text, markdown_table, write_table
-from experiments.jobs.app import fail, one_line
-from experiments.jobs.config import register
 from experiments.report.objective import DEFAULT_PENALTY, cell_objective
 from experiments.simulate.datasets import DatasetConfig, make_cell
 from experiments.tuning.tune import base_method, evaluate

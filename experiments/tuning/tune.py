@@ -10,7 +10,7 @@ _self_]``, ``variant: <variant>``, the tuned options) with the study's provenanc
 it ``<method>:<variant>``. A tracking study (``kind: track``, ``configs/tuning/track_<tracker>.yaml``) tunes a
 tracker's tracking options on ``track_cells`` (schedule, excitation, noise, duration) with
 ``experiments.report.objective.track_objective`` and writes ``configs/tracker/<tracker>_<variant>.yaml``,
-which tracking grids name ``<tracker>:<variant>`` (``experiments.jobs.track_variants``).
+which tracking grids name ``<tracker>:<variant>`` (``experiments.tracker_variants``).
 Every trial is an MLflow child run of one study run (experiment ``tuning``). The
 study lives in Optuna's RDB storage (``results/optuna.db``, beside the MLflow store): run the same command
 again and it resumes, running only the trials still missing. Why not hydra-optuna-sweeper: it pins
@@ -38,9 +38,9 @@ from omegaconf import MISSING, OmegaConf
 import methods
 from experiments import paths
 from experiments.config_schema import RunlogConfig, method_of_config, variant_label
+from experiments.hydra_app.command_line import run_app
+from experiments.hydra_app.config_store import register
 from experiments.io import atomic_write_text
-from experiments.jobs.app import run_app
-from experiments.jobs.config import register
 from experiments.jobs.identify import run_records
 from experiments.jobs.track_job import track_record
 from experiments.report.objective import mode_failed, objective, track_objective
@@ -384,7 +384,7 @@ def config_text(t, name: str, sname: str, study, best, tuned: dict) -> str:
 
 
 def track_config_text(t, sname: str, study, best, tuned: dict) -> str:
-    """The variant file of a tracking study (``experiments.jobs.track_variants``) with its provenance."""
+    """The variant file of a tracking study (``experiments.tracker_variants``) with its provenance."""
     finished = [tr for tr in study.trials if tr.value is not None]
     base_trials = [tr for tr in finished if tr.user_attrs.get("base")]
     attrs = best.user_attrs

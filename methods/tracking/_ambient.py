@@ -200,6 +200,37 @@ def visible(var: np.ndarray, r: float, ref: np.ndarray, band: float, dt: float) 
     return var > r * 2 * dt * (hi - lo) / (2 * math.pi)
 
 
+def modes_to_restart(modes, deviation: np.ndarray, scale, floor: float, d_log: np.ndarray, strikes: np.ndarray,
+                     hist_d: list[list[float]], opts: SharedOptions) -> list[tuple[int, float]]:
+    """The restart rule both ambient filters share: which modes restart at the window's peak this look.
+
+    A mode's disagreement with the window's peak is judged against its running robust scale
+    s_i = median|d| / 0.6745 of its last 30 agreeing looks' log-ratios d = ln(peak / ω̂) (∞ before three):
+    mode i disagrees when |deviation_i| > max(restart_gate · s_i · scale_i, floor) (``akf_ambient``: the
+    deviation in rad/s, scale ω̂, floor the window's resolution; ``rpem_ambient``: d itself, scale 1, no
+    floor). A disagreement is a strike, an agreement clears the strikes and joins the history;
+    ``restart_after`` strikes in a row restart the mode. ``strikes`` and ``hist_d`` are updated in place.
+
+    Returns
+    -------
+    list of (int, float)
+        (mode, s_i) of each mode to restart, in the order of ``modes``; its strikes are cleared. A restart
+        touches only its own mode's state, so the caller applies them after the look.
+    """
+    restarts = []
+    for i in modes:
+        s_i = np.median(np.abs(hist_d[i])) / 0.6745 if len(hist_d[i]) >= 3 else np.inf
+        if abs(deviation[i]) > max(opts.restart_gate * s_i * scale[i], floor):
+            strikes[i] += 1
+        else:
+            strikes[i] = 0
+            hist_d[i] = (hist_d[i] + [float(d_log[i])])[-30:]
+        if strikes[i] >= opts.restart_after:
+            strikes[i] = 0
+            restarts.append((i, s_i))
+    return restarts
+
+
 def _gamma(phi: np.ndarray, w: np.ndarray, zeta: float) -> np.ndarray:
     """Γᵢ = Aᵢ⁻¹(Φᵢ − I)[0, 1]ᵀ, shape (m, 2): the held unit force's effect over one sample."""
     g = np.empty((w.size, 2))
@@ -369,20 +400,13 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
                 on = True
             else:
                 d_log = np.log(peak / x[iw])
-                for i in np.flatnonzero(ok):
-                    s_i = np.median(np.abs(hist_d[i])) / 0.6745 if len(hist_d[i]) >= 3 else np.inf
-                    if abs(peak[i] - x[iw[i]]) > max(opts.restart_gate * s_i * x[iw[i]], resolution):
-                        strikes[i] += 1
-                    else:
-                        strikes[i] = 0
-                        hist_d[i] = (hist_d[i] + [float(d_log[i])])[-30:]
-                    if strikes[i] >= opts.restart_after:
-                        x[iw[i]] = peak[i]
-                        P[iw[i], :] = 0.0
-                        P[:, iw[i]] = 0.0
-                        P[iw[i], iw[i]] = max(0.01 * peak[i], resolution / 4) ** 2
-                        strikes[i] = 0
-                        n_restarts += 1
+                for i, _ in modes_to_restart(np.flatnonzero(ok), peak - x[iw], x[iw], resolution, d_log, strikes,
+                                             hist_d, opts):
+                    x[iw[i]] = peak[i]
+                    P[iw[i], :] = 0.0
+                    P[:, iw[i]] = 0.0
+                    P[iw[i], iw[i]] = max(0.01 * peak[i], resolution / 4) ** 2
+                    n_restarts += 1
         started[k] = on
         seen[k] = seen_now
         freq[k] = x[iw]

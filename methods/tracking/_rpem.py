@@ -221,21 +221,14 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                                                           opts.damping_ratio)
             seen_now = np.isfinite(peak) & _ambient.visible(v_f, r_f, ref, opts.band, dt)
             d = np.log(peak / theta[iw])
-            for i in np.flatnonzero(np.isfinite(d)):
-                s_i = np.median(np.abs(hist_d[i])) / 0.6745 if len(hist_d[i]) >= 3 else np.inf
-                if abs(d[i]) > opts.restart_gate * s_i:
-                    strikes[i] += 1
-                else:
-                    strikes[i] = 0
-                    hist_d[i] = (hist_d[i] + [float(d[i])])[-30:]
-                if strikes[i] >= opts.restart_after:
-                    theta[iw[i]] = peak[i]
-                    P[iw[i], :] = 0.0
-                    P[:, iw[i]] = 0.0
-                    P[iw[i], iw[i]] = (s_i * peak[i]) ** 2
-                    Wm[:, iw[i]] = 0.0
-                    strikes[i] = 0
-                    n_restarts += 1
+            for i, s_i in _ambient.modes_to_restart(np.flatnonzero(np.isfinite(d)), d, np.ones(m), -np.inf, d,
+                                                    strikes, hist_d, opts):
+                theta[iw[i]] = peak[i]
+                P[iw[i], :] = 0.0
+                P[:, iw[i]] = 0.0
+                P[iw[i], iw[i]] = (s_i * peak[i]) ** 2
+                Wm[:, iw[i]] = 0.0
+                n_restarts += 1
             if np.max(np.abs(np.linalg.eigvals(Fb - np.outer(Kp, C)))) >= 1.0:   # unstable predictor
                 theta[ik] = K0 / kscale
                 Wm[:] = 0.0

@@ -15,8 +15,8 @@ from omegaconf import OmegaConf
 
 import methods
 from experiments.config_schema import METHOD_CONFIG_DIR, method_of_config, stated_options
-from experiments.jobs.app import CONFIG_MODULE
-from experiments.jobs.config import register
+from experiments.hydra_app.command_line import CONFIG_MODULE
+from experiments.hydra_app.config_store import register
 
 CONFIGS = sorted(p.stem for p in METHOD_CONFIG_DIR.glob("*.yaml"))
 

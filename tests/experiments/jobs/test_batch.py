@@ -77,9 +77,9 @@ def test_composing_once_per_method_gives_each_job_hydras_own_config():
     from hydra import initialize_config_module
     from omegaconf import OmegaConf
 
+    from experiments.hydra_app.command_line import CONFIG_MODULE
+    from experiments.hydra_app.config_store import register
     from experiments.jobs import batch as batch_app
-    from experiments.jobs.app import CONFIG_MODULE
-    from experiments.jobs.config import register
 
     register(with_methods=["akf", "fft"])
     jobs = [[f"method={m}", f"data.dataset=results/g/data/{c}.npz", f"out=results/g/identify/{m}/{c}.csv",

@@ -144,7 +144,7 @@ def test_a_path_with_non_ascii_letters_is_read(workdir):
 
 
 def test_quoting_leaves_the_users_own_syntax_alone():
-    from experiments.jobs.app import quote_unicode_value
+    from experiments.hydra_app.command_line import quote_unicode_value
 
     assert quote_unicode_value("data.path=été.csv") == "data.path='été.csv'"
     assert quote_unicode_value("data.path='été.csv'") == "data.path='été.csv'"

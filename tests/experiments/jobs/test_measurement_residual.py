@@ -17,9 +17,9 @@ SEED = 3      # a test seed (the formats' acceptance test and the benchmark use 
 def run_identify(path, run_dir):
     from hydra import compose, initialize_config_module
 
+    from experiments.hydra_app.command_line import CONFIG_MODULE
+    from experiments.hydra_app.config_store import register
     from experiments.jobs import identify
-    from experiments.jobs.app import CONFIG_MODULE
-    from experiments.jobs.config import register
 
     register(with_methods=["pem"])
     with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):

@@ -129,9 +129,9 @@ def test_score_step_scores_stored_tracks_again_identically(grid_file, tmp_path):
 def test_a_variant_runs_under_its_label_with_its_options(grid_file, tmp_path, monkeypatch):
     """``hdmd:fast`` beside ``all``: its file's options reach the check (a bad one is refused naming the
     variant) and the run, and its rows carry the label."""
-    from experiments.jobs import track_variants
+    from experiments import tracker_variants
 
-    monkeypatch.setattr(track_variants, "VARIANT_DIR", tmp_path / "tracker")
+    monkeypatch.setattr(tracker_variants, "VARIANT_DIR", tmp_path / "tracker")
     (tmp_path / "tracker").mkdir()
     (tmp_path / "tracker" / "hdmd_fast.yaml").write_text("tracker: hdmd\nvariant: fast\noptions: {hop_samples: 50}\n")
     grid = grid_file(trackers=["all", "hdmd:fast"])

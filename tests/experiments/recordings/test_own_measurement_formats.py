@@ -83,9 +83,9 @@ def run_identify(overrides, run_dir):
     """The identify job as the command line runs it: composed, checked, run."""
     from hydra import compose, initialize_config_module
 
+    from experiments.hydra_app.command_line import CONFIG_MODULE
+    from experiments.hydra_app.config_store import register
     from experiments.jobs import identify
-    from experiments.jobs.app import CONFIG_MODULE
-    from experiments.jobs.config import register
 
     register(with_methods=["pem"])
     with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):

@@ -11,8 +11,8 @@ import pandas as pd
 import pytest
 
 import methods
-from experiments.jobs.track_variants import variant_options
 from experiments.report.objective import FAILED_REL, mode_failed, track_objective
+from experiments.tracker_variants import variant_options
 
 ROOT = Path(__file__).resolve().parents[3]
 SCORING_SEED = 20261121

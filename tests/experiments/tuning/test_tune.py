@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 from hydra import compose, initialize_config_dir
 
-from experiments.jobs.config import register
+from experiments.hydra_app.config_store import register
 from experiments.report.objective import DEFAULT_PENALTY, FAILED_RATIO, objective
 from experiments.simulate.datasets import DatasetConfig, write_cell
 from experiments.tuning.space import base_params, resolve

@@ -1,6 +1,12 @@
 import pytest
 
-from experiments.jobs.measurements import load_csv
+from experiments.recordings import read_record
+
+
+def load_csv(path):
+    """(accel in m/s², dt) of a CSV's single acceleration channel, the whole record (no segmentation)."""
+    rec = read_record(path)
+    return rec.accel_m_s2, rec.dt_s
 
 
 def write(tmp_path, text):

@@ -1,17 +1,16 @@
 """The modes of a measurement without a prior: a stabilisation diagram of a segment (docs/measurements.md).
 
-Shared by the identify job on a user's file (:mod:`experiments.jobs.measurements`) and the track job
-(:mod:`experiments.jobs.track_file`), which may not import the former (it reaches MLflow run logging, and a
-frequency-tracking module does not: tests/test_names.py).
+Shared by the identify job on a user's file (:mod:`experiments.jobs.identify`) and the track job
+(:mod:`experiments.jobs.track_file`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["INSTALL_HINT", "find_modes"]
+from experiments.recordings.formats import INSTALL_HINT
 
-INSTALL_HINT = "pip install -e '.[measurements]'"
+__all__ = ["find_modes"]
 
 
 def find_modes(data: dict, n_modes: int | None):

@@ -1,4 +1,5 @@
-"""The identify job on a user's own measurement file (docs/measurements.md).
+"""The identify job on a user's own measurement file (docs/measurements.md); private to
+:mod:`experiments.jobs.identify`.
 
     python -m experiments.jobs.identify method=pem data.path=beam.uff data.channel=tip
 
@@ -12,23 +13,20 @@ amplitude and whether the record determines it, on the terminal and in ``estimat
 
 from __future__ import annotations
 
-import functools
-import os
 from pathlib import Path
 
 import numpy as np
 
 from experiments.io import write_json
-from experiments.jobs.modes_found import INSTALL_HINT, find_modes
-from experiments.recordings import choose_segment, read_record
+from experiments.recordings.load import load_segment
 from experiments.recordings.modal_fit import fit_modes
+from experiments.recordings.modes_found import find_modes
 from experiments.recordings.spectral import flat_band
 from experiments.report import model_check
 from experiments.report.measurement_figure import measurement_figure
 from experiments.units import G_M_S2
 
-__all__ = ["G_M_S2", "MEASUREMENTS_EXPERIMENT", "INSTALL_HINT", "load", "load_csv", "find_modes", "method_options",
-           "print_notes", "report", "log"]
+__all__ = ["MEASUREMENTS_EXPERIMENT", "load", "find_modes", "method_options", "print_notes", "report", "log"]
 
 MEASUREMENTS_EXPERIMENT = "measurements"
 
@@ -36,32 +34,10 @@ MEASUREMENTS_EXPERIMENT = "measurements"
 def load(d, prior=None) -> dict:
     """The segment of the file ``d.path`` to identify (``d``: the job's ``data`` config), as the job's
     data dict; read once per process (the job's check and its task both ask)."""
-    path = Path(d.path)
-    band = d.band_hz if isinstance(d.band_hz, str | int | float) or d.band_hz is None else list(d.band_hz)
     cover = 1.25 * max(prior) / (2 * np.pi) if prior is not None and len(prior) else 0.0
-    stamp = os.stat(path).st_mtime_ns if path.is_file() else None
-    return _load(str(path), stamp, d.channel, d.units, d.dt, d.start_s, d.stop_s,
-                 tuple(band) if isinstance(band, list) else band, cover)
-
-
-@functools.lru_cache(maxsize=4)
-def _load(path, _stamp, channel, units, dt, start_s, stop_s, band_hz, cover_hz) -> dict:
-
-    try:
-        rec = read_record(path, channel=channel, units=units, dt=dt)
-    except ModuleNotFoundError as exc:
-        raise ValueError(f"{path}: reading this format needs the package '{exc.name}': {INSTALL_HINT}") from None
-    seg = choose_segment(rec.accel_m_s2, rec.dt_s, rec.t0_s, start_s=start_s, stop_s=stop_s,
-                         band_hz=list(band_hz) if isinstance(band_hz, tuple) else band_hz, cover_hz=cover_hz,
-                         where=path)
-    return {"y": seg.y[None, :], "dt": seg.dt, "truth": None, "source": path, "record": rec, "segment": seg}
-
-
-def load_csv(path) -> tuple[np.ndarray, float]:
-    """(accel in m/s², dt) of a CSV's single acceleration channel, the whole record (no segmentation)."""
-
-    rec = read_record(path)
-    return rec.accel_m_s2, rec.dt_s
+    rec, seg = load_segment(d, cover)
+    return {"y": seg.y[None, :], "dt": seg.dt, "truth": None, "source": str(Path(d.path)), "record": rec,
+            "segment": seg}
 
 
 def method_options(options: dict, data: dict) -> dict:
