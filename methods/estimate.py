@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["Estimate", "failed", "MAX_ABS_ACCEL_M_S2", "check_inputs", "check_prior", "FLAT_RELATIVE_SPREAD",
-           "flat_record", "make_options"]
+           "flat_record", "make_options", "relative_option"]
 
 
 @dataclass(frozen=True)
@@ -182,3 +182,20 @@ def make_options(options_cls, options: dict, method: str):
         if key not in known:
             raise ValueError(f"unknown option '{key}' for method '{method}'; known: {sorted(known)}")
     return options_cls(**options)
+
+
+def relative_option(method: str, rel_name: str, rel, abs_name: str, abs_value, abs_default,
+                    allow_zero: bool = False) -> float | None:
+    """An option given in units of the prior (``rel_name``: per period of the slowest mode, a fraction of ω₀)
+    beside its absolute twin ``abs_name``: a finite number, positive (non-negative with ``allow_zero``), and
+    the twin left at its default. Returns it as a float, or None when it is not given."""
+    if rel is None:
+        return None
+    sign = "non-negative" if allow_zero else "positive"
+    if (isinstance(rel, bool) or not isinstance(rel, (int, float)) or not np.isfinite(rel)
+            or not (rel >= 0 if allow_zero else rel > 0)):
+        raise ValueError(f"{method}: {rel_name} = {rel!r} must be a {sign} number")
+    if abs_value != abs_default:
+        raise ValueError(f"{method}: give {rel_name} or {abs_name}, not both ({rel_name} = {rel!r}, "
+                         f"{abs_name} = {abs_value!r})")
+    return float(rel)

@@ -28,7 +28,7 @@ import numpy as np
 import scipy.signal
 from filterpy.kalman import ExtendedKalmanFilter
 
-from methods.estimate import Estimate, check_inputs, failed, flat_record
+from methods.estimate import Estimate, check_inputs, failed, flat_record, relative_option
 
 MEASUREMENTS = ("position", "acceleration")
 
@@ -145,11 +145,8 @@ def settings_from(opts, prior: np.ndarray, method: str, *, dt: float | None = No
     qd_frequency = float(opts.qd_frequency)
     rel = getattr(opts, "qd_frequency_rel", None)
     if rel is not None and dt is not None:  # eq. (21)'s walk in units of the prior: per period of ω_min
-        if isinstance(rel, bool) or not isinstance(rel, (int, float)) or not (np.isfinite(rel) and rel >= 0):
-            raise ValueError(f"{method}: qd_frequency_rel = {rel!r} must be a non-negative number")
-        if opts.qd_frequency != type(opts).qd_frequency:
-            raise ValueError(f"{method}: give qd_frequency_rel or qd_frequency, not both (qd_frequency_rel = "
-                             f"{rel!r}, qd_frequency = {opts.qd_frequency!r})")
+        rel = relative_option(method, "qd_frequency_rel", rel, "qd_frequency", opts.qd_frequency,
+                              type(opts).qd_frequency, allow_zero=True)
         w_min = float(np.min(prior))
         qd_frequency = rel * w_min**2 * dt / (2.0 * np.pi / w_min)
     if not opts.max_variance_growth > 1:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import cont2discrete
 
-from methods.estimate import Estimate, make_options
+from methods.estimate import Estimate, make_options, relative_option
 from methods.kalman import akf
 from methods.kalman._filter import Weighting, identify_record, settings_from
 from methods.kalman._lockstep import identify_each
@@ -130,12 +130,7 @@ def check_options(prior, dt, **options) -> Options:
             raise ValueError(f"wkf: {name} = {val} must be a positive number")
     if not (np.isfinite(opts.r_f) and opts.r_f >= 0):
         raise ValueError(f"wkf: r_f = {opts.r_f} must be a non-negative number")
-    if opts.weight_omega0_rel is not None:
-        val = opts.weight_omega0_rel
-        if isinstance(val, bool) or not isinstance(val, (int, float)) or not (np.isfinite(val) and val > 0):
-            raise ValueError(f"wkf: weight_omega0_rel = {val!r} must be a positive number")
-        if opts.weight_omega0_rad_s != Options.weight_omega0_rad_s:
-            raise ValueError(f"wkf: give weight_omega0_rel or weight_omega0_rad_s, not both (weight_omega0_rel = "
-                             f"{val!r}, weight_omega0_rad_s = {opts.weight_omega0_rad_s!r})")
+    relative_option("wkf", "weight_omega0_rel", opts.weight_omega0_rel, "weight_omega0_rad_s",
+                    opts.weight_omega0_rad_s, Options.weight_omega0_rad_s)
     settings_from(opts, prior, "wkf", dt=dt)
     return opts

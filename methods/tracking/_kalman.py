@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.estimate import make_options
+from methods.estimate import make_options, relative_option
 from methods.kalman import akf, online, wkf
 from methods.tracking._track import Track
 
@@ -57,13 +57,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     opts = make_options(OPTIONS[name], options, name)
     if not (np.isfinite(opts.warmup_s) and dt <= opts.warmup_s):
         raise ValueError(f"{name}: warmup_s = {opts.warmup_s} s must be at least one sample ({dt} s)")
-    if opts.warmup_periods is not None:
-        val = opts.warmup_periods
-        if isinstance(val, bool) or not isinstance(val, (int, float)) or not (np.isfinite(val) and val > 0):
-            raise ValueError(f"{name}: warmup_periods = {val!r} must be a positive number of periods")
-        if opts.warmup_s != _Online.warmup_s:
-            raise ValueError(f"{name}: give warmup_periods or warmup_s, not both (warmup_periods = {val!r}, "
-                             f"warmup_s = {opts.warmup_s!r})")
+    relative_option(name, "warmup_periods", opts.warmup_periods, "warmup_s", opts.warmup_s, _Online.warmup_s)
     warmup = _warmup_samples(opts, dt, prior)
     if n_samples is not None and warmup > n_samples:
         raise ValueError(f"{name}: warmup_s = {opts.warmup_s} s is longer than the record ({n_samples} samples)")

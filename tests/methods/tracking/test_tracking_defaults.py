@@ -146,3 +146,21 @@ def test_no_option_beyond_the_prior_tracks_one_to_six_modes(dt, m):
     tr = methods.track("gated_pencil", y, dt, prior)
     sc = score_steps(tr.t_s, tr.frequencies, truth, dt, steps)
     assert sc["error"] < 0.003 and sc["within"] > 0.75, sc         # six modes at once: 79 % on this seed
+
+
+@pytest.mark.parametrize("name, rel, absolute", [
+    ("akf", {"qd_frequency_rel": 1e-4}, {"qd_frequency": 1e-6}),
+    ("wkf", {"qd_frequency_rel": 1e-4}, {"qd_frequency": 1e-6}),
+    ("wkf", {"weight_omega0_rel": 0.5}, {"weight_omega0_rad_s": 2.0}),
+    ("akf", {"warmup_periods": 3.0}, {"warmup_s": 4.0}),
+    ("wkf", {"warmup_periods": 3.0}, {"warmup_s": 4.0}),
+])
+def test_an_option_in_units_of_the_prior_refuses_its_absolute_twin_and_bad_values(name, rel, absolute):
+    (key, value), (abs_key, _) = next(iter(rel.items())), next(iter(absolute.items()))
+    methods.check_track_options(name, PRIOR, DT, rel)
+    with pytest.raises(ValueError, match=re.escape(f"give {key} or {abs_key}, not both")) as err:
+        methods.check_track_options(name, PRIOR, DT, rel | absolute)
+    assert "\n" not in str(err.value)
+    for bad in (-1.0, float("nan"), "fast", True):
+        with pytest.raises(ValueError, match=re.escape(f"{key} = {bad!r} must be a")):
+            methods.check_track_options(name, PRIOR, DT, {key: bad})
