@@ -42,7 +42,7 @@ from experiments.simulate.tracking_grid import load_grid, make_grid_cell, nomina
 from experiments.tracker_variants import split, variant_options
 
 __all__ = ["WARM_UP_SAMPLES", "check_tracker", "grid_trackers", "main", "rescore_tracker", "run_cell", "run_data",
-           "run_tracker", "score_cell", "track_record", "tracker_names", "warm_up"]
+           "run_tracker", "score_cell", "track_record", "tracker_cells", "tracker_names", "warm_up"]
 
 
 def tracker_names() -> list[str]:
@@ -73,7 +73,19 @@ def grid_trackers(grid: dict) -> list[str]:
         if name not in wanted:
             raise ValueError(f"grid {grid['name']}: tracker_options.{name}: '{name}' is not one of the grid's "
                              f"trackers ({', '.join(wanted)})")
+    for name, _, _ in grid.get("tracker_exclude") or []:
+        if name not in wanted:
+            raise ValueError(f"grid {grid['name']}: exclude: tracker '{name}' is not one of the grid's "
+                             f"trackers ({', '.join(wanted)})")
     return wanted
+
+
+def tracker_cells(grid: dict, tracker: str) -> dict:
+    """The grid's cells the tracker runs on: all but those a ``tracker`` item of ``exclude`` leaves out."""
+    skip = [(s, e) for name, s, e in grid.get("tracker_exclude") or [] if name == tracker]
+    return {name: cell for name, cell in grid["cells"].items()
+            if not any((s is None or cell["schedule"] == s) and (e is None or cell["excitation"] == e)
+                       for s, e in skip)}
 
 
 def check_tracker(grid: dict, tracker: str) -> dict:
@@ -83,7 +95,7 @@ def check_tracker(grid: dict, tracker: str) -> dict:
     options = {**variant_options(tracker), **dict((grid.get("tracker_options") or {}).get(tracker, {}))}
     check = methods.check_track_options
     takes_length = "n_samples" in inspect.signature(check).parameters
-    for name, cell in grid["cells"].items():
+    for name, cell in tracker_cells(grid, tracker).items():
         cfg = cell["config"]
         nominal = np.asarray(nominal_prior_rad_s(cfg), dtype=float)
         try:
@@ -160,12 +172,13 @@ def warm_up(tracker: str, options: dict, data: dict) -> None:
 
 def rescore_tracker(grid: dict, tracker: str, data_dir: Path, out: Path) -> None:
     """Score the tracks a run step wrote again (after a change of the metrics), without running the tracker."""
-    for name, cell in grid["cells"].items():
+    cells = tracker_cells(grid, tracker)
+    for name, cell in cells.items():
         data, tracks = read_npz(data_dir / f"{name}.npz"), read_npz(out / f"{name}.npz")
         old = pd.read_csv(out / f"{name}.csv")
         table = score_cell(tracker, tracks, data, _meta(name, cell), list(old["message"].fillna("")))
         table.to_csv(out / f"{name}.csv", index=False)
-    print(f"{tracker}: {len(grid['cells'])} cells scored again", flush=True)
+    print(f"{tracker}: {len(cells)} cells scored again", flush=True)
 
 
 def _meta(name: str, cell: dict) -> dict:
@@ -175,8 +188,9 @@ def _meta(name: str, cell: dict) -> dict:
 
 def run_tracker(grid: dict, tracker: str, options: dict, data_dir: Path, out: Path) -> None:
     code = git_state()
-    warm_up(tracker, options, read_npz(data_dir / f"{next(iter(grid['cells']))}.npz"))
-    for i, (name, cell) in enumerate(grid["cells"].items()):
+    cells = tracker_cells(grid, tracker)
+    warm_up(tracker, options, read_npz(data_dir / f"{next(iter(cells))}.npz"))
+    for i, (name, cell) in enumerate(cells.items()):
         data = read_npz(data_dir / f"{name}.npz")
         meta = _meta(name, cell)
         t0 = time.process_time()
@@ -189,7 +203,7 @@ def run_tracker(grid: dict, tracker: str, options: dict, data_dir: Path, out: Pa
             "code": code, "run_key_digest": digest(json.dumps(
                 {"tracker": tracker, "options": options, "data": str(data["checksum_sha256"]), "code": code},
                 sort_keys=True, default=str))})
-        print(f"{tracker}: cell {i + 1} of {len(grid['cells'])} ({name}) in {time.process_time() - t0:.3g} s CPU",
+        print(f"{tracker}: cell {i + 1} of {len(cells)} ({name}) in {time.process_time() - t0:.3g} s CPU",
               flush=True)
 
 

@@ -7,8 +7,12 @@ checked whole before any work: the schema (``experiments/workflow/schemas/tracki
 (``tracking_data.check_cell_config``: a schedule that crosses modes or reaches Nyquist, an empty
 excitation, a record too short), each failure one line naming the file, the cell and the value.
 A grid's ``exclude`` lists (schedule, excitation) pairs left out of the product (a class of excitation
-that only some schedules need); a pair that names no schedule or excitation of the grid is refused.
-Which trackers run is the job's business (``experiments.jobs.track_job``); this module knows no method.
+that only some schedules need); a pair that names no schedule or excitation of the grid is refused. An item
+with a ``tracker`` leaves that tracker out of the cells its schedule and/or excitation select (a laboratory
+cell's schedule is its name, its excitation ``laboratory``), e.g. a variant whose per-mode options fit only
+the four-mode plant; they are kept as ``grid["tracker_exclude"]``, (tracker, schedule, excitation) with None
+for "any". Which trackers run is the job's business (``experiments.jobs.track_job``); this module knows no
+method.
 
 A grid may also list ``laboratory`` cells (:mod:`experiments.simulate.laboratory`): name -> settings (the
 fields of ``LaboratoryConfig``, and ``noise_ug``/``duration_s`` of the cell, defaults 300 µg and 12 s), one
@@ -84,13 +88,24 @@ def load_grid(name_or_path: str, *, check_cells: bool = True) -> dict:
     for key, value in DEFAULTS.items():
         grid.setdefault(key, value)
     grid.setdefault("tracker_options", {})
-    excluded = set()
-    for i, pair in enumerate(grid.get("exclude") or []):
-        for key, known in (("schedule", grid["schedules"]), ("excitation", grid["excitations"])):
-            if pair[key] not in known:
-                raise ValueError(f"{path}: exclude.{i}.{key}: '{pair[key]}' names no {key} of this grid "
+    excluded, grid["tracker_exclude"] = set(), []
+    labs = list(grid.get("laboratory") or {})
+    for i, item in enumerate(grid.get("exclude") or []):
+        tracker = item.get("tracker")
+        knowns = (("schedule", [*grid["schedules"], *labs] if tracker else grid["schedules"]),
+                  ("excitation", [*grid["excitations"], *([LABORATORY] if labs else [])] if tracker
+                   else grid["excitations"]))
+        if tracker and not ("schedule" in item or "excitation" in item):
+            raise ValueError(f"{path}: exclude.{i}: tracker '{tracker}' needs a schedule or an excitation whose "
+                             f"cells it leaves out")
+        for key, known in knowns:
+            if key in item and item[key] not in known:
+                raise ValueError(f"{path}: exclude.{i}.{key}: '{item[key]}' names no {key} of this grid "
                                  f"({', '.join(known)})")
-        excluded.add((pair["schedule"], pair["excitation"]))
+        if tracker:
+            grid["tracker_exclude"].append((str(tracker), item.get("schedule"), item.get("excitation")))
+        else:
+            excluded.add((item["schedule"], item["excitation"]))
     plant = paper_plant()
     cells = {}
     for (sname, sched), (ename, exc_), noise, duration in itertools.product(

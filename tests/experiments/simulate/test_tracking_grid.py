@@ -3,6 +3,7 @@
 import pytest
 import yaml
 
+from experiments.jobs.track_job import check_tracker, grid_trackers, tracker_cells
 from experiments.paths import GRIDS
 from experiments.simulate.tracking_grid import load_grid
 
@@ -56,3 +57,33 @@ def test_an_exclude_that_names_no_excitation_of_the_grid_is_refused(tmp_path):
     path.write_text(yaml.safe_dump(grid))
     schedules = [c["schedule"] for c in load_grid(str(path))["cells"].values()]
     assert "step" not in schedules and "drift" in schedules   # the laboratory cells are not the product's
+
+
+def test_an_exclude_with_a_tracker_leaves_only_that_tracker_out_of_the_cells_it_selects(tmp_path):
+    grid = yaml.safe_load((GRIDS / "tracking_smoke.yaml").read_text())
+    path = tmp_path / "g.yaml"
+    grid["trackers"], grid["tracker_options"] = ["fft", "pll:tuned"], {}
+    path.write_text(yaml.safe_dump(grid))
+    loaded = load_grid(str(path))
+    with pytest.raises(ValueError, match="pll option .* has 4 entries; the prior has 1"):
+        check_tracker(loaded, "pll:tuned")          # per-mode tuned values on a one-mode laboratory cell
+
+    grid["exclude"] = [{"tracker": "pll:tuned", "excitation": "laboratory"}]
+    path.write_text(yaml.safe_dump(grid))
+    loaded = load_grid(str(path))
+    assert grid_trackers(loaded) == ["fft", "pll:tuned"]
+    check_tracker(loaded, "pll:tuned")
+    every, pll = tracker_cells(loaded, "fft"), tracker_cells(loaded, "pll:tuned")
+    assert every == loaded["cells"] and set(pll) == {n for n, c in every.items() if c["excitation"] != "laboratory"}
+    assert pll and len(pll) < len(every)
+
+    for item, words in (({"tracker": "pll:tuned"}, "exclude.0: tracker 'pll:tuned' needs a schedule or"),
+                        ({"tracker": "pll:tuned", "excitation": "lab"}, "exclude.0.excitation: 'lab' names no")):
+        grid["exclude"] = [item]
+        path.write_text(yaml.safe_dump(grid))
+        with pytest.raises(ValueError, match=words):
+            load_grid(str(path))
+    grid["exclude"] = [{"tracker": "akf", "excitation": "laboratory"}]
+    path.write_text(yaml.safe_dump(grid))
+    with pytest.raises(ValueError, match="exclude: tracker 'akf' is not one of the grid's trackers"):
+        grid_trackers(load_grid(str(path)))

@@ -156,7 +156,7 @@ def test_no_option_beyond_the_prior_tracks_one_to_six_modes(dt, m):
     ("wkf", {"warmup_periods": 3.0}, {"warmup_s": 4.0}),
 ])
 def test_an_option_in_units_of_the_prior_refuses_its_absolute_twin_and_bad_values(name, rel, absolute):
-    (key, value), (abs_key, _) = next(iter(rel.items())), next(iter(absolute.items()))
+    key, abs_key = next(iter(rel)), next(iter(absolute))
     methods.check_track_options(name, PRIOR, DT, rel)
     with pytest.raises(ValueError, match=re.escape(f"give {key} or {abs_key}, not both")) as err:
         methods.check_track_options(name, PRIOR, DT, rel | absolute)
