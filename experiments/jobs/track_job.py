@@ -220,7 +220,7 @@ def main(argv: list[str] | None = None) -> None:
         if args.step == "score":
             if not args.tracker or not args.data:
                 raise ValueError("score needs --tracker NAME and --data DIR")
-            missing = [c for c in grid["cells"] if not (Path(args.out) / f"{c}.npz").is_file()]
+            missing = [c for c in tracker_cells(grid, args.tracker) if not (Path(args.out) / f"{c}.npz").is_file()]
             if missing:
                 raise ValueError(f"{args.out}: no tracks of cell {missing[0]} (run the run step first)")
         if args.step == "run":

@@ -145,3 +145,18 @@ def test_a_variant_runs_under_its_label_with_its_options(grid_file, tmp_path, mo
     with pytest.raises(SystemExit):
         main(["run", grid, "--tracker", "hdmd:fast", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "w")])
     assert not (tmp_path / "w").exists()
+
+
+def test_a_tracker_excluded_from_a_cell_runs_and_scores_again_without_it(grid_file, tmp_path):
+    # exclude: {tracker, schedule}: the run step writes no track of that cell, and the score step does not ask
+    # for one (it used to refuse: "no tracks of cell ...")
+    grid = grid_file(schedules={"step": {"step": [0, 0, 0.06, 0], "step_time_s": 4.0}, "still": {}},
+                     exclude=[{"tracker": "stand_in", "schedule": "still"}])
+    main(["data", grid, "--out", str(tmp_path / "data")])
+    assert len(list((tmp_path / "data").glob("*.npz"))) == 2
+    run = ["--tracker", "stand_in", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "t")]
+    main(["run", grid, *run])
+    assert sorted(p.stem for p in (tmp_path / "t").glob("*.npz")) == ["step_thrusters_noise100ug_8s"]
+    before = (tmp_path / "t" / "step_thrusters_noise100ug_8s.csv").read_text()
+    main(["score", grid, *run])
+    assert (tmp_path / "t" / "step_thrusters_noise100ug_8s.csv").read_text() == before
