@@ -26,7 +26,7 @@ PAGE_DIR = Path("results") / "bench"
 _PAGE_ENV = "EXPERIMENTS_BENCH_PAGE"     # set while a page is being recorded: a child benchmark writes none
 
 __all__ = ["interleaved_medians", "median_seconds", "blas_threads", "blas_threads_now", "one_blas_thread",
-           "page_text", "run_with_page"]
+           "run_tracker_command", "page_text", "run_with_page"]
 
 # The benchmarks multiply small matrices: more than one BLAS thread only adds overhead on a busy machine.
 BLAS_THREADS = 1
@@ -45,6 +45,17 @@ def one_blas_thread():
     experiments.benchmarks.<name>`` this package's imports have loaded numpy, and OpenBLAS read the variable
     then."""
     return threadpool_limits(limits=blas_threads(), user_api="blas")
+
+
+def run_tracker_command(main) -> None:
+    """A tracker benchmark's ``__main__``: ``main()`` under :func:`one_blas_thread`; a bad tracker name or
+    option (ValueError) is one ``error:`` line on stderr, exit status 2, nothing written."""
+    try:
+        with one_blas_thread():
+            main()
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(2)
 
 
 def blas_threads_now() -> int | None:

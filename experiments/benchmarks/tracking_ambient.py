@@ -22,13 +22,12 @@ Writes results/bench/tracking_ambient.md.
 from __future__ import annotations
 
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from experiments.benchmarks import one_blas_thread
+from experiments.benchmarks import run_tracker_command
 from experiments.benchmarks.tracking_beats import BASELINE, track_cells, tracker_rows_command
 from experiments.io import atomic_write_text
 from experiments.report.tracking_metrics import score_track
@@ -132,9 +131,4 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    try:
-        with one_blas_thread():
-            main()
-    except ValueError as exc:           # a bad tracker name or option: one line, exit 2, nothing written
-        print(f"error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    run_tracker_command(main)

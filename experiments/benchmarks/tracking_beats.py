@@ -20,13 +20,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 
 import pandas as pd
 
 import methods
-from experiments.benchmarks import one_blas_thread
+from experiments.benchmarks import run_tracker_command
 from experiments.benchmarks.tracking_cpu import parse_row
 from experiments.io import atomic_write_text
 from experiments.report import tracking_metrics
@@ -167,9 +166,4 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    try:
-        with one_blas_thread():
-            main()
-    except ValueError as exc:           # a bad tracker name or option: one line, exit 2, nothing written
-        print(f"error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    run_tracker_command(main)

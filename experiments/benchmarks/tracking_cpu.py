@@ -22,13 +22,12 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import sys
 from pathlib import Path
 
 import numpy as np
 
 import methods
-from experiments.benchmarks import blas_threads_now, one_blas_thread
+from experiments.benchmarks import blas_threads_now, run_tracker_command
 from experiments.io import atomic_write_text
 from experiments.simulate.datasets import UG
 from experiments.simulate.plant import build_plant
@@ -152,9 +151,4 @@ def main(argv=None) -> None:
 
 
 if __name__ == "__main__":
-    try:
-        with one_blas_thread():
-            main()
-    except ValueError as exc:           # a bad tracker name or option: one line, exit 2, nothing written
-        print(f"error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    run_tracker_command(main)
