@@ -92,14 +92,10 @@ def _steady_gain(w, z, dt, q, r):
 
 
 @dataclass
-class _Run:
-    freq: np.ndarray
-    var: np.ndarray
-    started: np.ndarray
-    n_restarts: int
-    n_pulses: int
-    damping: np.ndarray
-    seen: np.ndarray
+class _Run(_ambient._Run):
+    """The ambient filter's run, and the damping ratios the recursion also estimates."""
+
+    damping: np.ndarray = None
 
 
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
@@ -127,7 +123,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     n_restarts = n_pulses = 0
     gam = dt / (W_len * dt)                     # innovation variance memory: one window
     if n < W_len:
-        return _Run(freq, var, started, 0, 0, damp, seen)
+        return _Run(freq, var, started, 0, 0, seen, damping=damp)
 
     def unpack(th):
         w = th[iw]
@@ -237,7 +233,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         freq[k] = theta[iw]
         var[k] = np.diag(P)[iw]
         damp[k] = theta[iz] if est_z else opts.damping_ratio
-    return _Run(freq, var, started, n_restarts, n_pulses, damp, seen)
+    return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp)
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
