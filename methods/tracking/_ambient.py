@@ -13,8 +13,14 @@ sample (zero-order hold; tested against ``scipy.signal.cont2discrete``). The for
 are states (predicted 0 with variance 1), so their direct term and its correlation with the drive need no
 cross-covariance. ``force_model``: ``"diagonal"`` (default) one force per mode, bᵢᵢ = √qᵢ, no direct term
 (it is in r); ``"single"`` one force behind every mode, signed gains bᵢ and a direct term d (Whittle fit,
-:func:`fit_single_force`). The extended Kalman filter linearises the transition in ω with the exact ∂Φ/∂ω
-(``methods.kalman.modal_transition``) and the measurement with ∂h/∂ωᵢ = −2ωᵢξᵢ − 2ζξ̇ᵢ.
+:func:`fit_single_force`; with ``fit_memory_looks`` > 1 a forgetting sum of the looks' losses,
+:func:`whittle_losses`). ``frequency_model="trend"`` adds each frequency's rate (a local linear trend):
+
+    ωᵢ(k+1) = ωᵢ(k) + Δt ω̇ᵢ(k) + ηᵢ(k),   ω̇ᵢ(k+1) = ω̇ᵢ(k) + κᵢ(k),   κᵢ(k) ~ N(0, (rate ωᵢ)² Δt / horizon_trend),
+
+ω̇ᵢ's prior 0 ± rate·ωᵢ (the stated rate), reset with ωᵢ at a restart. The extended Kalman filter linearises
+the transition in ω with the exact ∂Φ/∂ω (``methods.kalman.modal_transition``) and the measurement with
+∂h/∂ωᵢ = −2ωᵢξᵢ − 2ζξ̇ᵢ.
 
 What the paper's filter does not do, each an established technique:
 
