@@ -5,6 +5,7 @@ one segment, solved by pem's own search), and the scatter of its estimates over 
 """
 
 import numpy as np
+import pytest
 from test_tracking_gated_pencil import DT, FREQ, pulsed_decays
 
 import methods
@@ -55,3 +56,63 @@ def test_the_reported_std_is_the_scatter_over_noise_draws():
     ratio = w.std(axis=0, ddof=1) / std.mean(axis=0)
     assert np.all((ratio > 0.65) & (ratio < 1.5)), ratio
     assert np.all(np.abs(w.mean(axis=0) - FREQ) < 3 * std.mean(axis=0) / np.sqrt(draws) + 1e-9)
+
+
+def _kicked_decay(n, kick, rng, noise, kick_size):
+    """Six modes at Δt = 0.1 s (0.8–5.5 rad/s): a free decay whose amplitudes change at sample ``kick`` by
+    ``kick_size`` per coefficient, with a feed-through spike at the kick; white noise of std ``noise``."""
+    w, z, dt = np.array([0.8, 1.3, 2.0, 2.9, 4.1, 5.5]), np.full(6, ZETA), 0.1
+    c = rng.normal(size=13) * 0.01
+    y = _segments.free_decay_basis(n, dt, w, z) @ c
+    if kick is not None:
+        c2 = c + rng.choice([-1.0, 1.0], size=13) * kick_size
+        y[kick] += 4 * noise
+        y[kick + 1:] = _segments.free_decay_basis(n - kick - 1, dt, w, z) @ c2
+    return y + noise * rng.standard_normal(n), w, z, dt
+
+
+def test_the_kick_statistic_is_the_direct_chow_f_test():
+    # the F statistic from the cumulative Gram matrices against a direct least-squares fit of both models
+    rng = np.random.default_rng(11)
+    y, w, z, dt = _kicked_decay(300, 170, rng, 3e-3, 3e-3)
+    k, F, dof = _segments.kick_statistic(y, dt, w, z, min_length=26)
+    X = _segments.free_decay_basis(y.size, dt, w, z)
+    p = X.shape[1]
+    rss0 = np.sum((y - X @ np.linalg.lstsq(X, y, rcond=None)[0]) ** 2)
+    for kk in (40, 170, 250):
+        alt = np.zeros((y.size, 2 * p + 1))
+        alt[:kk, :p] = X[:kk]
+        alt[kk, 2 * p] = 1.0
+        alt[kk + 1:, p:2 * p] = X[kk + 1:]
+        rss1 = np.sum((y - alt @ np.linalg.lstsq(alt, y, rcond=None)[0]) ** 2)
+        direct = ((rss0 - rss1) / (p + 1)) / (rss1 / (y.size - 2 * p - 1))
+        np.testing.assert_allclose(F[k == kk][0], direct, rtol=1e-5)
+    assert dof == y.size - 2 * p - 1 and k[0] == 26 and k[-1] == y.size - 27
+
+
+def test_a_kick_at_the_noise_level_is_found_at_its_sample():
+    # a kick of the size that escapes the AR pulse detector at Δt = 0.1 s: amplitudes changed by the noise std
+    rng = np.random.default_rng(12)
+    hits = 0
+    for _ in range(20):
+        y, w, z, dt = _kicked_decay(387, 200, rng, 3e-3, 3e-3)
+        runs, kicks = _segments.split_kicks(y, dt, [(0, 387)], w, z, 26, 0.01, 3)
+        hits += kicks == [200] and runs == [(0, 200), (201, 387)]
+    assert hits >= 16
+
+
+def test_a_clean_free_decay_is_not_split_at_the_stated_level():
+    # Bonferroni over the splits: at most the level's share of noise draws splits a clean decay
+    rng = np.random.default_rng(13)
+    split = 0
+    for _ in range(200):
+        y, w, z, dt = _kicked_decay(387, None, rng, 3e-3, 0.0)
+        split += bool(_segments.split_kicks(y, dt, [(0, 387)], w, z, 26, 0.05, 3)[1])
+    assert split <= 0.05 * 200
+
+
+def test_the_kick_test_options_are_checked():
+    prior = np.array([3.2, 20.0])
+    for bad in ({"split_level": 0.0}, {"split_level": 1.5}, {"split_rounds": 0}, {"split_kicks": "yes"}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            methods.check_track_options("gated_pencil", prior, 0.02, bad)
