@@ -33,7 +33,8 @@ def _options(name):
         return name.partition("+")[0], AMBIENT[name]
     name, _, extra = name.partition("+")
     if extra in ("defaults", "memory"):
-        return name, ({"memory": True, "change_threshold": 2.0} if extra == "memory" else {})
+        # the change detector as measured (docs/measured/tracking.md): on the pencil without the kick test
+        return name, ({"memory": True, "change_threshold": 2.0, "split_kicks": False} if extra == "memory" else {})
     fields = {f for f in methods.track_options_class(name).__dataclass_fields__}
     opts = SLOW.get(name) or {k: v for k, v in WINDOWED.items() if k in fields}
     return name, opts | ({"trend": True} if extra == "trend" else {})
