@@ -32,9 +32,9 @@ What. On each window of W samples (every H samples):
    from the reduced Jacobian. A refined mode counts when it is within ``band`` of its last estimate, lightly damped,
    its std × the window span is under ``max_phase_std`` rad (an energy test alike for every frequency: a mode that
    died away between sparse pulses fails it), and it is not another mode's pole (:func:`_labelled`).
-   **Kicks the detector missed** (``split_kicks``, on by default): a pulse at the noise level (at Δt = 0.1 s a
-   100 N·m pulse is 2–3 × the AR residual's scale) leaves a run that straddles it, whose phase jump the shared
-   poles read as frequency. With the poles of that fit fixed, each run is tested for one more change of its
+   **Kicks the detector missed** (``split_kicks``, an option, off by default): a pulse at the noise level (at
+   Δt = 0.1 s a 100 N·m pulse is 2–3 × the AR residual's scale) leaves a run that straddles it, whose phase
+   jump the shared poles read as frequency. With the poles of that fit fixed, each run is tested for one more change of its
    amplitudes and offset (a Chow/sup-F test over every split, family-wise level ``split_level`` per run,
    Bonferroni; binary segmentation ``split_rounds`` deep; :func:`methods.tracking._segments.split_kicks`);
    where a kick is found the runs are split there and the fit repeated. The samples flagged or split in
@@ -90,7 +90,7 @@ class Options:
     refine_steps: int = 10
     min_segment: int | None = None
     max_phase_std: float = 0.5
-    split_kicks: bool = True
+    split_kicks: bool = False
     split_level: float = 0.01
     split_rounds: int = 3
     overlap_inflation: float = 1.0

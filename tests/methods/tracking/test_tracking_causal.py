@@ -21,8 +21,9 @@ SLOW = {"bopdmd": {"window_samples": 100, "hop_samples": 250}}     # ~1 s per wi
 
 
 TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every windowed tracker's option
-# the defaults from Δt and the prior (window 413 samples here) and the change detector's window restarts
-DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory"]
+# the defaults from Δt and the prior (window 413 samples here), the change detector's window restarts and
+# gated_pencil's kick test
+DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory", "gated_pencil+kicks"]
 # akf_ambient's rate state and its single-force fit with a memory of looks (the forgetting sum)
 AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "akf_ambient+single": {"force_model": "single", "fit_memory_looks": 30}}
@@ -32,9 +33,10 @@ def _options(name):
     if name in AMBIENT:
         return name.partition("+")[0], AMBIENT[name]
     name, _, extra = name.partition("+")
+    if extra == "kicks":                  # the kick test: its flags and clean runs carried from window to window
+        return name, {"split_kicks": True}
     if extra in ("defaults", "memory"):
-        # the change detector as measured (docs/measured/tracking.md): on the pencil without the kick test
-        return name, ({"memory": True, "change_threshold": 2.0, "split_kicks": False} if extra == "memory" else {})
+        return name, ({"memory": True, "change_threshold": 2.0} if extra == "memory" else {})
     fields = {f for f in methods.track_options_class(name).__dataclass_fields__}
     opts = SLOW.get(name) or {k: v for k, v in WINDOWED.items() if k in fields}
     return name, opts | ({"trend": True} if extra == "trend" else {})

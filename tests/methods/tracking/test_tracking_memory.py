@@ -71,9 +71,7 @@ def test_dwells_of_15_periods_are_tracked_and_reconverged_within_10_periods(shor
 
 def test_the_change_detector_restarts_the_window_after_every_step_at_its_ring(short_dwells):
     y, w, steps, prior = short_dwells
-    # the change detector as measured, on the pencil without the kick test (with it, one step of this
-    # record re-converged later than 10 periods: the combination is not the option's measured setting)
-    tr = methods.track("gated_pencil", y, DT, prior, memory=True, split_kicks=False)
+    tr = methods.track("gated_pencil", y, DT, prior, memory=True)
     restarts = tr.extra["memory_restart_samples"]
     period_n = 2 * np.pi / w.min(axis=1) / DT
     for k in steps:        # within 5 periods of the step, and not before it: after the ring the detector flagged
@@ -89,7 +87,7 @@ def test_a_drift_is_followed_without_a_restart():
     ramp = np.linspace(0.0, 0.3, n)[:, None]
     w = np.array([8.0, 19.0])[None, :] * (1 + ramp * np.array([1.0, 0.5]))      # +30 % and +15 %
     y = _record(w, seed=31)
-    tr = methods.track("gated_pencil", y, DT, [8.1, 18.8], memory=True, split_kicks=False)
+    tr = methods.track("gated_pencil", y, DT, [8.1, 18.8], memory=True)
     assert tr.extra["memory_restart_samples"].size == 0, tr.message
     late = tr.t_s > 20 * 2 * np.pi / 8.0
     err = np.abs(tr.frequencies[late] / w[np.round(tr.t_s[late] / DT).astype(int)] - 1)
