@@ -28,23 +28,26 @@ that every peer is scored on the same rule and the library alone decides the pol
    labels in about 5 % of the trials of ``experiments.benchmarks.basin`` under a common prior error.)
 5. **Confirmation by the record** (``confirm``, on by default). A library's pole can be placed and still be wrong:
    an SSI or LSCE model of a heavily damped mode, or of a mode a spare pole shares, puts it 1–50 % away. The record
-   says where the pole belongs: the maximum-likelihood fit of every detected candidate's damped sinusoid and a
-   constant (pem's variable projection, :func:`methods.pem.separable_fit`, ≤ 30 evaluations started at the library's
-   poles), with σ its std(ω) at the optimum. A placed mode counts as determined only when (a) that model explains
-   the record — its residual passes pem's whiteness check (:func:`methods.pem.residual_check`, α = 1 %; a mode the
-   library missed leaves a line in the residual, and the fit without it merges or pulls its neighbours, so then no
-   mode is confirmed); (b) the record locates it — σ ≤ 1 % of ω, pem's "determined by the data"; (c) the
-   library's pole lies within a few of the record's σ of the record's frequency, σ from the ML fit's own
-   Fisher information: |ω_library − ω_record| ≤ max(3σ, 0.5 % ω − 3σ) (:func:`confirm_tolerance`; the
-   threshold follows what the record says, the second term is the success rule's 0.5 % floor less the
-   record's own 3σ); and (d) the confirmed modes, assigned again
-   by themselves (:func:`same_slots`), keep the slots they hold — a spare pole the record does not confirm
-   can crowd a true mode out of the m most energetic and shift the labels above it by one slot, where the
-   record confirms a right frequency in the wrong slot. The frequency
-   returned stays the library's; a mode that fails keeps its number with ``converged_per_mode`` False, and
-   ``Estimate.extra`` carries the record's fit beside it (``record_fit_rad_s``, ``record_fit_std_rad_s``,
-   ``confirmed``). On the random structures of ``experiments.benchmarks.basin`` this is what brings "called
-   determined but wrong" to ≤ 1 % of structures for every peer (docs/prior.md §1).
+   says where the pole belongs: its maximum-likelihood fit by damped sinusoids and a constant (pem's variable
+   projection, :func:`methods.pem.separable_fit`, ≤ 30 evaluations per fit), with σ each mode's std(ω) at the
+   optimum. That model (:func:`reference_fit`) is the fewest components that explain the record: the placed poles,
+   then, while the residual fails pem's whiteness check (:func:`methods.pem.residual_check`), the library's other
+   detected poles one at a time by energy, then at most ``CONFIRM_LINES`` lines at the residual's periodogram peak
+   (a mode the library missed, which would otherwise pull its neighbours). A placed mode counts as determined only
+   when (a) that model explains the record — its residual is white; (b) the record locates it — σ ≤ 1 % of ω,
+   pem's "determined by the data"; (c) the library's pole lies within a few of the record's σ of the record's
+   frequency, σ from the ML fit's own Fisher information: |ω_library − ω_record| ≤ max(3σ, 0.5 % ω − 3σ)
+   (:func:`confirm_tolerance`; the threshold follows what the record says, the second term is the success rule's
+   0.5 % floor less the record's own 3σ); and (d) it holds its slot. The slots stand when the record agrees
+   with every placed pole — (a), (c) and its fitted component above the noise by step 3's test, however large
+   its σ — and needed no other component within a prior's band; otherwise the confirmed modes and those other
+   in-band components are assigned again (:func:`same_slots`) and each confirmed mode must keep its slot — a
+   spare pole can crowd a true mode out of the m most energetic and shift the labels above it by one slot,
+   where the record confirms a right frequency in the wrong slot. The frequency returned stays the library's; a
+   mode that fails keeps its number with ``converged_per_mode`` False, and ``Estimate.extra`` carries the
+   record's fit beside it (``record_fit_rad_s``, ``record_fit_std_rad_s``, ``confirmed``,
+   ``record_other_components_rad_s``). On the random structures of ``experiments.benchmarks.basin`` this keeps
+   "called determined but wrong" ≤ 1 % of structures for every peer (docs/measured/peers.md).
 
 Frequencies returned are the undamped natural frequencies |sⱼ| (what the benchmark scores: |λ| of the
 plant's eigenvalues), with ζⱼ = −Re sⱼ/|sⱼ|.
