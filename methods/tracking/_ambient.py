@@ -13,8 +13,14 @@ sample (zero-order hold; tested against ``scipy.signal.cont2discrete``). The for
 are states (predicted 0 with variance 1), so their direct term and its correlation with the drive need no
 cross-covariance. ``force_model``: ``"diagonal"`` (default) one force per mode, bᵢᵢ = √qᵢ, no direct term
 (it is in r); ``"single"`` one force behind every mode, signed gains bᵢ and a direct term d (Whittle fit,
-:func:`fit_single_force`). The extended Kalman filter linearises the transition in ω with the exact ∂Φ/∂ω
-(``methods.kalman.modal_transition``) and the measurement with ∂h/∂ωᵢ = −2ωᵢξᵢ − 2ζξ̇ᵢ.
+:func:`fit_single_force`; with ``fit_memory_looks`` > 1 a forgetting sum of the looks' losses,
+:func:`whittle_losses`). ``frequency_model="trend"`` adds each frequency's rate (a local linear trend):
+
+    ωᵢ(k+1) = ωᵢ(k) + Δt ω̇ᵢ(k) + ηᵢ(k),   ω̇ᵢ(k+1) = ω̇ᵢ(k) + κᵢ(k),   κᵢ(k) ~ N(0, (rate ωᵢ)² Δt / horizon_trend),
+
+ω̇ᵢ's prior 0 ± rate·ωᵢ (the stated rate), reset with ωᵢ at a restart. The extended Kalman filter linearises
+the transition in ω with the exact ∂Φ/∂ω (``methods.kalman.modal_transition``) and the measurement with
+∂h/∂ωᵢ = −2ωᵢξᵢ − 2ζξ̇ᵢ.
 
 What the paper's filter does not do, each an established technique:
 
@@ -100,13 +106,27 @@ class Options(SharedOptions):
     force_model : str
         ``"diagonal"`` (one force per mode, no direct term) or ``"single"`` (one force, signed gains, a direct
         term; module docstring).
+    frequency_model : str
+        ``"walk"`` (default): ωᵢ a random walk alone; ``"trend"``: each frequency also carries its rate ω̇ᵢ
+        (a local linear trend, module docstring).
+    trend_horizon_s : float or None
+        ``"trend"``: the rate may change by the stated rate (``rate_rel_per_s``·ω) over this horizon, a
+        random walk of ω̇ of variance (rate·ω)²/horizon per s; None: ten windows (50 periods of the slowest
+        prior mode).
     refit_looks : int
         ``"single"``: the Whittle fit of signs and direct term every this many looks (magnitudes every look).
+    fit_memory_looks : int
+        ``"single"``: the fit minimises a forgetting sum of the looks' Whittle losses, each look weighted
+        (1 − 1/this) per look older (1: the last look alone). The force's gains and direct term are the
+        structure's, constant while the frequencies move, so a memory longer than the window steadies them.
     """
 
     pulse_inflation: float = 10.0
     force_model: str = "diagonal"
     refit_looks: int = 10
+    fit_memory_looks: int = 1
+    frequency_model: str = "walk"
+    trend_horizon_s: float | None = None
 
 
 def _window_samples(opts: SharedOptions, dt: float, prior: np.ndarray) -> tuple[int, int]:
@@ -144,6 +164,14 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: force_model = {opts.force_model!r} must be 'single' or 'diagonal'")
     if isinstance(opts.refit_looks, bool) or not isinstance(opts.refit_looks, int) or opts.refit_looks < 1:
         raise ValueError(f"{name}: refit_looks = {opts.refit_looks!r} must be an integer ≥ 1")
+    if isinstance(opts.fit_memory_looks, bool) or not isinstance(opts.fit_memory_looks, int) \
+            or opts.fit_memory_looks < 1:
+        raise ValueError(f"{name}: fit_memory_looks = {opts.fit_memory_looks!r} must be an integer ≥ 1")
+    if opts.frequency_model not in ("trend", "walk"):
+        raise ValueError(f"{name}: frequency_model = {opts.frequency_model!r} must be 'trend' or 'walk'")
+    h = opts.trend_horizon_s
+    if h is not None and not (isinstance(h, (int, float)) and math.isfinite(h) and h >= dt):
+        raise ValueError(f"{name}: trend_horizon_s = {h!r} must be None or at least one sample ({dt} s)")
     return opts
 
 
@@ -251,35 +279,65 @@ def _modal_response(f: np.ndarray, w: np.ndarray, zeta: float, dt: float) -> np.
     return -(w * w) * x0 - 2 * zeta * w * x1
 
 
-def fit_single_force(spectrum, w: np.ndarray, zeta: float, dt: float, var: np.ndarray, r: float):
-    """One white force behind every mode: signed gains b (m,), direct term d and sensor variance r_v.
+ALPHAS = np.linspace(0.0, 1.0, 11)     # the direct term's share of the floor, d² = α r̂
 
-    Whittle's likelihood Σ log M + p/M of the periodogram p under M(f) = 2Δt(|Σᵢ bᵢGᵢ + d|² + r_v), with
-    |bᵢ| from each mode's band variance (σᵢ² = ωᵢ|bᵢ|²/(4ζ) per unit force), maximised over the signs of
-    b₂…bₘ relative to b₁ and over d² = α r̂, r_v = (1 − α) r̂, α on a grid of 11, d of either sign (the floor
-    r̂ holds the direct term and the sensor noise). The signs decide where the spectrum has its zeros between
-    modes, which a sum of independent modes does not have.
+
+def _sign_codes(m: int) -> np.ndarray:
+    """Every sign pattern of b₂…bₘ relative to b₁ (b₁ > 0), shape (2^(m−1), m)."""
+    codes = np.arange(2 ** (m - 1))
+    return np.column_stack([np.ones(codes.size)] + [np.where((codes >> i) & 1, -1.0, 1.0) for i in range(m - 1)])
+
+
+def whittle_losses(spectrum, w: np.ndarray, zeta: float, dt: float, var: np.ndarray, r: float) -> np.ndarray:
+    """Whittle's loss of one white force behind every mode, for every sign pattern, α and sign of d.
+
+    Σ log M + p/M over the periodogram p (every fourth bin of ``periodogram_look``'s 4× zero-padded one, the
+    bins of the unpadded window: nearly independent) under M(f) = 2Δt(|Σᵢ sᵢ|bᵢ|Gᵢ + d|² + r_v), |bᵢ| from each
+    mode's band variance (σᵢ² = ωᵢ|bᵢ|²/(4ζ) per unit force), d = ±√(α r̂), r_v = (1 − α) r̂ (the floor r̂ holds
+    the direct term and the sensor noise). Shape (2^(m−1), len(ALPHAS), 2): [pattern, α, sign of d].
     """
     f, p = spectrum
-    keep = f > 0
+    keep = np.flatnonzero(f > 0)[::4]
     f, p = f[keep], p[keep]
     G = _modal_response(f, w, zeta, dt)
     mag = np.sqrt(np.maximum(4 * zeta * var / (w * dt), 0.0))
-    m = w.size
-    best = (np.inf, mag, 0.0, r)
-    for code in range(2 ** (m - 1)):
-        sign = np.array([1.0] + [-1.0 if (code >> i) & 1 else 1.0 for i in range(m - 1)])
-        B = G @ (sign * mag)
-        for alpha in np.linspace(0.0, 1.0, 11):
-            for dsign in (1.0, -1.0):
-                d = dsign * math.sqrt(alpha * r)
-                M = 2 * dt * (np.abs(B + d) ** 2 + max((1 - alpha) * r, 1e-12 * r))
-                loss = float(np.sum(np.log(M) + p / M))
-                if loss < best[0]:
-                    best = (loss, sign * mag, d, max((1 - alpha) * r, 1e-12 * r))
-                if alpha == 0.0:
-                    break
-    return best[1], best[2], best[3]
+    B = (_sign_codes(w.size) * mag) @ G.T                                    # (patterns, bins)
+    d = np.sqrt(ALPHAS * r)[:, None] * np.array([1.0, -1.0])[None, :]        # (α, sign)
+    rv = np.maximum((1 - ALPHAS) * r, 1e-12 * r)
+    M = 2 * dt * (np.abs(B[:, None, None, :] + d[None, :, :, None]) ** 2 + rv[None, :, None, None])
+    return np.sum(np.log(M) + p / M, axis=-1)
+
+
+def single_force_from_losses(losses: np.ndarray, w: np.ndarray, zeta: float, dt: float, var: np.ndarray,
+                             r: float):
+    """The gains b (m,), direct term d and sensor variance r_v at the least of ``losses``
+    (:func:`whittle_losses`, one look's or a forgetting sum of several)."""
+    code, a, ds = np.unravel_index(int(np.argmin(losses)), losses.shape)
+    mag = np.sqrt(np.maximum(4 * zeta * var / (w * dt), 0.0))
+    d = (1.0 if ds == 0 else -1.0) * math.sqrt(ALPHAS[a] * r)
+    return _sign_codes(w.size)[code] * mag, d, max((1 - ALPHAS[a]) * r, 1e-12 * r)
+
+
+def fit_single_force(spectrum, w: np.ndarray, zeta: float, dt: float, var: np.ndarray, r: float):
+    """One white force behind every mode from one window: signed gains b (m,), direct term d and sensor
+    variance r_v, maximising Whittle's likelihood (:func:`whittle_losses`) over the signs of b₂…bₘ relative to
+    b₁, α on a grid of 11 and the sign of d. The signs decide where the spectrum has its zeros between modes,
+    which a sum of independent modes does not have.
+    """
+    return single_force_from_losses(whittle_losses(spectrum, w, zeta, dt, var, r), w, zeta, dt, var, r)
+
+
+def _restart(x: np.ndarray, P: np.ndarray, j: int, ja: int | None, w0: float, resolution: float,
+             rate_var: float) -> None:
+    """Start (or restart) frequency state ``j`` at ``w0`` with 1σ max(1 % ω, resolution/4), uncorrelated with
+    the rest; its rate state ``ja`` (if any) at 0 ± the stated rate. In place."""
+    for i, v0, var0 in ((j, w0, max(0.01 * w0, resolution / 4) ** 2), (ja, 0.0, rate_var * w0 * w0)):
+        if i is None:
+            continue
+        x[i] = v0
+        P[i, :] = 0.0
+        P[:, i] = 0.0
+        P[i, i] = var0
 
 
 @dataclass
@@ -295,7 +353,7 @@ class _Run:
 def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
     """The filter of the module docstring over the record; per sample the frequency states and variances.
 
-    State [ξ₁, ξ̇₁, …, ξₘ, ξ̇ₘ, ω₁…ωₘ, u₁…u_f]: the forces u of the current sample are states (white, so
+    State [ξ₁, ξ̇₁, …, ξₘ, ξ̇ₘ, ω₁…ωₘ, (ω̇₁…ω̇ₘ), u₁…u_f]: the forces u of the current sample are states (white, so
     they are predicted as 0 with their variance), which carries the direct term and its correlation with
     the oscillators' drive without a cross-covariance: ``single``: one force, mode gains b, direct term d;
     ``diagonal``: one force per mode, no direct term (it is then in r).
@@ -307,10 +365,16 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
     nu2 = opts.rate_rel_per_s ** 2 * horizon
     resolution = 2 * math.pi / (W * dt)       # the window's Fourier resolution, rad/s
     single = opts.force_model == "single"
+    trend = opts.frequency_model == "trend"
     nf = 1 if single else m
+    na = m if trend else 0
     iq, iv, iw = 2 * np.arange(m), 2 * np.arange(m) + 1, 2 * m + np.arange(m)
-    iu = 3 * m + np.arange(nf)
-    ns = 3 * m + nf
+    ia = 3 * m + np.arange(na)
+    iu = 3 * m + na + np.arange(nf)
+    ns = 3 * m + na + nf
+    # the rate's prior spread is the stated rate; its walk lets it change by that much over the trend horizon
+    rate_var = opts.rate_rel_per_s ** 2
+    trend_h = opts.trend_horizon_s if opts.trend_horizon_s is not None else 10 * W * dt
     x = np.zeros(ns)
     x[iw] = prior
     scale = float(np.std(y[:W])) or 1.0
@@ -318,6 +382,7 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
     P[iq, iq] = (scale / prior ** 2) ** 2
     P[iv, iv] = (scale / prior) ** 2
     P[iw, iw] = (0.1 * prior) ** 2
+    P[ia, ia] = opts.rate_rel_per_s ** 2 * prior[:na] ** 2
     gains = np.zeros((m, nf))            # force j's per-sample drive of mode i, tip acceleration units
     direct = np.zeros(nf)
     gains[np.arange(m), np.arange(m) if not single else 0] = scale * np.sqrt(4 * zeta / (prior * dt) / m)
@@ -325,6 +390,8 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
     P[iu, iu] = 1.0
     F = np.eye(ns)
     F[iu, iu] = 0.0
+    if trend:
+        F[iw, ia] = dt
     Q = np.zeros((ns, ns))
     Q[iu, iu] = 1.0
     Hrow = np.zeros(ns)
@@ -336,6 +403,7 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
     n_restarts = n_pulses = looks = 0
+    acc = None                           # single force: the forgetting sum of Whittle's losses
     on = False
     for k in range(n):
         if k > 0:
@@ -350,8 +418,11 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
             F[iq[:, None], iu] = g[:, :1] * gains
             F[iv[:, None], iu] = g[:, 1:] * gains
             x[:2 * m] = (np.einsum("mab,mb->ma", phi, xi) + g * drive[:, None]).ravel()
+            if trend:
+                x[iw] += dt * x[ia]
             x[iu] = 0.0
             Q[iw, iw] = nu2 * dt * w * w
+            Q[ia, ia] = (rate_var / trend_h * dt * w * w)[:na]
             P = F @ P @ F.T + Q
         w = x[iw]
         Hrow[iq] = -w * w
@@ -380,8 +451,11 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
             w_now = np.where(ok, peak, ref) if not on else x[iw]
             mag = np.sqrt(np.maximum(4 * zeta * var_i / (w_now * dt), 0.0))
             if single:
+                if opts.fit_memory_looks > 1 or looks % opts.refit_looks == 0:
+                    loss = whittle_losses(spec, w_now, zeta, dt, var_i, max(r_floor, 1e-30))
+                    acc = loss if acc is None else (1 - 1 / opts.fit_memory_looks) * acc + loss
                 if looks % opts.refit_looks == 0:
-                    b, d, r = fit_single_force(spec, w_now, zeta, dt, var_i, max(r_floor, 1e-30))
+                    b, d, r = single_force_from_losses(acc, w_now, zeta, dt, var_i, max(r_floor, 1e-30))
                     signs = np.sign(b)
                     signs[signs == 0] = 1.0
                     direct[0] = d
@@ -394,18 +468,14 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
             looks += 1
             if not on:
                 x[iw] = w_now
-                P[iw, :] = 0.0
-                P[:, iw] = 0.0
-                P[iw, iw] = np.maximum(0.01 * x[iw], resolution / 4) ** 2
+                for i in range(m):
+                    _restart(x, P, iw[i], ia[i] if trend else None, w_now[i], resolution, rate_var)
                 on = True
             else:
                 d_log = np.log(peak / x[iw])
                 for i, _ in modes_to_restart(np.flatnonzero(ok), peak - x[iw], x[iw], resolution, d_log, strikes,
                                              hist_d, opts):
-                    x[iw[i]] = peak[i]
-                    P[iw[i], :] = 0.0
-                    P[:, iw[i]] = 0.0
-                    P[iw[i], iw[i]] = max(0.01 * peak[i], resolution / 4) ** 2
+                    _restart(x, P, iw[i], ia[i] if trend else None, peak[i], resolution, rate_var)
                     n_restarts += 1
         started[k] = on
         seen[k] = seen_now

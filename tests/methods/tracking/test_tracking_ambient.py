@@ -1,8 +1,9 @@
 """``akf_ambient`` and ``rpem_ambient``: the model's pieces against independent computations, refusals, and the
 late estimate on a stationary white-force record against the batch innovation-form ``pem``.
 
-(Causality: test_tracking_causal.py covers both through ``methods.track_names()``. The coverage of the
-reported 1σ is measured by ``python -m experiments.benchmarks.tracking_ambient`` — too slow for a test.)
+(Causality: test_tracking_causal.py covers both through ``methods.track_names()``, and ``akf_ambient``'s rate
+state and accumulated single-force fit. The coverage of the reported 1σ on the grid's cells is measured by
+``python -m experiments.benchmarks.tracking_ambient``; here it is checked on stationary records.)
 """
 
 import numpy as np
@@ -24,6 +25,9 @@ BAD = [
     ("akf_ambient", {"hop_s": 0.001}, "hop_s = 0.001"),
     ("akf_ambient", {"restart_after": 0}, "restart_after = 0"),
     ("akf_ambient", {"refit_looks": 1.5}, "refit_looks = 1.5"),
+    ("akf_ambient", {"frequency_model": "spline"}, "frequency_model = 'spline'"),
+    ("akf_ambient", {"trend_horizon_s": 0.0}, "trend_horizon_s = 0.0"),
+    ("akf_ambient", {"fit_memory_looks": 0}, "fit_memory_looks = 0"),
     ("rpem_ambient", {"estimate_damping": "yes"}, "estimate_damping = 'yes'"),
     ("rpem_ambient", {"pulse_gate": -1.0}, "pulse_gate = -1.0"),
     ("rpem_ambient", {"colour": "red"}, "unknown option 'colour'"),
@@ -99,3 +103,44 @@ def test_late_estimate_agrees_with_batch_innovation_form_pem(stationary):
     tol = 4 * np.sqrt(my_std**2 + est.std**2)
     assert np.all(np.abs(mine - est.frequencies)[ok] <= tol[ok]), (mine, est.frequencies, tol, ok)
     assert np.all(np.abs(mine - truth) <= 4 * my_std + 0.01 * truth)
+
+
+def test_whittle_fit_finds_the_sign_pattern_and_direct_term_of_one_force():
+    """A spectrum built from one force behind four modes (gains of mixed signs, a direct term) and white
+    noise: on the exact spectrum the least Whittle loss is at the true sign pattern, α = d²/r̂ and sign of d;
+    on periodograms drawn from it (each bin the spectrum times an exponential variable, Whittle's model of a
+    periodogram) the forgetting sum over 30 looks finds the same."""
+    w, zeta = np.array([3.23, 20.24, 22.0, 56.67]), 0.005
+    b_true, d_true, r_v = np.array([0.027, -0.015, -0.007, 0.009]), -0.0029, 0.0029**2 / 9
+    f = np.arange(0, 4 * 256 + 1) / (4 * 512 * DT)               # periodogram_look's bins for a 512-sample window
+    G = _ambient._modal_response(f, w, zeta, DT)
+    M = 2 * DT * (np.abs(G @ b_true + d_true) ** 2 + r_v)
+    var = w * DT * b_true**2 / (4 * zeta)       # each mode's acceleration variance (the gains are per sample)
+    r_hat = d_true**2 + r_v                                       # the floor holds the direct term and the noise
+    b, d, rv = _ambient.fit_single_force((f, M), w, zeta, DT, var, r_hat)
+    np.testing.assert_array_equal(np.sign(b), np.sign(b_true))
+    np.testing.assert_allclose(np.abs(b), np.abs(b_true), rtol=1e-9)
+    assert np.sign(d) == np.sign(d_true) and abs(d * d - d_true**2) <= 0.1 * r_hat and rv <= 0.15 * r_hat
+    rng = np.random.default_rng(3)
+    acc = None
+    for _ in range(30):
+        loss = _ambient.whittle_losses((f, M * rng.exponential(size=f.size)), w, zeta, DT, var, r_hat)
+        acc = loss if acc is None else (1 - 1 / 30) * acc + loss
+    b, d, _ = _ambient.single_force_from_losses(acc, w, zeta, DT, var, r_hat)
+    np.testing.assert_array_equal(np.sign(b), np.sign(b_true))
+    assert np.sign(d) == np.sign(d_true)
+
+
+def test_reported_std_covers_its_error_60_to_75_percent_on_stationary_records():
+    """The filter's own 1σ covers |ω̂ − ω| in 60–75 % of (time, mode) after 30 s, pooled over three stationary
+    white-force records (a Gaussian error within its true 1σ: 68 %). Only stationary records: on the grid's
+    drift and step cells it covers 46–63 % (docs/measured/tracking.md), which this test does not claim."""
+    inside = []
+    for seed in (1, 2, 3):
+        w = schedule(4500)
+        y = driven_modes(w, force=1.0, noise_ug=300.0, seed=seed)
+        tr = methods.track("akf_ambient", y, DT, w[0] * np.array([1.03, 0.97, 1.02, 1.04]))
+        late = tr.t_s >= 30.0
+        inside.append(np.abs(tr.frequencies[late] - w[0]) <= tr.std[late])
+    share = float(np.mean(np.concatenate(inside)))
+    assert 0.60 <= share <= 0.75, share

@@ -23,9 +23,14 @@ SLOW = {"bopdmd": {"window_samples": 100, "hop_samples": 250}}     # ~1 s per wi
 TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every windowed tracker's option
 # the defaults from Δt and the prior (window 413 samples here) and the change detector's window restarts
 DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory"]
+# akf_ambient's rate state and its single-force fit with a memory of looks (the forgetting sum)
+AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
+           "akf_ambient+single": {"force_model": "single", "fit_memory_looks": 30}}
 
 
 def _options(name):
+    if name in AMBIENT:
+        return name.partition("+")[0], AMBIENT[name]
     name, _, extra = name.partition("+")
     if extra in ("defaults", "memory"):
         return name, ({"memory": True, "change_threshold": 2.0} if extra == "memory" else {})
@@ -42,7 +47,7 @@ def records():
     return y, changed
 
 
-@pytest.mark.parametrize("name", methods.track_names() + TREND + DEFAULTS)
+@pytest.mark.parametrize("name", methods.track_names() + TREND + DEFAULTS + list(AMBIENT))
 def test_changing_later_samples_leaves_earlier_estimates_unchanged(name, records):
     y, changed = records
     name, opts = _options(name)
