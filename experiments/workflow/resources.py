@@ -5,17 +5,22 @@ from __future__ import annotations
 
 import csv
 import math
+import sys
 from pathlib import Path
 
 from experiments.workflow.grids import Grids
 from experiments.workflow.targets import method_cells
 
-__all__ = ["CPU_S_PER_SAMPLE", "DATASET_CPU_S_PER_SAMPLE", "identify_runtime", "dataset_runtime", "batch_cpu_s",
-           "identify_priority"]
+__all__ = ["CPU_S_PER_SAMPLE", "DATASET_CPU_S_PER_SAMPLE", "DEFAULT_COSTS", "identify_runtime", "dataset_runtime",
+           "batch_cpu_s", "job_cpu_s", "identify_priority", "job_priority", "write_defaults"]
 
 # CPU seconds per replicate × sample of the costliest method (pem) and of the dataset job.
 CPU_S_PER_SAMPLE = 0.0035
 DATASET_CPU_S_PER_SAMPLE = 0.0001
+# What each job of the shipped grids cost on its last measured run (CPU s), committed so that a fresh clone,
+# which has no benchmark file and no cost model, still starts the longest jobs first (the priorities below).
+# Regenerated from the cost model and a run's benchmark files: python -m experiments.workflow.resources paper full
+DEFAULT_COSTS = Path("experiments", "workflow", "job_cpu_s.csv")
 
 
 def _samples(grids: Grids, grid: str, cell_names: list[str]) -> int:
@@ -35,34 +40,145 @@ def dataset_runtime(grids: Grids, grid: str, attempt: int) -> int:
     return attempt * max(5, math.ceil(4 * DATASET_CPU_S_PER_SAMPLE * work / 60))
 
 
+def _benchmark_cpu_s(path: Path) -> float | None:
+    """CPU seconds of a Snakemake benchmark file (``cpu_time``, else wall ``s``), None if absent or unreadable."""
+    try:
+        with path.open(newline="") as fh:
+            row = next(csv.DictReader(fh, delimiter="\t"))
+        value = float(row.get("cpu_time") or row["s"])
+    except (OSError, StopIteration, KeyError, ValueError):
+        return None
+    return value if math.isfinite(value) and value > 0 else None
+
+
+def default_cpu_s(root: Path, grid: str, job: str) -> float | None:
+    """The committed cost of a job (:data:`DEFAULT_COSTS`: ``grid,job,cpu_s``), None where it has none."""
+    try:
+        with Path(root, DEFAULT_COSTS).open(newline="") as fh:
+            for row in csv.DictReader(fh):
+                if row["grid"] == grid and row["job"] == job:
+                    value = float(row["cpu_s"])
+                    return value if math.isfinite(value) and value > 0 else None
+    except (OSError, KeyError, ValueError):
+        return None
+    return None
+
+
+def _model_cpu_s(root: Path, grid: str) -> dict[str, float]:
+    """The cost model's CPU s per identify batch (``results/bench/sweep_cost/<grid>.csv`` of
+    ``python -m experiments.benchmarks.sweep_cost``), by method folder: Σ over the grid's cells of R × CPU
+    per fit, a noise level the model did not time (``--noise-ug``) charged as the nearest timed one in log
+    scale, as the model itself charges it (every timed cell once where the grid file is not readable)."""
+    model = Path(root, "results", "bench", "sweep_cost", f"{grid}.csv")
+    fits: dict[str, dict[int, dict[float, float]]] = {}
+    try:
+        with model.open(newline="") as fh:
+            for r in csv.DictReader(fh):
+                per_n = fits.setdefault(r["entry"].replace(":", "_"), {}).setdefault(int(r["n_samples"]), {})
+                per_n[float(r["noise_ug"])] = int(r["replicates"]) * float(r["cpu_s_per_fit"])
+    except (OSError, KeyError, ValueError):
+        return {}
+    try:
+        levels = [float(x) for x in Grids(root).load_grid(grid)["noise_ug"]]
+    except Exception:  # noqa: BLE001 - no such grid, or one that does not load: its timed cells as they are
+        levels = None
+    totals = {}
+    for method, per_n in fits.items():
+        total = 0.0
+        for timed in per_n.values():
+            for x in levels or timed:
+                total += timed[min(timed, key=lambda t: abs(math.log(t / x)))]
+        if math.isfinite(total):
+            totals[method] = total
+    return totals
+
+
 def batch_cpu_s(root: Path, grid: str, method: str) -> float | None:
     """What an identify batch of (grid, method config) is known to cost, CPU s: its last run's Snakemake
     benchmark (``results/<grid>/benchmarks/identify/<method>.tsv``, ``cpu_time``, else wall ``s``), else the
-    cost model's per-cell fit times (``results/bench/sweep_cost/<grid>.csv`` of
-    ``python -m experiments.benchmarks.sweep_cost``: Σ over its cells of R × CPU per fit), else None."""
-    bench = Path(root, "results", grid, "benchmarks", "identify", f"{method}.tsv")
-    try:
-        with bench.open(newline="") as fh:
-            row = next(csv.DictReader(fh, delimiter="\t"))
-        value = float(row.get("cpu_time") or row["s"])
-        if math.isfinite(value) and value > 0:
-            return value
-    except (OSError, StopIteration, KeyError, ValueError):
-        pass
-    model = Path(root, "results", "bench", "sweep_cost", f"{grid}.csv")
-    try:
-        with model.open(newline="") as fh:
-            rows = [r for r in csv.DictReader(fh) if r["entry"].replace(":", "_") == method]
-        total = sum(int(r["replicates"]) * float(r["cpu_s_per_fit"]) for r in rows)
-    except (OSError, KeyError, ValueError):
-        return None
-    return total if rows and math.isfinite(total) else None
+    cost model's (:func:`_model_cpu_s`), else the committed default (:data:`DEFAULT_COSTS`, what a fresh
+    clone has), else None."""
+    measured = _benchmark_cpu_s(Path(root, "results", grid, "benchmarks", "identify", f"{method}.tsv"))
+    if measured is not None:
+        return measured
+    model = _model_cpu_s(root, grid).get(method)
+    return model if model is not None else default_cpu_s(root, grid, f"identify/{method}")
+
+
+def job_cpu_s(root: Path, grid: str, job: str) -> float | None:
+    """A grid's job other than an identify batch (``yardstick``, ``paper/<experiment>``): its last run's
+    Snakemake benchmark (``results/<grid>/benchmarks/<job>.tsv``), else the committed default, else None."""
+    measured = _benchmark_cpu_s(Path(root, "results", grid, "benchmarks", f"{job}.tsv"))
+    return measured if measured is not None else default_cpu_s(root, grid, job)
+
+
+def _priority(cost: float | None) -> int:
+    return 0 if cost is None else int(math.ceil(cost))
 
 
 def identify_priority(root: Path, grid: str, method: str) -> int:
     """Snakemake priority of an identify batch: its known CPU seconds (:func:`batch_cpu_s`), 0 when unknown.
-    Among the batches ready at once the scheduler starts the highest first, so the longest batches start
-    first and the short ones fill the cores at the end (Graham's LPT order: the wall time the cost model
-    predicts); without a measurement the order is Snakemake's own."""
-    cost = batch_cpu_s(root, grid, method)
-    return 0 if cost is None else int(math.ceil(cost))
+    Among the jobs ready at once the scheduler starts the highest first, so the longest jobs start first and
+    the short ones fill the cores at the end (Graham's LPT order: the wall time the cost model predicts). A
+    fresh clone, with no benchmark and no cost model, takes the committed defaults (:data:`DEFAULT_COSTS`)."""
+    return _priority(batch_cpu_s(root, grid, method))
+
+
+def job_priority(root: Path, grid: str, job: str) -> int:
+    """Snakemake priority of the yardstick or a paper experiment: its known CPU seconds (:func:`job_cpu_s`),
+    on the identify batches' scale, so that all of them start longest first."""
+    return _priority(job_cpu_s(root, grid, job))
+
+
+def measured_costs(root: Path, grid: str) -> dict[str, float]:
+    """CPU s per job of a grid, as :data:`DEFAULT_COSTS` keeps them: the identify batches from the cost model
+    (:func:`_model_cpu_s`; Snakemake samples a job's CPU time every few seconds, and a batch of a few seconds
+    is charged one sample), the yardstick and the paper experiments from the last run's Snakemake benchmark
+    files (``results/<grid>/benchmarks``)."""
+    costs = {f"identify/{m}": t for m, t in _model_cpu_s(root, grid).items()}
+    folder = Path(root, "results", grid, "benchmarks")
+    for path in [folder / "yardstick.tsv", *sorted(folder.glob("paper/*.tsv"))]:
+        cost = _benchmark_cpu_s(path)
+        if cost is not None:
+            costs[path.relative_to(folder).with_suffix("").as_posix()] = cost
+    return costs
+
+
+def write_defaults(root: Path, grid: str, costs: dict[str, float]) -> Path:
+    """Enter ``costs`` (job -> CPU s) of ``grid`` into :data:`DEFAULT_COSTS`, replacing those jobs' rows."""
+    path = Path(root, DEFAULT_COSTS)
+    try:
+        with path.open(newline="") as fh:
+            rows = [r for r in csv.DictReader(fh) if not (r["grid"] == grid and r["job"] in costs)]
+    except OSError:
+        rows = []
+    rows += [{"grid": grid, "job": job, "cpu_s": f"{cost:.1f}"} for job, cost in costs.items()]
+    rows.sort(key=lambda r: (r["grid"], -float(r["cpu_s"]), r["job"]))
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, ["grid", "job", "cpu_s"], lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+def main(argv=None) -> int:
+    """``python -m experiments.workflow.resources paper``: the committed default costs of a grid's jobs
+    (:func:`measured_costs`: run ``python -m experiments.benchmarks.sweep_cost --grid paper`` and the grid
+    first); the rows of jobs not measured are kept."""
+    import argparse  # only for this command line, not for the workflow that imports the module
+
+    ap = argparse.ArgumentParser(description="the committed default job costs of grids, from their measurements")
+    ap.add_argument("grids", nargs="+")
+    args = ap.parse_args(argv)
+    for grid in args.grids:
+        costs = measured_costs(Path.cwd(), grid)
+        if not costs:
+            print(f"error: grid '{grid}': no cost model (results/bench/sweep_cost/{grid}.csv) and no yardstick or "
+                  f"paper-experiment benchmark (results/{grid}/benchmarks)", file=sys.stderr)
+            return 2
+        print(f"wrote {write_defaults(Path.cwd(), grid, costs)}: grid {grid}, {len(costs)} jobs")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -194,6 +194,19 @@ def identify_priority(wildcards):
     return resources.identify_priority(WF.root, wildcards.grid, wildcards.method)
 
 
+def yardstick_priority(wildcards):
+    return resources.job_priority(WF.root, wildcards.grid, "yardstick")
+
+
+def experiment_priority(wildcards):
+    return resources.job_priority(WF.root, wildcards.grid, f"paper/{wildcards.experiment}")
+
+
+# The datasets batch first: every identify batch and the yardstick wait for it (a few seconds), while the paper
+# experiments, which need no dataset, would otherwise take both cores at the start.
+DATASETS_PRIORITY = 1_000_000
+
+
 def dataset_runtime(grid):
     """The runtime request of the datasets batch of a grid (datasets.smk)."""
     return lambda wildcards, attempt: resources.dataset_runtime(WF, grid, attempt)

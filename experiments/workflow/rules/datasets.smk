@@ -23,6 +23,7 @@ for _grid_name in GRID_NAMES:
         params:
             jobs=shlex.quote(json.dumps(targets.dataset_jobs(WF, _grid_name))),
         threads: 1
+        priority: DATASETS_PRIORITY
         resources:
             mem_mb=MEM_MB_JOB,
             runtime=dataset_runtime(_grid_name),

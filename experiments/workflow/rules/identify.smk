@@ -18,7 +18,8 @@ rule identify:
         method_config=resolved_config,
         versions=method_versions,
     threads: IDENTIFY_THREADS
-    # the longest batches first (their last run's benchmark, or the cost model): experiments/workflow/resources.py
+    # the longest batches first (their last run's benchmark, the cost model, or the committed table of costs):
+    # experiments/workflow/resources.py
     priority: identify_priority
     resources:
         mem_mb=MEM_MB_JOB,

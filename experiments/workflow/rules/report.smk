@@ -35,6 +35,8 @@ rule yardstick:
     params:
         prior=yardstick_args,
     threads: 1
+    # started before the identify batches it is longer than (experiments/workflow/resources.py)
+    priority: yardstick_priority
     resources:
         mem_mb=MEM_MB_JOB,
         runtime=30,
@@ -77,6 +79,8 @@ rule aggregate:
         tables=lambda wc: result_files(wc.grid),
     log:
         "results/{grid}/logs/aggregate.log",
+    benchmark:
+        "results/{grid}/benchmarks/aggregate.tsv"
     shell:
         "python -m experiments.report.aggregate --grid {wildcards.grid} --out results/{wildcards.grid}"
         " --page {output.page} --experiments {input.experiments} --yardstick {input.yardstick}"
@@ -100,6 +104,8 @@ rule runlog:
         tables=lambda wc: result_files(wc.grid),
     log:
         "results/{grid}/logs/runlog.log",
+    benchmark:
+        "results/{grid}/benchmarks/runlog.tsv"
     shell:
         "python -m experiments.runlog.identify_runs --grid {wildcards.grid} --out {output.record}"
         " --summary {input.summary} --page {output.page} --aggregate {input.tables} {input.figures}"
@@ -118,6 +124,7 @@ rule reproduce:
             subcategory="{experiment}",
         ),
     threads: 1
+    priority: experiment_priority
     resources:
         mem_mb=MEM_MB_JOB,
         runtime=30,
@@ -125,6 +132,8 @@ rule reproduce:
         CONDA_ENV
     log:
         "results/{grid}/logs/paper/{experiment}.log",
+    benchmark:
+        "results/{grid}/benchmarks/paper/{experiment}.tsv"
     shell:
         "python -m experiments.jobs.reproduce experiment={wildcards.experiment} out_dir={output}"
         " runlog.enabled=false > {log} 2>&1"

@@ -210,6 +210,63 @@ def test_identify_priority_is_the_batch_s_known_cpu_time(tmp_path):
     assert identify_priority(tmp_path, "full", "bopdmd") == 175
 
 
+def test_a_fresh_clone_orders_its_jobs_by_the_committed_costs(tmp_path):
+    # no benchmark, no cost model: the committed table (experiments/workflow/job_cpu_s.csv) gives the priorities;
+    # a measurement, when there is one, goes before it; write_defaults enters a grid's jobs and keeps the rest
+    from experiments.workflow.resources import (
+        DEFAULT_COSTS,
+        batch_cpu_s,
+        identify_priority,
+        job_priority,
+        measured_costs,
+        write_defaults,
+    )
+
+    assert job_priority(tmp_path, "paper", "yardstick") == 0
+    (tmp_path / DEFAULT_COSTS).parent.mkdir(parents=True)
+    (tmp_path / DEFAULT_COSTS).write_text("grid,job,cpu_s\npaper,yardstick,120.8\npaper,identify/bopdmd,61.2\n"
+                                          "full,identify/bopdmd,9000\npaper,paper/paper_fig3,nan\n")
+    assert job_priority(tmp_path, "paper", "yardstick") == 121
+    assert identify_priority(tmp_path, "paper", "bopdmd") == 62 and identify_priority(tmp_path, "paper", "era") == 0
+    assert job_priority(tmp_path, "paper", "paper/paper_fig3") == 0                 # not a number: unknown
+    bench = tmp_path / "results" / "paper" / "benchmarks" / "yardstick.tsv"
+    bench.parent.mkdir(parents=True)
+    bench.write_text("s\th:m:s\tcpu_time\n50.0\t0:00:50\t40.2\n")
+    assert job_priority(tmp_path, "paper", "yardstick") == 41                    # the last run first
+    model = tmp_path / "results" / "bench" / "sweep_cost" / "paper.csv"
+    model.parent.mkdir(parents=True)
+    model.write_text("entry,noise_ug,n_samples,cpu_s_per_fit,replicates\nera,100,256,0.01,20\n"
+                     "era,100,128,0.02,20\nakf:tuned,100,256,0.001,20\n")
+    assert batch_cpu_s(tmp_path, "paper", "era") == pytest.approx(0.6)
+    costs = measured_costs(tmp_path, "paper")
+    assert costs == pytest.approx({"identify/era": 0.6, "identify/akf_tuned": 0.02, "yardstick": 40.2})
+    write_defaults(tmp_path, "paper", costs)
+    rows = (tmp_path / DEFAULT_COSTS).read_text().splitlines()
+    assert rows[0] == "grid,job,cpu_s" and "full,identify/bopdmd,9000" in rows
+    assert "paper,yardstick,40.2" in rows and "paper,identify/bopdmd,61.2" in rows    # replaced; kept
+    assert sum(r.startswith("paper,yardstick,") for r in rows) == 1
+
+
+def test_the_committed_costs_put_the_longest_jobs_first():
+    # the shipped table (what a fresh clone orders its jobs by): the paper grid's yardstick and BOPDMD batch
+    # ahead of pem's, and pem's ahead of the other batches; every job of the shipped paper and full grids costed
+    from experiments.workflow.resources import default_cpu_s
+
+    def cost(grid, job):
+        return default_cpu_s(ROOT, grid, job)
+
+    grids = Grids(ROOT)
+    short = [cost("paper", f"identify/{e.replace(':', '_')}") for e in grids.load_grid("paper")["methods"]
+             if e not in ("bopdmd", "pem")]
+    longest = min(cost("paper", "yardstick"), cost("paper", "identify/bopdmd"))
+    assert longest > cost("paper", "identify/pem") > max(short)
+    for grid in ("paper", "full"):
+        for entry in grids.load_grid(grid)["methods"]:
+            assert cost(grid, f"identify/{entry.replace(':', '_')}") > 0, (grid, entry)
+    for experiment in grids.load_grid("paper")["experiments"]:
+        assert cost("paper", f"paper/{experiment}") > 0, experiment
+
+
 def test_every_shipped_grid_passes_its_own_check():
     # what `snakemake results/<grid>/README.md` checks before it builds the DAG, for every grid file of the
     # repository: a grid that ships refused (a variant's per-loop option on a cell with another mode count) fails

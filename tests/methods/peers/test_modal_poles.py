@@ -127,14 +127,30 @@ def test_a_record_too_short_for_the_candidates_model_confirms_nothing():
     assert got.found.any() and not got.determined.any()
 
 
-def test_a_mode_the_poles_miss_leaves_the_residual_coloured_and_nothing_confirmed():
-    """The library missed the 56.67 rad/s mode: the three poles it gave are placed, but the record's fit without
-    the fourth leaves a line in the residual (not white), so none of them is called determined."""
+def test_a_mode_the_poles_miss_is_fitted_from_the_residual_and_the_others_confirmed():
+    """The library missed the 56.67 rad/s mode. The record's fit of the three poles it gave leaves a line in the
+    residual; the fit takes that line as a fourth component (found by the record, within 5σ of 56.67 rad/s) and is
+    white, so the three are confirmed where they are, and mode 4, which the library did not give, stays not
+    determined. Without the line the three would be judged by a fit the missing mode pulls."""
     got = pick_modes(MODES[:3], NOISY, DT, PRIOR)
     assert got.found.tolist() == [True, True, True, False]
+    assert got.record_white is True and got.determined.tolist() == [True, True, True, False]
+    assert got.record_others.size == 1 and abs(got.record_others[0] - 56.67) < 0.05
+    assert pick_modes(MODES, NOISY, DT, PRIOR).record_others.size == 0
+
+
+def test_a_record_the_fit_cannot_whiten_confirms_nothing():
+    """A record of the four modes plus two strong lines (80 and 110 rad/s) the library did not give: the fit may
+    add at most CONFIRM_LINES = 2 lines from the residual, here also a fifth (130 rad/s), so its residual stays
+    coloured and no mode is confirmed."""
+    from methods.peers._mode_picker import CONFIRM_LINES
+
+    assert CONFIRM_LINES == 2
+    extra = record([pole(80.0), pole(110.0), pole(130.0)], [2.0, 2.0, 2.0])
+    got = pick_modes(MODES, NOISY + extra, DT, PRIOR)
+    assert got.found.all()
     assert got.record_white is False and not got.determined.any()
     assert "residual is not white" in got.message
-    assert pick_modes(MODES, NOISY, DT, PRIOR).record_white is True
 
 
 def test_a_confirmed_mode_in_a_slot_a_spare_pole_shifted_is_not_determined():
@@ -153,6 +169,22 @@ def test_a_confirmed_mode_in_a_slot_a_spare_pole_shifted_is_not_determined():
     assert got.determined.tolist() == [True, False, False]
     assert got.record_white and abs(got.record_fit[1] - 20.0) < 3 * got.record_fit_std[1]   # confirmed as a mode
     assert "modes 2, 3 not confirmed" in got.message
+
+
+def test_a_missed_mode_the_record_fit_adds_withdraws_the_slot_it_shifted():
+    """The record holds 3, 14 and 20 rad/s (prior [3, 14, 20]); the library gives 3 and 20 and a pair of spare
+    poles near 26 rad/s, so the sorted placement puts 20 rad/s in slot 2. The record's fit needs the missed 14 rad/s
+    mode to whiten (here the spare's component converges onto it); with it among the record's components, 20 rad/s
+    belongs to slot 3, so slot 2 is withdrawn although the record confirms its frequency, and slot 1 stands."""
+    y = (record([pole(3.0), pole(14.0), pole(20.0)], [1.0, 1.0, 1.0])
+         + 0.02 * np.random.default_rng(0).standard_normal(T.size))
+    poles = [pole(3.0), pole(20.0), pole(26.0, 0.02), pole(26.1, 0.02)]
+    got = pick_modes(poles, y, DT, [3.0, 14.0, 20.0])
+    assert abs(got.frequencies[1] - 20.0) < 1e-9                       # the library's crossing
+    held = np.r_[got.record_fit, got.record_others]
+    assert got.record_white and np.any(np.abs(held - 14.0) < 0.05)
+    assert abs(got.record_fit[1] - 20.0) < 3 * got.record_fit_std[1]
+    assert got.determined.tolist() == [True, False, False]
 
 
 def test_the_slot_check_only_withdraws():
