@@ -94,7 +94,8 @@ def test_a_deleted_dataset_is_regenerated_bit_for_bit_and_the_tables_stay(repo_c
     table = pd.read_csv(out / "tables" / "comparison.csv").drop(columns="median_runtime_s")
     dataset.unlink()
     jobs = planned(repo_copy)
-    assert jobs.pop("datasets") == ["results/tiny/data"] and set(jobs) == {"identify", "aggregate", "runlog"}
+    assert jobs.pop("datasets") == ["results/tiny/data"] and set(jobs) == {"identify", "aggregate", "runlog_jobs",
+                                                                            "runlog"}
     proc = snakemake_in(repo_copy, "results/tiny/README.md", snakefile=repo_copy / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert dataset.read_bytes() == original
@@ -111,7 +112,7 @@ def _edit(path, old, new):
 
 
 def test_an_edit_reruns_exactly_the_affected_jobs_and_what_follows(repo_copy):
-    downstream = {"aggregate", "runlog"}
+    downstream = {"aggregate", "runlog_jobs", "runlog"}
     fft_jobs = ["results/tiny/identify/fft"]           # the fft batch: every cell of the grid
     # unrelated edits: a README, another method's code and config
     for path, old, new in [(repo_copy / "README.md", "# Identifying", "# Identifying (edited)"),
@@ -171,7 +172,8 @@ def test_a_grid_with_a_yardstick_prior_gets_the_bayesian_columns_and_a_rerun_doe
     grid = TINY.replace("tiny", "bayes").replace("[64]", "[20]").replace("[fft, akf]", "[fft]")
     (repo_copy / "configs" / "grid" / "bayes.yaml").write_text(grid + "yardstick_prior: pem_map\n")
     target = "results/bayes/README.md"
-    assert set(planned(repo_copy, target)) == {"datasets", "identify", "yardstick", "aggregate", "runlog"}
+    assert set(planned(repo_copy, target)) == {"datasets", "identify", "yardstick", "aggregate", "runlog_jobs",
+                                               "runlog"}
     proc = snakemake_in(repo_copy, target, snakefile=repo_copy / "Snakefile")
     assert proc.returncode == 0, proc.stderr[-3000:]
     out = repo_copy / "results" / "bayes"

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.cli import ArgumentParser
+from experiments.cli import ArgumentParser, cpu_line
 from experiments.io import atomic_write_text, markdown_table, read_npz, write_table
 from experiments.report import htmltables, tracking_plots
 from experiments.report.aggregate import write_captions
@@ -253,6 +253,7 @@ def main(argv=None) -> int:
     if args.page:
         atomic_write_text(args.page, page(grid, summary, trackers, figures))
     print(f"tracking report of {grid['name']}: {len(summary)} (tracker, cell) rows, {len(figures)} figures")
+    print(cpu_line())
     return 0
 
 

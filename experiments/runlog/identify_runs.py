@@ -6,6 +6,13 @@
 
 (the workflow's ``runlog`` rule; installed, the command ``modal-id-runlog``).
 
+    python -m experiments.runlog.identify_runs --grid smoke --jobs-only --out results/smoke/runlog/jobs.json \
+        -- results/smoke/identify/*/*.csv
+
+logs the jobs alone, without their grid (the workflow's ``runlog_jobs`` rule, beside the aggregate, which the
+grid's run waits for); the step above then finds them logged (one search of the store for all of them) and
+only makes them the grid run's children.
+
 One MLflow experiment per grid (``grid-<name>``). The grid is a parent run carrying the tables, figures and
 page; each (method, cell) job is a child run: parameters and provenance from the job's own record
 ``<cell>.json`` written beside its table (resolved config, dataset digest, code version, package
@@ -30,10 +37,10 @@ from experiments.provenance import canonical_json, digest, git_state
 from experiments.report.summary import job_metrics, summarize
 from experiments.runlog.pending import log_all
 from experiments.runlog.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
-from experiments.runlog.store import check_store, dataset_entity, log_run, source_tags
+from experiments.runlog.store import check_store, dataset_entity, finished_runs, log_run, set_parent, source_tags
 
-__all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job", "grid_run", "aggregate_files", "main",
-           "main_as_track"]
+__all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job", "grid_run", "aggregate_files",
+           "log_children", "main", "main_as_track"]
 
 def log_job(experiment: str, record: dict, table_path: Path, record_path: Path | None = None,
             parent_run_id: str | None = None) -> tuple[str, str, bool]:
@@ -61,6 +68,25 @@ def grid_run(grid: str, child_keys: list[str], files: list[Path]) -> tuple[str, 
     rid, created = log_run(f"grid-{grid}", key, params={"grid": grid, "jobs": len(child_keys)}, artifacts=files,
                            tags={**source_tags("Snakefile", code), "grid": grid, "kind": "grid"})
     return key, rid, created
+
+
+def log_children(experiment: str, jobs: list, log_one, parent_run_id: str | None) -> tuple[dict, int]:
+    """Log each of ``jobs`` with ``log_one(job, parent_run_id) -> (key, run id, created)``, except those a
+    finished run of the experiment holds already (:func:`experiments.runlog.store.finished_runs`, one search
+    for all): those are only made children of ``parent_run_id`` where they are not yet. ``jobs`` are
+    (run key, job) pairs. Returns ({key: run id}, how many were newly logged)."""
+    known = finished_runs(experiment)
+    runs, created = {}, 0
+    for key, job in jobs:
+        if key in known:
+            rid, parent = known[key]
+            if parent_run_id and parent != parent_run_id:
+                set_parent(rid, parent_run_id)
+        else:
+            key, rid, new = log_one(job, parent_run_id)
+            created += new
+        runs[key] = rid
+    return runs, created
 
 
 def aggregate_files(paths: list[Path]) -> list[Path]:
@@ -109,6 +135,8 @@ def main(argv=None) -> int:
     ap.add_argument("--page", type=Path)
     ap.add_argument("--aggregate", nargs="*", type=Path, default=[],
                     help="tables/figures (files or folders) to log with the grid's parent run")
+    ap.add_argument("--jobs-only", action="store_true",
+                    help="log the jobs alone, no grid run and no page (the grid's step makes them its children)")
     ap.add_argument("results", nargs="+", type=Path, help="the jobs' tables; <table>.json beside each")
     args = ap.parse_args(argv)
     try:
@@ -125,13 +153,21 @@ def main(argv=None) -> int:
 
     log_all()       # measurement runs a job left waiting (experiments/runlog/pending.py), if any
     child_keys = [run_key(rec) for _, _, rec in jobs]
+
+    def log_one(job, parent):
+        path, record_path, rec = job
+        return log_job(experiment, rec, path, record_path, parent_run_id=parent)
+
+    if args.jobs_only:
+        runs, created = log_children(experiment, list(zip(child_keys, jobs, strict=True)), log_one, None)
+        write_json(args.out, {"experiment": experiment, "runs": runs})
+        print(f"{len(runs)} job runs in MLflow experiment {experiment} ({created} newly logged)")
+        return 0
     files = aggregate_files(args.aggregate) + ([args.summary] if args.summary else [])
     parent_key, parent_id, created = grid_run(args.grid, child_keys, files)
-    runs = {parent_key: parent_id}
-    for path, record_path, rec in jobs:
-        key, rid, new = log_job(experiment, rec, path, record_path, parent_run_id=parent_id)
-        runs[key] = rid
-        created += new
+    children, new = log_children(experiment, list(zip(child_keys, jobs, strict=True)), log_one, parent_id)
+    runs = {parent_key: parent_id, **children}
+    created += new
     write_json(args.out, {"experiment": experiment, "parent_run": parent_id, "runs": runs})
     message = f"{len(runs)} runs in MLflow experiment {experiment} ({created} newly logged)"
     if args.page:

@@ -35,7 +35,7 @@ from filelock import FileLock
 from experiments.provenance import digest, git_state
 
 __all__ = ["DEFAULT_DB", "LOCK_TIMEOUT_S", "tracking_uri", "is_default_store", "lock_path", "store_lock", "client",
-           "experiment_id", "log_run", "dataset_entity", "source_tags", "git_commit"]
+           "experiment_id", "log_run", "finished_runs", "set_parent", "dataset_entity", "source_tags", "git_commit"]
 
 DEFAULT_DB = Path("results") / "mlflow.db"   # relative to the working directory, like all outputs
 LOCK_TIMEOUT_S = 600
@@ -208,6 +208,7 @@ def log_run(experiment: str, run_key: str, *, params: dict | None = None, metric
     with store_lock(uri):
         exp_id = experiment_id(c, experiment, uri)
         existing = _retry(lambda: c.search_runs([exp_id], filter_string=f"tags.run_key = '{run_key}'"))
+        foreign = False          # a live writer that does not share the lock is logging this key
         for run in existing:
             if run.info.status == "FINISHED":
                 if parent_run_id and run.data.tags.get("mlflow.parentRunId") != parent_run_id:
@@ -215,6 +216,8 @@ def log_run(experiment: str, run_key: str, *, params: dict | None = None, metric
                 return run.info.run_id, False
             if _owner_gone(run):
                 _retry(lambda r=run: c.delete_run(r.info.run_id))  # cut off part-way
+            else:
+                foreign = True
         run = _retry(lambda: c.create_run(exp_id, tags=all_tags, run_name=run_key.replace("/", "_")[-250:]))
         rid = run.info.run_id
         now = int(time.time() * 1000)
@@ -237,14 +240,55 @@ def log_run(experiment: str, run_key: str, *, params: dict | None = None, metric
                 _retry(lambda: c.log_artifacts(rid, folder))
         _retry(lambda: c.set_terminated(rid, "FINISHED"))
         _retry(lambda: c.delete_tag(rid, "owner"))        # only a RUNNING run needs it
-        # a writer from another folder (no shared lock) may have logged the same key meanwhile
-        same = _retry(lambda: c.search_runs([exp_id], filter_string=f"tags.run_key = '{run_key}'"))
-        live = [r for r in same if r.info.status in ("RUNNING", "FINISHED")]
-        first = min(live, key=lambda r: (r.info.start_time, r.info.run_id))
-        if first.info.run_id != rid:
-            _retry(lambda: c.delete_run(rid))
-            return first.info.run_id, False
+        # a writer from another folder (no shared lock) may have logged the same key meanwhile; a SQLite store's
+        # lock sits beside its file, so every writer of this module shares it, and only a writer seen logging
+        # this key without the lock (a RUNNING run of a live owner, above) can have (one search less per run)
+        if foreign or sqlite_path(uri) is None:
+            same = _retry(lambda: c.search_runs([exp_id], filter_string=f"tags.run_key = '{run_key}'"))
+            live = [r for r in same if r.info.status in ("RUNNING", "FINISHED")]
+            first = min(live, key=lambda r: (r.info.start_time, r.info.run_id))
+            if first.info.run_id != rid:
+                _retry(lambda: c.delete_run(rid))
+                return first.info.run_id, False
     return rid, True
+
+
+def finished_runs(experiment: str) -> dict[str, tuple[str, str | None]]:
+    """Run key -> (run id, parent run id or None) of every finished run of ``experiment`` ({} if there is no
+    such experiment), the earliest-started run of a key, as :func:`log_run` keeps it. One paged search, where
+    a step that logs a grid's runs would otherwise search the store once per run: the runs it finds here are
+    logged already, and :func:`log_run` decides for the others."""
+    uri = tracking_uri()
+    c = client(uri)
+    exp = _retry(lambda: c.get_experiment_by_name(experiment))
+    if exp is None:
+        return {}
+    found: dict[str, tuple[str, str | None]] = {}
+    token = None
+    while True:
+        page = _retry(lambda t=token: c.search_runs(
+            [exp.experiment_id], filter_string="attributes.status = 'FINISHED'", max_results=SEARCH_PAGE,
+            order_by=["attributes.start_time ASC"], page_token=t))
+        for run in page:
+            key = run.data.tags.get("run_key")
+            if key and key not in found:
+                found[key] = (run.info.run_id, run.data.tags.get("mlflow.parentRunId"))
+        token = page.token
+        if not token:
+            return found
+
+
+SEARCH_PAGE = 1000      # runs per page of finished_runs' search (MLflow's default page)
+
+
+def set_parent(run_id: str, parent_run_id: str) -> None:
+    """Make the logged run ``run_id`` a child of ``parent_run_id`` (MLflow's tag ``mlflow.parentRunId``, the
+    tag :func:`log_run` gives a child run): a grid's jobs are logged as they finish, its parent run after its
+    tables and figures."""
+    uri = tracking_uri()
+    c = client(uri)
+    with store_lock(uri):
+        _retry(lambda: c.set_tag(run_id, "mlflow.parentRunId", parent_run_id))
 
 
 _OWNER = f"{socket.gethostname()}:{os.getpid()}"

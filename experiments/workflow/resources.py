@@ -20,6 +20,7 @@ DATASET_CPU_S_PER_SAMPLE = 0.0001
 # What each job of the shipped grids cost on its last measured run (CPU s), committed so that a fresh clone,
 # which has no benchmark file and no cost model, still starts the longest jobs first (the priorities below).
 # Regenerated from the cost model and a run's benchmark files: python -m experiments.workflow.resources paper full
+# (and tracking, from a tracking grid run's benchmark files)
 DEFAULT_COSTS = Path("experiments", "workflow", "job_cpu_s.csv")
 
 
@@ -134,10 +135,11 @@ def measured_costs(root: Path, grid: str) -> dict[str, float]:
     """CPU s per job of a grid, as :data:`DEFAULT_COSTS` keeps them: the identify batches from the cost model
     (:func:`_model_cpu_s`; Snakemake samples a job's CPU time every few seconds, and a batch of a few seconds
     is charged one sample), the yardstick and the paper experiments from the last run's Snakemake benchmark
-    files (``results/<grid>/benchmarks``)."""
+    files (``results/<grid>/benchmarks``), and a tracking grid's tracker jobs (``track/<tracker>``) too."""
     costs = {f"identify/{m}": t for m, t in _model_cpu_s(root, grid).items()}
     folder = Path(root, "results", grid, "benchmarks")
-    for path in [folder / "yardstick.tsv", *sorted(folder.glob("paper/*.tsv"))]:
+    for path in [folder / "yardstick.tsv", *sorted(folder.glob("paper/*.tsv")),
+                 *sorted(folder.glob("track/*.tsv"))]:
         cost = _benchmark_cpu_s(path)
         if cost is not None:
             costs[path.relative_to(folder).with_suffix("").as_posix()] = cost
@@ -174,7 +176,7 @@ def main(argv=None) -> int:
         costs = measured_costs(Path.cwd(), grid)
         if not costs:
             print(f"error: grid '{grid}': no cost model (results/bench/sweep_cost/{grid}.csv) and no yardstick or "
-                  f"paper-experiment benchmark (results/{grid}/benchmarks)", file=sys.stderr)
+                  f"paper-experiment or tracker benchmark (results/{grid}/benchmarks)", file=sys.stderr)
             return 2
         print(f"wrote {write_defaults(Path.cwd(), grid, costs)}: grid {grid}, {len(costs)} jobs")
     return 0

@@ -12,9 +12,10 @@ import sys
 from experiments import paths
 from experiments.jobs.track_job import check_tracker, grid_trackers
 from experiments.simulate.tracking_grid import load_grid
+from experiments.workflow import resources
 
 __all__ = ["CPU_S_PER_SAMPLE", "TRACKING_GRIDS", "check_requested_tracking_grids", "requested", "tracker_dirs",
-           "tracking_grid", "tracking_runtime"]
+           "tracking_grid", "tracking_priority", "tracking_runtime"]
 
 TRACKING_GRIDS = sorted(f[: -len(".yaml")] for f in os.listdir(paths.GRIDS)
                         if f.startswith("tracking") and f.endswith(".yaml"))
@@ -41,6 +42,14 @@ def tracking_runtime(wildcards, attempt) -> int:
     grid = tracking_grid(wildcards.tgrid)
     samples = sum(c["config"].n_samples * c["config"].replicates for c in grid["cells"].values())
     return attempt * max(5, math.ceil(4 * CPU_S_PER_SAMPLE * samples / 60))
+
+
+def tracking_priority(wildcards) -> int:
+    """Snakemake priority of a tracker's run job: its known CPU seconds (its last run's benchmark file
+    ``results/<grid>/benchmarks/track/<tracker>.tsv``, else the committed ``experiments/workflow/job_cpu_s.csv``,
+    else 0), so that the longest trackers start first and the short ones fill both cores at the end: in a
+    fresh clone, where every priority was 0, ``era`` (773 s of CPU) started last and ran 9 min alone."""
+    return resources.job_priority(paths.ROOT, wildcards.tgrid, f"track/{wildcards.tracker}")
 
 
 def requested(argv: list[str]) -> list[str]:

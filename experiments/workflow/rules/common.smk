@@ -198,6 +198,10 @@ def yardstick_priority(wildcards):
     return resources.job_priority(WF.root, wildcards.grid, "yardstick")
 
 
+def runlog_priority(wildcards):
+    return resources.job_priority(WF.root, wildcards.grid, "runlog_jobs")
+
+
 def experiment_priority(wildcards):
     return resources.job_priority(WF.root, wildcards.grid, f"paper/{wildcards.experiment}")
 

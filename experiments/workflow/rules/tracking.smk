@@ -1,11 +1,12 @@
 # The tracking grids (configs/grid/tracking*.yaml, docs/tracking.md): the records of every cell in one job,
-# one job per tracker over every cell, then the report and the MLflow run logging (tracking_runlog: serial,
-# local), as for the identification grids. Every step is a command a user can type:
+# one job per tracker over every cell, then the report beside the MLflow runs of the (tracker, cell) jobs
+# (tracking_runlog_jobs), and the grid's run and page (tracking_runlog; both local), as for the identification
+# grids. Every step is a command a user can type:
 #   python -m experiments.jobs.track_job data tracking --out results/tracking/data
 #   python -m experiments.jobs.track_job run tracking --tracker akf --data results/tracking/data --out ...
 #   python -m experiments.report.tracking_report ... ;  python -m experiments.runlog.tracker_runs ...
 from experiments.workflow.tracking import (TRACKING_GRIDS, check_requested_tracking_grids, tracker_dirs,
-                                               tracking_runtime)
+                                               tracking_priority, tracking_runtime)
 
 check_requested_tracking_grids(sys.argv[1:])
 # The tracking grids' names as a wildcard constraint; with no tracking grid at all it matches nothing (an
@@ -16,6 +17,7 @@ TRACKING_GRID_RE = "|".join(TRACKING_GRIDS) or "(?!)"
 localrules:
     tracking,
     tracking_report,
+    tracking_runlog_jobs,
     tracking_runlog,
 
 
@@ -25,12 +27,18 @@ rule tracking:
         "results/tracking/mlflow_runs.json",
 
 
+# The records of every cell in one job on up to TRACKING_DATA_THREADS processes (Snakemake gives it at most
+# --cores; `--set-threads tracking_data=N` sets it per run): every other job waits for it, so it may take the
+# cores. The tracking grid's 24 cells took 52 s on one core (2026-11-26).
+TRACKING_DATA_THREADS = 4
+
+
 rule tracking_data:
     output:
         directory("results/{tgrid}/data"),
     wildcard_constraints:
         tgrid=TRACKING_GRID_RE,
-    threads: 1
+    threads: TRACKING_DATA_THREADS
     resources:
         mem_mb=MEM_MB_JOB,
         runtime=lambda wc, attempt: attempt * 10,
@@ -41,7 +49,8 @@ rule tracking_data:
     benchmark:
         "results/{tgrid}/benchmarks/data.tsv"
     shell:
-        "python -m experiments.jobs.track_job data {wildcards.tgrid} --out {output} > {log} 2>&1"
+        "python -m experiments.jobs.track_job data {wildcards.tgrid} --out {output} --workers {threads}"
+        " > {log} 2>&1"
 
 
 rule tracking_run:
@@ -52,6 +61,8 @@ rule tracking_run:
     wildcard_constraints:
         tgrid=TRACKING_GRID_RE,
     threads: 1
+    # the longest trackers first (their last run's benchmark file, else experiments/workflow/job_cpu_s.csv)
+    priority: tracking_priority
     resources:
         mem_mb=MEM_MB_JOB,
         runtime=tracking_runtime,
@@ -92,14 +103,37 @@ rule tracking_report:
         CONDA_ENV
     log:
         "results/{tgrid}/logs/report.log",
+    benchmark:
+        "results/{tgrid}/benchmarks/report.tsv"
     shell:
         "python -m experiments.report.tracking_report --grid {wildcards.tgrid} --data {input.data}"
         " --out results/{wildcards.tgrid} --page {output.page} -- {input.results} > {log} 2>&1"
 
 
+# The (tracker, cell) MLflow runs beside the report (~0.14 s of CPU per run, 500 runs in the tracking grid); the
+# grid's step then only logs the grid's run and makes them its children.
+rule tracking_runlog_jobs:
+    input:
+        results=lambda wc: tracker_dirs(wc.tgrid),
+    output:
+        "results/{tgrid}/runlog/jobs.json",
+    wildcard_constraints:
+        tgrid=TRACKING_GRID_RE,
+    conda:
+        CONDA_ENV
+    log:
+        "results/{tgrid}/logs/runlog_jobs.log",
+    benchmark:
+        "results/{tgrid}/benchmarks/runlog_jobs.tsv"
+    shell:
+        "python -m experiments.runlog.tracker_runs --grid {wildcards.tgrid} --jobs-only --out {output}"
+        " -- {input.results} > {log} 2>&1"
+
+
 rule tracking_runlog:
     input:
         results=lambda wc: tracker_dirs(wc.tgrid),
+        jobs="results/{tgrid}/runlog/jobs.json",
         summary="results/{tgrid}/summary.md",
         tables="results/{tgrid}/tables",
         figures="results/{tgrid}/figures",
@@ -112,6 +146,8 @@ rule tracking_runlog:
         CONDA_ENV
     log:
         "results/{tgrid}/logs/runlog.log",
+    benchmark:
+        "results/{tgrid}/benchmarks/runlog.tsv"
     shell:
         "python -m experiments.runlog.tracker_runs --grid {wildcards.tgrid} --out {output.record}"
         " --summary {input.summary} --page {output.page} --aggregate {input.tables} {input.figures}"

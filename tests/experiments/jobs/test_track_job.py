@@ -106,13 +106,34 @@ def test_report_and_mlflow_steps_write_tables_figures_page_and_runs_once(grid_fi
     assert "## Verdict per cell" in (out / "summary.md").read_text()
     args = ["--grid", "tracking_test", "--out", str(out / "mlflow_runs.json"), "--summary", str(out / "summary.md"),
             "--page", str(out / "README.md"), "--aggregate", str(out / "tables"), "--", *folders]
+    # the (tracker, cell) runs first, as the workflow logs them beside the report, then the grid's run
+    log(["--grid", "tracking_test", "--jobs-only", "--out", str(out / "runlog" / "jobs.json"), "--", *folders])
+    jobs = json.loads((out / "runlog" / "jobs.json").read_text())["runs"]
     log(args)
     log(args)                                                    # again: nothing new
     client = mlflow.MlflowClient(f"sqlite:///{tmp_path / 'mlflow.db'}")
     exp = client.get_experiment_by_name("grid-tracking_test")
     runs = client.search_runs([exp.experiment_id])
     assert len(runs) == 1 + 2 * 2
+    parent = json.loads((out / "mlflow_runs.json").read_text())["parent_run"]
+    children = {r.data.tags["run_key"]: r for r in runs if r.data.tags["kind"] == "job"}
+    assert {k: r.info.run_id for k, r in children.items()} == jobs
+    assert all(r.data.tags["mlflow.parentRunId"] == parent for r in children.values())
     assert "## Tracking" in (out / "README.md").read_text()
+
+
+def test_the_data_step_on_two_processes_writes_the_same_bytes(grid_file, tmp_path, capsys):
+    grid = grid_file(noise_ug=[100, 1000])
+    main(["data", grid, "--out", str(tmp_path / "one")])
+    main(["data", grid, "--out", str(tmp_path / "two"), "--workers", "2"])
+    assert "2 cells on 2 processes" in capsys.readouterr().out
+    files = sorted(p.name for p in (tmp_path / "one").glob("*.npz"))
+    assert len(files) == 2 and files == sorted(p.name for p in (tmp_path / "two").glob("*.npz"))
+    assert all((tmp_path / "one" / f).read_bytes() == (tmp_path / "two" / f).read_bytes() for f in files)
+    with pytest.raises(SystemExit) as exit_:
+        main(["data", grid, "--out", str(tmp_path / "none"), "--workers", "0"])
+    assert exit_.value.code == 2 and "--workers = 0" in capsys.readouterr().err
+    assert not (tmp_path / "none").exists()
 
 
 def test_score_step_scores_stored_tracks_again_identically(grid_file, tmp_path):

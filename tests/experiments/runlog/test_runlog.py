@@ -1,4 +1,5 @@
 import copy
+import json
 
 import mlflow
 import pytest
@@ -128,3 +129,37 @@ def test_a_run_of_the_same_key_from_a_writer_elsewhere_is_not_duplicated(mlflow_
     assert [r.info.run_id for r in client.search_runs([exp_id])] == [other.info.run_id]
     client.set_terminated(other.info.run_id)
     assert log_run("exp3", "k", metrics={"x": 1.0}) == (other.info.run_id, False)
+
+
+def test_jobs_logged_first_become_the_grid_runs_children_without_being_logged_again(cells, mlflow_uri, tmp_path,
+                                                                                    capsys):
+    """The workflow's runlog_jobs step logs the jobs alone (no parent); the runlog step then logs the grid's run
+    and only makes the same runs its children: the store ends as if one step had logged everything."""
+    from experiments.runlog.identify_runs import main
+
+    a, _ = cells
+    tables = []
+    for method in ("fft", "pll"):
+        out = tmp_path / "results" / "g" / "identify" / method / "noise1000ug_n64.csv"
+        identify(tmp_path, f"method={method}", f"data.dataset={a}", f"out={out}", "grid_name=g",
+                 "runlog.enabled=false", f"hydra.run.dir={tmp_path / 'runs' / method}")
+        tables.append(str(out))
+    assert main(["--grid", "g", "--jobs-only", "--out", str(tmp_path / "jobs.json"), "--", *tables]) == 0
+    assert "2 job runs in MLflow experiment grid-g (2 newly logged)" in capsys.readouterr().out
+    first = json.loads((tmp_path / "jobs.json").read_text())["runs"]
+    client = mlflow.MlflowClient(mlflow_uri)
+    exp_id = client.get_experiment_by_name("grid-g").experiment_id
+    assert all("mlflow.parentRunId" not in r.data.tags for r in client.search_runs([exp_id]))
+    summary = tmp_path / "summary.md"
+    summary.write_text("# g\n")
+    assert main(["--grid", "g", "--out", str(tmp_path / "runs.json"), "--summary", str(summary), "--page",
+                 str(tmp_path / "README.md"), "--", *tables]) == 0
+    assert "3 runs in MLflow experiment grid-g (1 newly logged)" in capsys.readouterr().out
+    record = json.loads((tmp_path / "runs.json").read_text())
+    assert {k: v for k, v in record["runs"].items() if v != record["parent_run"]} == first
+    runs = client.search_runs([exp_id])
+    assert len(runs) == 3 and all(r.info.status == "FINISHED" for r in runs)
+    children = [r for r in runs if r.data.tags.get("kind") == "job"]
+    assert sorted(r.info.run_id for r in children) == sorted(first.values())
+    assert all(r.data.tags["mlflow.parentRunId"] == record["parent_run"] for r in children)
+    assert "owner" not in {k for r in runs for k in r.data.tags}
