@@ -14,13 +14,37 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from experiments.io import save_figure  # noqa: E402
 from experiments.report.plots import _save, _style  # noqa: E402
 from experiments.report.tracking_metrics import ONBOARD_BUDGET_S, ONBOARD_SLOWDOWN  # noqa: E402
 
 __all__ = ["BOUND_STYLES", "HALF_NORMAL_MEDIAN", "accuracy_vs_cpu", "error_vs_time", "estimates_vs_truth",
-           "reconvergence_vs_noise"]
+           "nan_percentiles", "reconvergence_vs_noise"]
 
 HALF_NORMAL_MEDIAN = 0.6745      # median of |e| for e ~ N(0, σ²), in σ
+
+
+def nan_percentiles(a: np.ndarray, qs) -> list[np.ndarray]:
+    """``np.nanpercentile(a, q, axis=0)`` for each q of ``qs`` (its default, linear interpolation between the
+    sorted values at rank (n − 1)·q/100 of the n non-NaN ones; NaN where a column has none), for an array of
+    many short columns. Written here because numpy's nanpercentile calls a Python function per column
+    (``apply_along_axis``): 3.6 s for the (3, 6000, 4) estimates of one tracker, 2/3 of a grid report's time."""
+    a = np.asarray(a, dtype=float)
+    ranked = np.sort(a, axis=0)                          # NaN sort last
+    n = np.sum(~np.isnan(a), axis=0)
+    out = []
+    for q in qs:
+        pos = np.maximum(n - 1, 0) * (q / 100.0)
+        below = np.floor(pos).astype(int)
+        above = np.minimum(below + 1, np.maximum(n - 1, 0))
+        lo = np.take_along_axis(ranked, below[None], axis=0)[0]
+        hi = np.take_along_axis(ranked, above[None], axis=0)[0]
+        t = pos - below
+        diff = hi - lo
+        # numpy's _lerp: from the nearer end, so that t = 1 gives hi exactly
+        value = np.where(t >= 0.5, hi - diff * (1.0 - t), lo + diff * t)
+        out.append(np.where(n > 0, value, np.nan))
+    return out
 
 
 def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarray, title: str,
@@ -35,8 +59,7 @@ def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarr
         tr = tracks[name]
         f = tr["frequencies"]
         color = _style(name)[0]
-        with warnings.catch_warnings(action="ignore", category=RuntimeWarning):
-            lo, med, hi = (np.nanpercentile(f, q, axis=0) for q in (10, 50, 90))
+        lo, med, hi = nan_percentiles(f, (10, 50, 90))
         for i in range(m):
             ax = axes[row, i]
             ax.plot(t_s, truth[:, i], color="k", lw=1.0)
@@ -54,7 +77,19 @@ def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarr
         ax.set_xlabel("time (s)", fontsize=8)
     fig.suptitle(f"{title}: estimate (median, 10–90 % band over replicates) against the truth (black)",
                  fontsize=10)
-    return _save(fig, stem)
+    return _save_laid_out(fig, stem)
+
+
+def _save_laid_out(fig, stem: Path) -> list[Path]:
+    """PNG and SVG of a figure of many panels with its constrained layout computed once and no second crop:
+    on the grid's 21 × 4 panels the layout ran at every save and the tight crop drew each file twice (80 %
+    of the figure's time). The layout already fills the figure, so the files differ from a tight crop only
+    by its 0.1 in pad."""
+    fig.canvas.draw()                          # the constrained layout, once
+    fig.set_layout_engine("none")              # ...kept for both files
+    paths = [save_figure(fig, stem.with_suffix(suffix), tight=False) for suffix in (".png", ".svg")]
+    plt.close(fig)
+    return paths
 
 
 BOUND_STYLES = {"unknown-force bound": {"color": "0.55", "ls": "-", "lw": 1.2},

@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pandas as pd
 
 from experiments.report.tracking_report import verdict
@@ -57,3 +58,20 @@ def test_laboratory_cell_beats_only_when_every_move_reconverged_within_10_period
     assert "within 10 periods of every move" in beats[0] and "6 periods of the slowest mode" in beats[0]
     slow = verdict(pd.DataFrame([lab_row("era", 0.001, 0.8, 8.0), lab_row("next_era", 0.01, 0.2, 30.0)]))
     assert "(does not beat it:" in slow[0] and "80 % of moves within 10" in slow[0]
+
+
+def test_nan_percentiles_are_numpys_on_columns_with_and_without_nans():
+    import warnings
+
+    from experiments.report.tracking_plots import nan_percentiles
+
+    rng = np.random.default_rng(3)
+    a = rng.standard_normal((5, 300, 4))
+    a[rng.random(a.shape) < 0.3] = np.nan
+    a[:, 7, 2] = np.nan                                  # a column with no value
+    a[1:, 8, 1] = np.nan                                 # one value
+    for q, got in zip((10, 50, 90, 0, 100), nan_percentiles(a, (10, 50, 90, 0, 100)), strict=True):
+        with warnings.catch_warnings(action="ignore", category=RuntimeWarning):
+            want = np.nanpercentile(a, q, axis=0)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+        assert np.isnan(got[7, 2]) and got[8, 1] == a[0, 8, 1]
