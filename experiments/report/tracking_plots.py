@@ -14,7 +14,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from experiments.io import save_figure  # noqa: E402
 from experiments.report.plots import _save, _style  # noqa: E402
 from experiments.report.tracking_metrics import ONBOARD_BUDGET_S, ONBOARD_SLOWDOWN  # noqa: E402
 
@@ -77,19 +76,8 @@ def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarr
         ax.set_xlabel("time (s)", fontsize=8)
     fig.suptitle(f"{title}: estimate (median, 10–90 % band over replicates) against the truth (black)",
                  fontsize=10)
-    return _save_laid_out(fig, stem)
+    return _save(fig, stem)
 
-
-def _save_laid_out(fig, stem: Path) -> list[Path]:
-    """PNG and SVG of a figure of many panels with its constrained layout computed once and no second crop:
-    on the grid's 21 × 4 panels the layout ran at every save and the tight crop drew each file twice (80 %
-    of the figure's time). The layout already fills the figure, so the files differ from a tight crop only
-    by its 0.1 in pad."""
-    fig.canvas.draw()                          # the constrained layout, once
-    fig.set_layout_engine("none")              # ...kept for both files
-    paths = [save_figure(fig, stem.with_suffix(suffix), tight=False) for suffix in (".png", ".svg")]
-    plt.close(fig)
-    return paths
 
 
 BOUND_STYLES = {"unknown-force bound": {"color": "0.55", "ls": "-", "lw": 1.2},
