@@ -202,7 +202,7 @@ def failure_map(summary: pd.DataFrame, stem: Path) -> list[Path]:
         _cell_axes(ax, noises, lengths, ylabel=k % ncols == 0)
         ax.set_title(method)
     fig.colorbar(im, ax=axes.ravel().tolist(), label="failure rate, worst mode (%)", shrink=0.8)
-    fig.suptitle("Failure rate (not converged / no estimate), percent of replicates")
+    fig.suptitle("Failure rate (not converged / no estimate), percent of replicates", wrap=True)
     return _save(fig, stem)
 
 

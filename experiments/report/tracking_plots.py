@@ -75,7 +75,7 @@ def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarr
     for ax in axes[-1]:
         ax.set_xlabel("time (s)", fontsize=8)
     fig.suptitle(f"{title}: estimate (median, 10–90 % band over replicates) against the truth (black)",
-                 fontsize=10)
+                 fontsize=10, wrap=True)         # wrapped to the figure: one mode's column is narrower than it
     return _save(fig, stem)
 
 
@@ -124,7 +124,7 @@ def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], s
     axes.flat[0].legend(fontsize=7, ncol=2)
     fig.suptitle("Tracking error against time (median over replicates and modes; dashed: 1 %; grey floor: the "
                  "bound that does not know the force, dotted: the genie's)" if bounds else
-                 "Tracking error against time (median over replicates and modes; dashed: 1 %)", fontsize=10)
+                 "Tracking error against time (median over replicates and modes; dashed: 1 %)", fontsize=10, wrap=True)
     return _save(fig, stem)
 
 
@@ -153,7 +153,7 @@ def reconvergence_vs_noise(summary: pd.DataFrame, stem: Path) -> list[Path]:
         ax.grid(True, alpha=0.3)
     axes.flat[0].legend(fontsize=7, ncol=2)
     fig.suptitle("Re-convergence time after the step (median over replicates; dashed: 20 s; open: never in "
-                 "most replicates)", fontsize=10)
+                 "most replicates)", fontsize=10, wrap=True)
     return _save(fig, stem)
 
 
