@@ -335,6 +335,19 @@ class NormalEquations:
             self.std = np.where(var > 0, np.sqrt(sigma2 * var), np.inf)
         self._gauss_newton = None
 
+    @property
+    def size(self) -> int:
+        """The number of unknowns (columns of J)."""
+        return self._lam2.size
+
+    def inverse(self) -> np.ndarray:
+        """(JᵀJ)⁻¹ from the eigendecomposition of the column-scaled JᵀJ: W Λ⁻¹ Wᵀ, W = V/norms (the
+        pseudo-inverse where directions were left out)."""
+        W = self._V / self._norms[:, None]
+        inv = 1.0 / self._lam2 if self._all_kept else np.where(self._keep, 1.0 / np.where(self._keep, self._lam2,
+                                                                                          1.0), 0.0)
+        return (W * inv) @ W.T
+
     def without(self, columns: np.ndarray) -> NormalEquations:
         """The system with the given columns of J set to zero (an active bound)."""
         H, g, ee, n = self._gram
