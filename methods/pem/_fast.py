@@ -27,6 +27,11 @@ import numpy as np
 from methods.pem import search
 from methods.pem.predictor import _BLOCK, _powers, scaled_lstsq
 
+# A fit keeps its basis Φ (for the residual check, which would otherwise rebuild it) up to this many samples:
+# at most 4096 × (2m + 1) values per start; a longer record's check rebuilds it rather than hold N × (2m + 1)
+# per start through the multi-start (72 MB each at 10⁶ samples and 4 modes)
+KEEP_BASIS_SAMPLES = 4096
+
 
 class _Model:
     """Basis, linear solve, residual and reduced Jacobian of the damped-sinusoid model at (ω, ζ)."""
@@ -206,7 +211,8 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     fit = _result(model, x, c, loss, iterations, message, converged, step_lengths, free, std_free)
     # Jr: the robust std; Φ, Jr and the factorisations of ΦᵀΦ and J_rᵀJ_r at the optimum: the residual
     # check's projection (methods.pem._residual.tangent_gram_inverse)
-    fit.update(e=e, joined=joined, floor=floor, Jr=Jr, basis=model.phi if phi_at_x else None,
+    keep_basis = phi_at_x and n <= KEEP_BASIS_SAMPLES
+    fit.update(e=e, joined=joined, floor=floor, Jr=Jr, basis=model.phi if keep_basis else None,
                basis_solver=solver[:3], jr_system=final)
     return fit
 

@@ -192,14 +192,15 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: f
     x = e - e.mean()
     spec = np.fft.rfft(x, 2 * n)
     acov = np.fft.irfft(spec * spec.conj(), 2 * n)[:h + 1]
+    power = np.abs(spec[2:2 * ((n - 1) // 2) + 1:2]) ** 2 / n        # bins 1…⌊(N−1)/2⌋: no DC, no Nyquist
+    variance = float(x @ x / n)
+    del spec, x                                       # (3N values: not kept through the projection below)
     rho = acov[1:] / acov[0] if acov[0] > 0 else np.zeros(h)
     if basis is not None:
         rho = rho - fitted_autocorrelation(np.asarray(basis, float), h, gram_inverse)
     q = float(n * (n + 2) * (rho ** 2 / (n - _LAGS[:h])).sum())
     p_lb = float(scipy.special.chdtrc(h, q))          # χ²_h survival (scipy.stats.chi2.sf, without its overhead)
-    power = np.abs(spec[2:2 * ((n - 1) // 2) + 1:2]) ** 2 / n        # bins 1…⌊(N−1)/2⌋: no DC, no Nyquist
     floor = float(_median(power) / math.log(2.0))
-    variance = float(x @ x / n)
     if floor > 0:
         ratio = power / floor
         j = int(np.argmax(ratio))
@@ -289,6 +290,7 @@ def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: flo
             th = fit["theta"]
             phi = modal_basis(th[:m], th[m:2 * m], dt, e.size)
         basis = np.column_stack([phi, J])
+        del phi                            # (N × (2m + 1): not held through the check)
         inverse = tangent_gram_inverse(fit, m, interleaved)
     else:
         basis = J
