@@ -24,8 +24,15 @@ many windows). So at a restart the rate goes back to 0 ± ``trend_rate0`` · ω,
 still holds a sample from before the end of the first gated window — one that may straddle the change —
 re-initialises the mode at its own estimate (level variance R, rate 0) instead of updating it; the first
 window wholly after that point starts the rate again (``TrendBank``'s ``restart_rate`` "hold"; "reset": the
-rate set to 0 and no hold; "keep": the rate kept). A mode starts at its first window estimate the method calls determined
-(``converged_per_mode``), rate 0 with std ``trend_rate0`` · ω per second; windows it does not determine are
+rate set to 0 and no hold; "keep": the rate kept). **A gap.** When no window has determined a mode for
+more than a window's span (the windows over a step that rang the modes often fail the fit's tests), the
+prediction's variance has grown by the rate's, (τ·σ_ω̇)², and the first window after the gap passes the
+gate however far the frequency jumped; an update would spread the jump over the gap as a rate, which then
+overshoots. So a window after such a gap whose innovation fails the gate against the variance the level had
+before the gap, ν² > ``trend_gate`` · (P₀₀ at the last update + R), sets the level (variance R) and keeps
+the rate held before the gap: a step is a new level, a drift keeps its learnt rate, and a window that agrees
+with the prediction updates the filter as any other (``relevel_gap``, on).
+A mode starts at its first window estimate the method calls determined (``converged_per_mode``), rate 0 with std ``trend_rate0`` · ω per second; windows it does not determine are
 skipped (the filter only predicts). Reported ``converged``: the mode is started and its last determined
 window passed the gate.
 
@@ -92,12 +99,12 @@ class TrendBank:
     """
 
     def __init__(self, m: int, *, rate_noise: float, meas_rel: float, gate: float, restart_after: int,
-                 rate0: float, restart_rate: str = RESTART_RATE):
+                 rate0: float, restart_rate: str = RESTART_RATE, relevel_gap: bool = True):
         if restart_rate not in RESTART_RATES:
             raise ValueError(f"restart_rate = {restart_rate!r} must be one of {', '.join(RESTART_RATES)}")
         self.m, self.rate_noise, self.meas_rel = m, rate_noise, meas_rel
         self.gate, self.restart_after, self.rate0 = gate, restart_after, rate0
-        self.restart_rate = restart_rate
+        self.restart_rate, self.relevel_gap = restart_rate, relevel_gap
         self.kf: list = [None] * m
         self.t_last = np.zeros(m)
         self.w0 = np.zeros(m)
@@ -106,6 +113,9 @@ class TrendBank:
         self.restarts = np.zeros(m, dtype=int)
         self.first_miss_end = np.full(m, -np.inf)   # end time of the first gated window of the current run
         self.hold_until = np.full(m, -np.inf)       # after a restart: windows starting before this re-initialise
+        self.t_update = np.full(m, -np.inf)         # centre time of the mode's last used window
+        self.p_update = np.zeros(m)                 # the level's variance after it
+        self.relevels = np.zeros(m, dtype=int)
 
     def restart(self, i: int) -> None:
         self.kf[i] = None
@@ -138,7 +148,8 @@ class TrendBank:
                 kf = self.kf[i] = KalmanFilter(dim_x=2, dim_z=1)
                 kf.H = np.array([[1.0, 0.0]])
                 self._level(kf, zi, r_std ** 2)
-                self.t_last[i], self.w0[i], self.ok[i] = t_c[i], zi, True
+                self.t_last[i], self.w0[i], self.ok[i], self.t_update[i] = t_c[i], zi, True, t_c[i]
+                self.p_update[i] = kf.P[0, 0]
             else:
                 tau = t_c[i] - self.t_last[i]
                 self.t_last[i] = t_c[i]
@@ -150,6 +161,16 @@ class TrendBank:
                     # window's end mixes the old and the new frequency: its estimate is the level, no rate
                     self._level(kf, zi, r_std ** 2)
                     self.ok[i] = True
+                    self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+                elif (good and self.relevel_gap and t_c[i] - self.t_update[i] > 2 * lead[i]
+                      and (zi - kf.x[0]) ** 2 > self.gate * (self.p_update[i] + r_std ** 2)):
+                    # no window determined the mode for more than a window's span: the level is the window's,
+                    # the rate the one held before the gap (spreading a jump over the gap as a rate overshoots)
+                    kf.x = np.array([zi, kf.x[1]])
+                    kf.P = np.diag([r_std ** 2, kf.P[1, 1]])
+                    self.misses[i], self.ok[i] = 0, True
+                    self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+                    self.relevels[i] += 1
                 elif good:
                     kf.R = np.array([[r_std ** 2]])
                     nu = zi - kf.x[0]
@@ -158,6 +179,7 @@ class TrendBank:
                     if nu * nu / s <= self.gate:
                         kf.update(np.array([zi]))
                         self.misses[i], self.ok[i] = 0, True
+                        self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
                     else:
                         if self.misses[i] == 0:
                             self.first_miss_end[i] = t_c[i] + lead[i]
@@ -173,6 +195,7 @@ class TrendBank:
                                     self.hold_until[i] = self.first_miss_end[i]
                             self.misses[i], self.ok[i] = 0, True
                             self.restarts[i] += 1
+                            self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
             x = ahead @ kf.x
             P = ahead @ kf.P @ ahead.T
             out[i] = x[0]

@@ -88,15 +88,17 @@ def main(argv=None):
                 k = int(np.argmin(gaps))
                 cells = []
                 for p in periods:
-                    stop = min(e, s + 1 + int(round(p * 2 * np.pi / w.min() / dt)))
+                    want = int(round(p * 2 * np.pi / w.min() / dt))
+                    stop = min(e, s + 1 + want)
                     flags = np.zeros(stop - s - 1, dtype=bool)
                     inside = blows[(blows > s) & (blows < stop)] - s - 1
                     flags[inside] = True
                     runs = [(a + s + 1, b + s + 1) for a, b in _segments.segments(flags, 2 * (2 * 6 + 1))]
                     sd = piecewise_crlb(clean, dt, w, zeta, runs, noise_std)
                     rel = 2 * sd / w
-                    cells.append(f"{p:g} periods{'' if stop - s - 1 == int(round(p * 2 * np.pi / w.min() / dt)) else ' (dwell)'}:"
-                                 f" max {100 * rel.max():.3f} %, pair {100 * rel[k]:.3f}/{100 * rel[k + 1]:.3f} %")
+                    cut = "" if stop - s - 1 == want else " (dwell)"
+                    cells.append(f"{p:g} periods{cut}: max {100 * rel.max():.3f} %, "
+                                 f"pair {100 * rel[k]:.3f}/{100 * rel[k + 1]:.3f} %")
                 print(f"dt {dt:g}, seed {seed}, step at {s}: gap {100 * gaps[k]:.1f} % (modes {k + 1}/{k + 2})  "
                       + "; ".join(cells), flush=True)
 

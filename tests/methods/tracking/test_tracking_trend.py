@@ -140,3 +140,47 @@ def test_a_restart_holds_the_rate_at_zero_until_the_windows_are_past_the_change(
             assert bank.kf[0].x[1] == 0.0 and bank.kf[0].x[0] == z[j, 0] and conv[0]
     assert first_miss is not None and restart == first_miss + OPTS["restart_after"] - 1
     assert np.isfinite(nu[0])                    # afterwards the windows are gated and update the mode again
+
+
+def _gap(n, t_end, gap):
+    """Determined flags: every window but those whose centre lies in ``gap`` (s)."""
+    t_c = t_end - LEAD
+    return ((t_c < gap[0]) | (t_c > gap[1]))[:, None] & np.ones((n, 1), bool)
+
+
+def test_a_jump_across_a_gap_is_a_new_level_not_a_rate():
+    # no window determines the mode for 30 s (three window spans: the windows over a step fail the fit's
+    # tests) and the frequency is 4 % lower after it: the first window after the gap sets the level, the
+    # rate held before the gap stays; spread over the gap as a rate, the jump overshoots
+    n = 140
+    t_end = _ends(n)
+    t_c = t_end - LEAD
+    z = np.where(t_c[:, None] < 65.0, 20.0, 19.2) * (1 + 5e-4 * np.random.default_rng(4).standard_normal((n, 1)))
+    determined = _gap(n, t_end, (55.0, 85.0))
+    after = t_c > 85.0
+    out = {rg: _trend.TrendBank(1, **_bank_opts(), relevel_gap=rg) for rg in (True, False)}
+    freq = {rg: np.array([b.step(t_c[j], LEAD, z[j], determined[j])[0][0] for j in range(n)])
+            for rg, b in out.items()}
+    err = {rg: np.max(np.abs(f[after] / 19.2 - 1)) for rg, f in freq.items()}
+    assert out[True].relevels[0] == 1 and out[True].restarts[0] == 0
+    assert err[True] < 0.002 and err[False] > 0.005, err
+
+
+def test_a_drift_across_a_gap_keeps_its_rate():
+    # a drift of 0.1 %/s learnt before the gap: the window after it agrees with the prediction, so it updates
+    # the filter as any other, and the output stays on the line (no lag while a rate is learnt again)
+    n = 140
+    t_end = _ends(n)
+    t_c = t_end - LEAD
+    z = (20.0 * (1 + 0.001 * t_c))[:, None]
+    determined = _gap(n, t_end, (70.0, 90.0))
+    bank = _trend.TrendBank(1, **_bank_opts())
+    freq = np.array([bank.step(t_c[j], LEAD, z[j], determined[j])[0][0] for j in range(n)])
+    after = t_c > 90.0
+    assert bank.relevels[0] == 0 and bank.restarts[0] == 0
+    np.testing.assert_allclose(freq[after], 20.0 * (1 + 0.001 * t_end[after]), rtol=1e-3)
+
+
+def _bank_opts():
+    return {"rate_noise": OPTS["rate_noise"], "meas_rel": OPTS["meas_rel"], "gate": OPTS["gate"],
+            "restart_after": OPTS["restart_after"], "rate0": OPTS["rate0"]}
