@@ -32,8 +32,8 @@ overshoots. So a window after such a gap whose innovation fails the gate against
 before the gap, ν² > ``trend_gate`` · (P₀₀ at the last update + R), sets the level (variance R) and keeps
 the rate held before the gap: a step is a new level, a drift keeps its learnt rate, and a window that agrees
 with the prediction updates the filter as any other (``relevel_gap``, on).
-A mode starts at its first window estimate the method calls determined (``converged_per_mode``), rate 0 with std ``trend_rate0`` · ω per second; windows it does not determine are
-skipped (the filter only predicts). Reported ``converged``: the mode is started and its last determined
+A mode starts at its first window estimate the method calls determined (``converged_per_mode``), rate 0
+with std ``trend_rate0`` · ω per second; windows it does not determine are skipped (the filter only predicts). Reported ``converged``: the mode is started and its last determined
 window passed the gate.
 
 Causal: the output at window j uses windows 0 … j only.
