@@ -33,8 +33,8 @@ before the gap, ν² > ``trend_gate`` · (P₀₀ at the last update + R), sets 
 the rate held before the gap: a step is a new level, a drift keeps its learnt rate, and a window that agrees
 with the prediction updates the filter as any other (``relevel_gap``, on).
 A mode starts at its first window estimate the method calls determined (``converged_per_mode``), rate 0
-with std ``trend_rate0`` · ω per second; windows it does not determine are skipped (the filter only predicts). Reported ``converged``: the mode is started and its last determined
-window passed the gate.
+with std ``trend_rate0`` · ω per second; windows it does not determine are skipped (the filter only
+predicts). Reported ``converged``: the mode is started and its last determined window passed the gate.
 
 Causal: the output at window j uses windows 0 … j only.
 """
