@@ -50,7 +50,7 @@ from methods.tracking import _defaults
 # what a gate restart does with the rate (module docstring): "hold" re-initialises the mode from the windows
 # that follow the change; "reset" only sets the rate to 0 ± trend_rate0; "keep" keeps the rate learnt before
 RESTART_RATES = ("hold", "reset", "keep")
-RESTART_RATE = "hold"
+RESTART_RATE = "keep"
 TREND_FIELDS = ("trend", "trend_rate_noise", "trend_meas_rel", "trend_gate", "trend_restart_after", "trend_rate0")
 # trend_rate_noise (s^-1.5) and trend_rate0 (s^-1): None = from the prior's slowest period
 # (:func:`methods.tracking._defaults.trend_noises`; 1e-4 and 0.002 on the tracking grid's records).

@@ -126,8 +126,7 @@ def test_a_restart_forgets_the_rate_the_ramp_over_a_step_taught(seed):
 def test_a_restart_holds_the_rate_at_zero_until_the_windows_are_past_the_change():
     n, t_step = 120, 60.0
     t_end, z, _ = _sliding_over_a_step(n, t_step, np.array([20.0]), np.array([21.0]), 0.0, 0)
-    bank = _trend.TrendBank(1, rate_noise=OPTS["rate_noise"], meas_rel=OPTS["meas_rel"], gate=OPTS["gate"],
-                            restart_after=OPTS["restart_after"], rate0=OPTS["rate0"])
+    bank = _trend.TrendBank(1, **_bank_opts(), restart_rate="hold")
     first_miss = restart = None
     for j in range(n):
         _, _, conv, nu = bank.step(t_end[j] - LEAD, LEAD, z[j], np.ones(1, bool))
