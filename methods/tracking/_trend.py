@@ -17,14 +17,15 @@ is followed with no lag once ω̇ is learnt.
 degree of freedom) is not used; after ``trend_restart_after`` such windows in a row the mode is restarted at
 the last window's estimate: a step of the frequency is taken as a new level in about W/2 +
 ``trend_restart_after``·H samples, and a single outlier (a window that mislabels a mode) is ignored.
-**The rate at a restart.** While the windows slide over a step their estimates move from the old frequency
-to the new one over a window's span: a ramp that the filter learns as a rate, and a rate kept at the restart
-carries the output past the new level (an overshoot that the small ``trend_rate_noise`` lets decay only over
-many windows). So at a restart the rate goes back to 0 ± ``trend_rate0`` · ω, and every later window that
+**The rate at a restart** (``TrendBank``'s ``restart_rate``). While the windows slide over a step their
+estimates move from the old frequency to the new one over a window's span: a ramp that the filter may learn
+as a rate, which a rate kept at the restart carries past the new level. "keep" (the default) keeps the rate
+and its variance; "reset" sets the rate to 0 ± ``trend_rate0`` · ω; "hold" also lets every later window that
 still holds a sample from before the end of the first gated window — one that may straddle the change —
-re-initialises the mode at its own estimate (level variance R, rate 0) instead of updating it; the first
-window wholly after that point starts the rate again (``TrendBank``'s ``restart_rate`` "hold"; "reset": the
-rate set to 0 and no hold; "keep": the rate kept). **A gap.** When no window has determined a mode for
+re-initialise the mode at its own estimate (level variance R, rate 0) instead of updating it, until the first
+window wholly after that point. The hold removes a ramp's overshoot but is not the default: it slowed the
+re-convergence on six-mode and short-dwell records (likely because its windows are not gated;
+docs/measured/tracking.md, "The trend stage after a step"). **A gap.** When no window has determined a mode for
 more than a window's span (the windows over a step that rang the modes often fail the fit's tests), the
 prediction's variance has grown by the rate's, (τ·σ_ω̇)², and the first window after the gap passes the
 gate however far the frequency jumped; an update would spread the jump over the gap as a rate, which then
@@ -47,8 +48,8 @@ from filterpy.kalman import KalmanFilter
 
 from methods.tracking import _defaults
 
-# what a gate restart does with the rate (module docstring): "hold" re-initialises the mode from the windows
-# that follow the change; "reset" only sets the rate to 0 ± trend_rate0; "keep" keeps the rate learnt before
+# what a gate restart does with the rate (module docstring): "keep" keeps the rate learnt before; "reset" sets
+# it to 0 ± trend_rate0; "hold" also re-initialises the mode from the windows that may straddle the change
 RESTART_RATES = ("hold", "reset", "keep")
 RESTART_RATE = "keep"
 TREND_FIELDS = ("trend", "trend_rate_noise", "trend_meas_rel", "trend_gate", "trend_restart_after", "trend_rate0")
