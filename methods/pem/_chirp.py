@@ -105,13 +105,13 @@ def fit(y, dt: float, w: np.ndarray, z: np.ndarray) -> dict:
     -------
     dict
         ``frequencies`` ω (rad/s, the small-amplitude ones), ``std`` (robust), ``kappa`` κ (rad/s, the shift
-        at the record's start), ``kappa_std``, ``success``; NaN where the fit failed.
+        at the record's start), ``kappa_std``, ``damping`` ζ, ``success``; NaN where the fit failed.
     """
     y = np.asarray(y, float)
     w, z = np.asarray(w, float), np.asarray(z, float)
     m = w.size
     nan = np.full(m, np.nan)
-    out = {"frequencies": nan, "std": nan, "kappa": nan, "kappa_std": nan, "success": False}
+    out = {"frequencies": nan, "std": nan, "kappa": nan, "kappa_std": nan, "damping": nan, "success": False}
     if not (np.isfinite(w).all() and np.isfinite(z).all()) or y.size < 3 * m + 2 * m + 2:
         return out
     if np.any(w <= 0):
@@ -143,4 +143,4 @@ def fit(y, dt: float, w: np.ndarray, z: np.ndarray) -> dict:
     free = (res.active_mask[:m] == 0) & (res.active_mask[2 * m:] == 0)
     return {"frequencies": np.where(free, res.x[:m], np.nan), "std": np.where(free, std[:m], np.nan),
             "kappa": np.where(free, res.x[2 * m:], np.nan), "kappa_std": np.where(free, std[2 * m:], np.nan),
-            "success": bool(res.success)}
+            "damping": np.where(free, res.x[m:2 * m], np.nan), "success": bool(res.success)}

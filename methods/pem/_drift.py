@@ -45,6 +45,7 @@ INFO_DECAYS = 5.0        # the drift test and the backbone fit read the record u
                          # segments of noise alone made a long record's test 30× the fit's cost
 MAX_INFLATION = 5.0      # ω₀ of the backbone fit is reported where its std is at most this × the record's
 LACK_OF_FIT_ALPHA = 0.05  # the amplitude line is "not straight within its errors" below this p (_backbone_check)
+SCATTER_ALPHA = 0.05     # the segments scatter about the backbone fit beyond their std below this p (chirp_scatter)
 
 
 @dataclass
@@ -341,20 +342,72 @@ def informative_samples(n: int, dt: float, est) -> int:
     return int(min(n, np.ceil(h.max() / dt)))
 
 
-def extrapolation_std(chirp_std, report: DriftReport) -> np.ndarray:
+def chirp_segment_frequencies(omega0, kappa, zeta, n_segments: int, n_per_segment: int, dt: float) -> np.ndarray:
+    """(K, m): the frequency a constant-frequency fit of each of K successive segments of ``n_per_segment``
+    samples returns when the record is the backbone chirp ω(t) = ω₀ + κe^{−2σt}, σ = ζω₀ (:mod:`_chirp`).
+
+    Such a fit weighs the phase error by the envelope², w(t) = e^{−2σt}, so its frequency is the weighted
+    regression slope of the phase θ(t) = ∫ω on t; by parts that is the kernel mean
+
+        ω̄ₖ = ∫ ω(t) K(t) dt / ∫ K(t) dt,   K(t) = ∫_t^{t₁} w(s)(s − t̄) ds ≥ 0 over the segment [t₀, t₁),
+
+    t̄ the w-weighted mean time (a parabola peaking mid-segment for w = 1), here on the segment's samples."""
+    omega0, kappa, zeta = (np.atleast_1d(np.asarray(v, float)) for v in (omega0, kappa, zeta))
+    sigma = zeta * omega0
+    out = np.full((int(n_segments), omega0.size), np.nan)
+    for k in range(int(n_segments)):
+        t = dt * (k * n_per_segment + np.arange(n_per_segment))
+        # the weights relative to the segment's start (e^{−2σt₀} cancels in the kernel mean); an envelope
+        # that grows without bound (ζ < 0 at the fit's bound) gives a non-finite prediction, which
+        # chirp_scatter leaves out
+        with np.errstate(over="ignore", invalid="ignore"):
+            w = np.exp(-2.0 * np.outer(sigma, t - t[0]))                   # (m, n)
+            tbar = (w @ t) / w.sum(axis=1)
+            kern = np.cumsum((w * (t[None, :] - tbar[:, None]))[:, ::-1], axis=1)[:, ::-1]
+            out[k] = omega0 + kappa * np.exp(-2.0 * sigma * t[0]) * np.sum(kern * w, axis=1) / kern.sum(axis=1)
+    return out
+
+
+def chirp_scatter(fit: dict, report: DriftReport, n_per_segment: int, dt: float) -> tuple[np.ndarray, ...]:
+    """(χ², K, p) per mode: do the segments' frequencies scatter about the backbone fit's prediction
+    (:func:`chirp_segment_frequencies`) no more than their robust std sₖ allow?
+
+        χ² = Σₖ ((ω̂ₖ − ω̄ₖ)/sₖ)²  ~  χ²_K  when the backbone fit describes the record,
+
+    over the K ≥ 2 segments that count for the mode (NaN with fewer). The fit's ω₀ is far more precise than
+    any segment, so its own error is left out (the test is then slightly conservative)."""
+    f, s = np.asarray(report.frequencies, float), np.asarray(report.std, float)
+    k_seg, m = f.shape
+    pred = chirp_segment_frequencies(fit["frequencies"], fit["kappa"], fit["damping"], k_seg, n_per_segment, dt)
+    ok = np.isfinite(f) & np.isfinite(s) & (s > 0) & np.isfinite(pred)
+    chi2 = np.where(ok, ((f - pred) / np.where(ok, s, 1.0)) ** 2, 0.0).sum(axis=0)
+    dof = ok.sum(axis=0)
+    p = np.where(dof >= 2, scipy.special.chdtrc(np.maximum(dof, 1), chi2), np.nan)
+    return np.where(dof >= 2, chi2, np.nan), dof, p
+
+
+def extrapolation_std(chirp_std, report: DriftReport, scatter=None) -> np.ndarray:
     """The std of a reported small-amplitude frequency ω₀, per mode:
 
-        σ² = σ_x² + δ²,   σ_x = σ_chirp, or max(σ_chirp, σ₀) where the amplitude line's lack of fit rejects it,
+        σ² = σ_x² + δ²,   σ_x = σ_c, or max(σ_c, σ₀) where the amplitude line's lack of fit rejects it,
+        σ_c = σ_chirp · √(χ²_s/K) where the segments scatter about the backbone fit (p_s < 0.05), else σ_chirp,
 
-    σ_chirp the backbone fit's robust std (the extrapolation's own: κ is free, so its leverage at zero
-    amplitude is in it, and the sandwich reads the residual's colour); σ₀ the segments' amplitude line's
-    std at a = 0 scaled by their scatter about it, and δ the change of ω₀ to a bent backbone
-    (:func:`_backbone_check`), both where the segments say the straight backbone the chirp assumes is wrong
-    (p < :data:`LACK_OF_FIT_ALPHA`). Where it fits, σ_chirp alone: the segments' line, each segment fitted
-    alone, is 3–6× less precise than the one fit of the whole record (mismatch grid, seed 777), and taking the
-    larger of the two there made every AR(1) and Duffing mode's coverage 98–100 %. A mode whose segments do
-    not determine the line (fewer than 3 of them) keeps σ_chirp."""
+    σ_chirp the backbone fit's robust std: the extrapolation's own (κ is free, so the leverage of zero
+    amplitude is in it, and the sandwich reads the residual's colour). ``scatter`` = (χ²_s, K, p_s) of
+    :func:`chirp_scatter` (None: not scaled): the segments, each fitted alone, against the frequencies the
+    fit's backbone says they should have; beyond their std (p_s < :data:`SCATTER_ALPHA`) the backbone does
+    not describe how the frequency moves, and σ_chirp is scaled by Birge's ratio √(χ²_s/K), the segments'
+    scatter about it rather than their formal std. σ₀ is the segments' amplitude line's std at a = 0 scaled
+    by their scatter about it, and δ the change of ω₀ to a bent backbone (:func:`_backbone_check`), both
+    where the segments say the straight backbone the chirp assumes is wrong (p < :data:`LACK_OF_FIT_ALPHA`).
+    Taking max(σ_chirp, σ₀) everywhere made every AR(1) and Duffing mode's coverage 98–100 % (mismatch grid,
+    seed 777): the segments' line is 3–6× less precise than the one fit of the whole record. A mode whose
+    segments do not determine the line (fewer than 3 of them) keeps σ_c."""
     s = np.asarray(chirp_std, float)
+    if scatter is not None:
+        chi2, dof, p = (np.asarray(v, float) for v in scatter)
+        scaled = (p < SCATTER_ALPHA) & (dof > 0)                                   # NaN p: not scaled
+        s = np.where(scaled, s * np.sqrt(np.fmax(1.0, np.where(scaled, chi2, 0.0) / np.maximum(dof, 1))), s)
     rejected = np.asarray(report.lack_of_fit_p, float) < LACK_OF_FIT_ALPHA         # NaN: not rejected
     line = np.asarray(report.line_std_at_zero, float)
     model = np.nan_to_num(np.asarray(report.small_amplitude_model_error, float), nan=0.0)
@@ -379,7 +432,9 @@ def _small_amplitude(est, y, dt, extra, report, drifting):
     s = fit["std"]
     use = (est.converged_per_mode & np.isfinite(fit["frequencies"]) & np.isfinite(s) & (s > 0)
            & (s <= MAX_INFLATION * est.std))
-    s = fit["reported_std"] = extrapolation_std(s, report)
+    scatter = chirp_scatter(fit, report, y.size // report.t_mid_s.size, dt)
+    fit["scatter_chi2"], fit["scatter_segments"], fit["scatter_p"] = scatter
+    s = fit["reported_std"] = extrapolation_std(s, report, scatter)
     # a drifting mode that keeps its record average carries the spread between its segments, as with "record"
     tau = np.where(drifting & ~use & np.isfinite(report.tau_rad_s), report.tau_rad_s, 0.0)
     freq = np.where(use, fit["frequencies"], est.frequencies)

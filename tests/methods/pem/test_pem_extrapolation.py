@@ -61,3 +61,54 @@ def test_the_reported_std_adds_the_line_and_the_model_error_only_where_the_line_
     report = _report([0.5, 0.01, 0.01, np.nan], [3.0, 3.0, 0.5, np.nan], [0.0, 4.0, 4.0, np.nan])
     got = _drift.extrapolation_std(chirp, report)
     np.testing.assert_allclose(got, [1.0, 5.0, np.hypot(1.0, 4.0), 1.0], rtol=1e-12)
+
+
+def test_a_segments_frequency_on_the_backbone_chirp_is_a_constant_frequency_fits():
+    """The frequency :func:`chirp_segment_frequencies` predicts for each segment of a noise-free backbone chirp
+    e^{−σt}cos(ω_d t + κ(1 − e^{−2σt})/(2σ)) against a constant-frequency damped sinusoid fitted to that segment
+    by ``scipy.optimize.curve_fit``: the shift from ω₀ agrees within 1 % of κ."""
+    import scipy.optimize  # only this test fits a sinusoid by hand
+
+    w0, zeta, kappa, dt, n = 10.0, 0.01, 0.05, 0.02, 200
+    sigma, wd = zeta * w0, w0 * np.sqrt(1 - zeta ** 2)
+    t = dt * np.arange(3 * n)
+    y = np.exp(-sigma * t) * np.cos(wd * t + kappa * (1 - np.exp(-2 * sigma * t)) / (2 * sigma))
+    pred = _drift.chirp_segment_frequencies(w0, kappa, zeta, 3, n, dt)[:, 0]
+
+    def model(tt, w, s, a, b):
+        return np.exp(-s * tt) * (a * np.cos(w * tt) + b * np.sin(w * tt))
+
+    for k in range(3):
+        part = slice(k * n, (k + 1) * n)
+        p0 = (pred[k], sigma, 1.0, 0.0)
+        w_fit = scipy.optimize.curve_fit(model, t[part], y[part], p0=p0, xtol=1e-12, ftol=1e-12)[0][0]
+        assert abs((pred[k] - w0) - (w_fit - wd)) <= 0.01 * kappa     # the envelope²-weighted mean: 3 % off
+    assert pred[0] > pred[1] > pred[2] > w0                    # the shift decays with the envelope²
+
+
+def test_segments_on_the_chirps_backbone_give_a_small_chi2_and_off_it_the_sum_of_squares():
+    """χ² of :func:`chirp_scatter` is Σ((ω̂ₖ − ω̄ₖ)/sₖ)² over the segments that count, on K dof."""
+    fit = {"frequencies": np.array([10.0, 20.0]), "kappa": np.array([0.05, 0.0]), "damping": np.array([0.01, 0.01])}
+    pred = _drift.chirp_segment_frequencies(fit["frequencies"], fit["kappa"], fit["damping"], 3, 200, 0.02)
+    s = np.full((3, 2), 0.002)
+    offsets = np.array([[0.0, 1.0], [0.0, -2.0], [0.0, 3.0]])
+    report = _report([0.5, 0.5], [np.nan, np.nan], [0.0, 0.0])
+    report = dataclasses.replace(report, frequencies=pred + offsets * s, std=s)
+    chi2, dof, p = _drift.chirp_scatter(fit, report, 200, 0.02)
+    np.testing.assert_allclose(chi2, [0.0, 14.0], atol=1e-9)
+    np.testing.assert_array_equal(dof, [3, 3])
+    assert p[0] > 0.99 and p[1] < 0.01
+    report.frequencies[2, 1] = np.nan                          # a segment that does not count for mode 2
+    chi2, dof, _ = _drift.chirp_scatter(fit, report, 200, 0.02)
+    np.testing.assert_allclose(chi2[1], 5.0, rtol=1e-9)
+    assert dof[1] == 2
+
+
+def test_the_chirps_std_is_scaled_by_the_segments_scatter_about_it_only_where_it_is_significant():
+    """σ_c = σ_chirp·√(χ²_s/K) where p_s < 0.05, σ_chirp elsewhere (and where p_s is NaN); the line's terms
+    as before on top."""
+    chirp = np.ones(4)
+    report = _report([0.5, 0.5, 0.01, np.nan], [3.0, 3.0, 2.0, np.nan], [0.0, 0.0, 4.0, np.nan])
+    scatter = (np.array([16.0, 6.0, 12.0, np.nan]), np.array([4, 4, 3, 0]), np.array([0.003, 0.2, 0.007, np.nan]))
+    got = _drift.extrapolation_std(chirp, report, scatter)
+    np.testing.assert_allclose(got, [2.0, 1.0, np.hypot(2.0, 4.0), 1.0], rtol=1e-12)
