@@ -54,7 +54,9 @@ class Estimate:
 
     def __post_init__(self):
         freq = np.asarray(self.frequencies, dtype=float).reshape(-1)
-        std = np.broadcast_to(np.asarray(self.std, dtype=float), freq.shape).copy()
+        std = np.asarray(self.std, dtype=float)
+        # the same values as broadcast_to(...).copy(); a plain copy when the shapes already agree
+        std = std.copy() if std.shape == freq.shape else np.broadcast_to(std, freq.shape).copy()
         object.__setattr__(self, "frequencies", freq)
         object.__setattr__(self, "std", std)
         per_mode = self.converged_per_mode
@@ -177,10 +179,11 @@ def _real_array(value, name: str, what: str) -> np.ndarray:
 
 def make_options(options_cls, options: dict, method: str):
     """Build a method's options dataclass from keywords, naming an unknown key in the error."""
-    known = {f.name for f in dataclasses.fields(options_cls)}
-    for key in options:
-        if key not in known:
-            raise ValueError(f"unknown option '{key}' for method '{method}'; known: {sorted(known)}")
+    if options:                                  # (the defaults need no check: a warm fit's µs)
+        known = {f.name for f in dataclasses.fields(options_cls)}
+        for key in options:
+            if key not in known:
+                raise ValueError(f"unknown option '{key}' for method '{method}'; known: {sorted(known)}")
     return options_cls(**options)
 
 

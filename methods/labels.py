@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -105,13 +106,19 @@ def assign(freq, prior, *, band: float = 0.5, prior_rel_std=None, common_log_std
         raise ValueError(f"{k} frequencies for {m} prior entries: at most one per entry")
     if m > MAX_MODES:
         raise ValueError(f"prior of {m} modes: at most {MAX_MODES} are supported by the enumeration")
-    if not (np.isfinite(w).all() and (w > 0).all()):
-        raise ValueError(f"freq = {w.tolist()} must be positive finite frequencies")
-    if not ((p[1:] > p[:-1]).all() and (p > 0).all()):
-        raise ValueError(f"prior = {p.tolist()} must be positive and strictly increasing")
-    tau = np.full(m, INDEPENDENT_LOG_STD) if prior_rel_std is None else \
-        np.broadcast_to(np.asarray(prior_rel_std, float), (m,))
-    if not ((tau > 0).all() and common_log_std >= 0 and band > 0 and 0 < alpha < 1):
+    # the checks over the ≤ 20 values as Python floats: a pem fit calls this once or twice, and a dozen numpy
+    # reductions on 4-vectors cost as much as the assignment itself
+    wl, pl = w.tolist(), p.tolist()
+    if not all(math.isfinite(v) and v > 0 for v in wl):
+        raise ValueError(f"freq = {wl} must be positive finite frequencies")
+    if not (all(b > a for a, b in zip(pl[:-1], pl[1:], strict=True)) and all(v > 0 for v in pl)):
+        raise ValueError(f"prior = {pl} must be positive and strictly increasing")
+    if prior_rel_std is None:
+        tau, tau_ok = _default_tau(m), True
+    else:
+        tau = np.broadcast_to(np.asarray(prior_rel_std, float), (m,))
+        tau_ok = bool((tau > 0).all())
+    if not (tau_ok and common_log_std >= 0 and band > 0 and 0 < alpha < 1):
         raise ValueError(f"prior_rel_std = {tau.tolist()}, common_log_std = {common_log_std}, band = {band}, "
                          f"alpha = {alpha}: spreads and band must be positive, 0 < alpha < 1")
     t2 = tau**2
@@ -145,6 +152,14 @@ def assign(freq, prior, *, band: float = 0.5, prior_rel_std=None, common_log_std
     in_band = np.abs(r[best]) <= np.log1p(band)
     slot[order], placed[order], probability[order] = slots[best], (prob >= 1.0 - alpha) & in_band, prob
     return Labels(slot, placed, probability, float(s2 * a[best] / b[best]))
+
+
+@functools.lru_cache(maxsize=64)
+def _default_tau(m: int) -> np.ndarray:
+    """τ = :data:`INDEPENDENT_LOG_STD` for each of m entries (made once per m, read-only)."""
+    tau = np.full(m, INDEPENDENT_LOG_STD)
+    tau.flags.writeable = False
+    return tau
 
 
 @functools.lru_cache(maxsize=256)

@@ -27,6 +27,11 @@ import numpy as np
 from methods.pem import search
 from methods.pem.predictor import _BLOCK, _powers, scaled_lstsq
 
+# A fit keeps its basis Φ (for the residual check, which would otherwise rebuild it) up to this many samples:
+# at most 4096 × (2m + 1) values per start; a longer record's check rebuilds it rather than hold N × (2m + 1)
+# per start through the multi-start (72 MB each at 10⁶ samples and 4 modes)
+KEEP_BASIS_SAMPLES = 4096
+
 
 class _Model:
     """Basis, linear solve, residual and reduced Jacobian of the damped-sinusoid model at (ω, ζ)."""
@@ -135,7 +140,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     lo_z, hi_z = lo[m:].tolist(), hi[m:].tolist()
     lam = 0.0
     message, converged, iterations, joined = "iteration limit", False, 0, False
-    history, step_lengths, std_free = [x[:m].copy()], [], None
+    history, step_lengths, std_free, final, phi_at_x = [x[:m].copy()], [], None, None, True
     Jr = model.reduced_jacobian(x[:m], x[m:], c, solver, est_z)
     system = None
     while iterations < opts.max_iterations:
@@ -164,7 +169,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
         if step_in_std < opts.tol_step:
             message, converged = f"step size below {opts.tol_step:g} std", True
             if blocked is None and system.well_conditioned:
-                std_free = system.std
+                std_free, final = system.std, system
             break
 
         def try_point(d, mu, base=x):
@@ -184,7 +189,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
             return None
         if not found:
             message = f"no loss decrease along the search direction ({step_in_std:.2g} std)"
-            converged = True
+            converged, phi_at_x = True, False        # the basis buffer holds a rejected trial point's
             break
         cand, (c, e, loss_new, solver) = trial[1]
         improvement = (loss - loss_new) / loss if loss > 0 else 0.0
@@ -201,9 +206,14 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
         message, converged = search.at_iteration_limit(x[:m], _reduced(Jr, e, n_unknowns, loss).std[:m],
                                                        history)
     if std_free is None:                     # the std at the final point (a stop other than the step rule)
-        std_free = _reduced(Jr, e, n_unknowns, loss).std
+        final = _reduced(Jr, e, n_unknowns, loss)
+        std_free = final.std
     fit = _result(model, x, c, loss, iterations, message, converged, step_lengths, free, std_free)
-    fit.update(e=e, joined=joined, floor=floor, Jr=Jr)    # Jr: the robust std (methods.pem._residual)
+    # Jr: the robust std; Φ, Jr and the factorisations of ΦᵀΦ and J_rᵀJ_r at the optimum: the residual
+    # check's projection (methods.pem._residual.tangent_gram_inverse)
+    keep_basis = phi_at_x and n <= KEEP_BASIS_SAMPLES
+    fit.update(e=e, joined=joined, floor=floor, Jr=Jr, basis=model.phi if keep_basis else None,
+               basis_solver=solver[:3], jr_system=final)
     return fit
 
 

@@ -46,6 +46,7 @@ the sandwich on J_r is the (ω, ζ) block of the full one.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -56,6 +57,7 @@ from methods.pem.predictor import modal_basis, symmetric_eigh
 
 ALPHA = 0.001           # level of each whiteness test (measured false alarms on white records: see README)
 MAX_LB_LAGS = 10        # Ljung–Box lags: min(10, N/5) (the common default, e.g. statsmodels')
+_LAGS = np.arange(1.0, MAX_LB_LAGS + 1)
 
 
 def autocorrelation(e: np.ndarray, lags: int) -> np.ndarray:
@@ -67,7 +69,7 @@ def autocorrelation(e: np.ndarray, lags: int) -> np.ndarray:
     return acov[1:] / acov[0] if acov[0] > 0 else np.zeros(lags)
 
 
-def fitted_autocorrelation(basis: np.ndarray, lags: int) -> np.ndarray:
+def fitted_autocorrelation(basis: np.ndarray, lags: int, gram_inverse: np.ndarray | None = None) -> np.ndarray:
     """E[ρ̂ₖ] of a fit's residual under white noise, k = 1…lags: ε = (I − P)n with P the projection on the
     p columns of ``basis`` (the model's tangent space), so E[ε̃ᵢε̃ᵢ₊ₖ] = −σ²Σᵢ Pᵢ,ᵢ₊ₖ and
     E[ρ̂ₖ] ≈ −Σᵢ Pᵢ,ᵢ₊ₖ/(N − p): the fit removes a band around every mode, which a plain Ljung–Box reads as
@@ -78,16 +80,21 @@ def fitted_autocorrelation(basis: np.ndarray, lags: int) -> np.ndarray:
     of the column-scaled G (a p × p problem, :func:`methods.pem.predictor.symmetric_eigh`) where its
     condition number is below 1e10 (B's below 1e5: the error of Σ stays ~1e-6 relative, and E[ρ̂ₖ] is a
     correction of ~1e-2); otherwise (a nearly rank-deficient basis) A = Q from ``numpy.linalg.qr``, P = QQᵀ.
-    At N = 256, p = 17 this is a third of a Householder QR with ten separate products."""
+    At N = 256, p = 17 this is a third of a Householder QR with ten separate products. ``gram_inverse``:
+    G⁻¹ when the caller already has it (a fit's factorisations, :func:`tangent_gram_inverse`): A = B G⁻¹
+    without the Gram and its eigendecomposition."""
     basis = np.asarray(basis, float)
     n, p = basis.shape
-    norms = np.sqrt(np.einsum("ij,ij->j", basis, basis))
     a = None
-    if p <= n and norms.min() > 0 and np.isfinite(norms).all():
-        lam, V = symmetric_eigh((basis.T @ basis) / np.multiply.outer(norms, norms))
-        if lam[0] > 1e-10 * lam[-1]:
-            W = V / norms[:, None]
-            a, b = basis @ ((W / lam) @ W.T), basis
+    if gram_inverse is not None:
+        a, b = basis @ gram_inverse, basis
+    else:
+        norms = np.sqrt(np.einsum("ij,ij->j", basis, basis))
+        if p <= n and norms.min() > 0 and np.isfinite(norms).all():
+            lam, V = symmetric_eigh((basis.T @ basis) / np.multiply.outer(norms, norms))
+            if lam[0] > 1e-10 * lam[-1]:
+                W = V / norms[:, None]
+                a, b = basis @ ((W / lam) @ W.T), basis
     if a is None:
         a = b = np.linalg.qr(basis)[0]
         p = a.shape[1]
@@ -102,9 +109,11 @@ def _median(x: np.ndarray) -> float:
     """``numpy.median`` of a 1-D array, the same value (the middle one, or the mean of the two middle ones),
     through one ``numpy.partition``: a tenth of the wrapper's time on the ~100 bins of a short record."""
     k = x.size // 2
+    part = x.copy()                                   # numpy.partition's copy, without its wrapper
     if x.size % 2:
-        return float(np.partition(x, k)[k])
-    part = np.partition(x, (k - 1, k))
+        part.partition(k)
+        return float(part[k])
+    part.partition((k - 1, k))
     return float((part[k - 1] + part[k]) / 2.0)
 
 
@@ -126,7 +135,8 @@ def band_limited(x: np.ndarray, dt: float, band_rad_s: float | None) -> tuple[np
     return np.fft.irfft(spec, m, axis=0) * math.sqrt(m / n), dt * n / m
 
 
-def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: float | None = None) -> dict:
+def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: float | None = None,
+                   gram_inverse=None) -> dict:
     """Whiteness of a residual: Ljung–Box, the periodogram's largest peak against the floor, the variance
     ratio and the verdict (see the module docstring for the equations).
 
@@ -144,6 +154,9 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: f
     band_rad_s : float, optional
         Judge only the residual's content below this frequency (:func:`band_limited`): a decimated
         record's pass band. None: up to Nyquist.
+    gram_inverse : array_like, shape (p, p), optional
+        (BᵀB)⁻¹ of ``basis`` when the caller has it (:func:`fitted_autocorrelation`); ignored with a band
+        (the band-limited basis has another Gram).
 
     Returns
     -------
@@ -170,18 +183,24 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: f
             band = float(np.pi / dt_band)              # the top of what is judged: the bins kept
             if basis is not None:
                 basis = band_limited(np.asarray(basis, float), dt, band_rad_s)[0]
+                gram_inverse = None
         dt, n = dt_band, e.size
     h = max(1, min(MAX_LB_LAGS, n // 5))
-    rho = autocorrelation(e, h)
-    if basis is not None:
-        rho = rho - fitted_autocorrelation(np.asarray(basis, float), h)
-    k = np.arange(1, h + 1)
-    q = float(n * (n + 2) * np.sum(rho ** 2 / (n - k)))
-    p_lb = float(scipy.special.chdtrc(h, q))          # χ²_h survival (scipy.stats.chi2.sf, without its overhead)
+    # one FFT of the centred residual, zero-padded to 2N, serves both tests: its |X|² inverse-transformed is
+    # the autocovariance (as in :func:`autocorrelation`), and its even bins are the N-point DFT of the
+    # periodogram (bin 2j of the 2N-point transform is frequency 2πj/N)
     x = e - e.mean()
-    power = (np.abs(np.fft.rfft(x)) ** 2 / n)[1:(n - 1) // 2 + 1]       # no DC, no Nyquist bin
-    floor = float(_median(power) / math.log(2.0))
+    spec = np.fft.rfft(x, 2 * n)
+    acov = np.fft.irfft(spec * spec.conj(), 2 * n)[:h + 1]
+    power = np.abs(spec[2:2 * ((n - 1) // 2) + 1:2]) ** 2 / n        # bins 1…⌊(N−1)/2⌋: no DC, no Nyquist
     variance = float(x @ x / n)
+    del spec, x                                       # (3N values: not kept through the projection below)
+    rho = acov[1:] / acov[0] if acov[0] > 0 else np.zeros(h)
+    if basis is not None:
+        rho = rho - fitted_autocorrelation(np.asarray(basis, float), h, gram_inverse)
+    q = float(n * (n + 2) * (rho ** 2 / (n - _LAGS[:h])).sum())
+    p_lb = float(scipy.special.chdtrc(h, q))          # χ²_h survival (scipy.stats.chi2.sf, without its overhead)
+    floor = float(_median(power) / math.log(2.0))
     if floor > 0:
         ratio = power / floor
         j = int(np.argmax(ratio))
@@ -189,7 +208,7 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: f
         # the same peak against its neighbourhood (±K bins, the peak's ±1 left out): a line stands out of
         # it, a broad hump of coloured noise does not
         k = max(8, n // 64)
-        near = np.r_[power[max(j - k, 0):max(j - 1, 0)], power[j + 2:j + k + 1]]
+        near = np.concatenate((power[max(j - k, 0):max(j - 1, 0)], power[j + 2:j + k + 1]))
         local = float(_median(near) / math.log(2.0)) if near.size else floor
         peak_local = float(power[j] / local) if local > 0 else np.inf
     else:                                   # a residual at rounding level: nothing left to explain
@@ -263,12 +282,19 @@ def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: flo
     if e is None or J is None or e.size < 10 or J.shape[1] < m or not (np.isfinite(e).all()
                                                                      and np.isfinite(J).all()):
         return None
+    inverse = None
     if fit.get("Jr") is not None:          # the tangent space: the modal basis and the reduced Jacobian
-        th = fit["theta"]
-        basis = np.column_stack([modal_basis(th[:m], th[m:2 * m], dt, e.size), J])
+        phi = fit.get("basis")             # the fast search's own Φ at the optimum (its column order), if kept
+        interleaved = phi is None or phi.shape[1] != 2 * m + 1
+        if interleaved:
+            th = fit["theta"]
+            phi = modal_basis(th[:m], th[m:2 * m], dt, e.size)
+        basis = np.column_stack([phi, J])
+        del phi                            # (N × (2m + 1): not held through the check)
+        inverse = tangent_gram_inverse(fit, m, interleaved)
     else:
         basis = J
-    check = residual_check(e, dt, alpha, basis, band_rad_s)
+    check = residual_check(e, dt, alpha, basis, band_rad_s, inverse)
     if check["white"]:          # the white-noise std is the honest one: the sandwich is not needed (cost)
         return check
     std, bandwidth = sandwich_std(J, e, n_params)
@@ -279,6 +305,39 @@ def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: flo
     check.update(robust_std_rad_s=robust[:m][slot], hac_std_rad_s=std[:m][slot], hac_bandwidth=bandwidth,
                  spectral_std_rad_s=spectral[:m][slot])
     return check
+
+
+def tangent_gram_inverse(fit: dict, m: int, interleaved: bool = True) -> np.ndarray | None:
+    """(BᵀB)⁻¹ of the fast path's tangent space B = [Φ, J_r] (Φ in :func:`modal_basis`'s column order, or
+    with ``interleaved`` False in the search's own: the m cosines, the m sines, then 1) from the
+    factorisations its search already made at the optimum, or None (the caller then forms BᵀB).
+
+    J_r = P⊥J_n is orthogonal to Φ, so BᵀB is block diagonal: (ΦᵀΦ)⁻¹ from the linear solve's
+    eigendecomposition of the column-scaled ΦᵀΦ (``fit["basis_solver"]``: norms, eigenvalues, vectors; Φ's
+    columns there are the m cosines, the m sines, then 1) and (J_rᵀJ_r)⁻¹ from the normal equations'
+    (``fit["jr_system"]``, :meth:`methods.pem.search.NormalEquations.inverse`). Either condition number
+    above 1e10 (scaled): None, as :func:`fitted_autocorrelation` would switch to a QR there."""
+    solver, system = fit.get("basis_solver"), fit.get("jr_system")
+    if solver is None or system is None or not system.well_conditioned:
+        return None
+    norms, lam, V = solver
+    q = 2 * m + 1
+    if V.shape[0] != q or not lam[0] > 1e-10 * lam[-1]:     # (a fit without the offset's column: the
+        return None                                          # modal basis has one column more)
+    W = V / norms[:, None]
+    out = np.zeros((q + system.size, q + system.size))
+    inverse = (W / lam) @ W.T
+    out[:q, :q] = inverse[_interleaved(m)] if interleaved else inverse
+    out[q:, q:] = system.inverse()
+    return out
+
+
+@functools.lru_cache(maxsize=32)
+def _interleaved(m: int) -> tuple[np.ndarray, np.ndarray]:
+    """np.ix_ of the columns of [cos₁…cosₘ, sin₁…sinₘ, 1] in :func:`modal_basis`'s order [cos₁, sin₁, …, 1]
+    (made once per m)."""
+    order = np.r_[np.column_stack([np.arange(m), np.arange(m, 2 * m)]).ravel(), 2 * m]
+    return np.ix_(order, order)
 
 
 def spectral_sandwich_std(J, e, n_params: int | None = None, half_width: int | None = None) -> np.ndarray:

@@ -191,7 +191,7 @@ def loss_floor(w: np.ndarray, y: np.ndarray, dt: float) -> float:
     of the data's, plus the model's own rounding, which grows with the phase ωt it reaches (t = kΔt is
     rounded): ~ε_mach·ω·t_max."""
     n = y.size
-    floor_rel = LOSS_FLOOR_REL + PHASE_ROUNDING * float(np.max(w)) * n * dt
+    floor_rel = LOSS_FLOOR_REL + PHASE_ROUNDING * float(w.max()) * n * dt
     return floor_rel ** 2 * float(y @ y) / n
 
 
@@ -319,13 +319,16 @@ class NormalEquations:
             norms = np.where(norms > 0, norms, 1.0)
         scale = np.multiply.outer(norms, norms)               # np.outer's values without its wrapper
         lam2, V = pp.symmetric_eigh(H / scale)
-        top = lam2[-1] if lam2.size else 0.0
-        keep = lam2 > top * 1e-15 if top > 0 else np.zeros(lam2.size, bool)
-        self._all_kept = bool(keep.all())
+        # the eigenvalues come ascending: every direction is kept when the smallest is (Python floats, no
+        # mask in the common case)
+        top = float(lam2[-1]) if lam2.size else 0.0
+        low = float(lam2[0]) if lam2.size else 0.0
+        self._all_kept = lam2.size == 0 or (top > 0 and low > top * 1e-15)
+        keep = None if self._all_kept else (lam2 > top * 1e-15 if top > 0 else np.zeros(lam2.size, bool))
         self._norms, self._lam2, self._V, self._keep, self._top = norms, lam2, V, keep, top
         self._gv = V.T @ (g / norms)
         # scaled singular values within 1e-5 of each other: the eigh's std equals the SVD's to ~1e-10
-        self.well_conditioned = self._all_kept and bool(lam2[0] > 1e-10 * top)
+        self.well_conditioned = self._all_kept and low > 1e-10 * top
         inv = 1.0 / lam2 if self._all_kept else np.where(keep, 1.0 / np.where(keep, lam2, 1.0), 0.0)
         var = (V * V) @ inv / scale.diagonal()                 # the diagonal is norms * norms
         sigma2 = ee / max(n - H.shape[0], 1)
@@ -334,6 +337,19 @@ class NormalEquations:
         else:
             self.std = np.where(var > 0, np.sqrt(sigma2 * var), np.inf)
         self._gauss_newton = None
+
+    @property
+    def size(self) -> int:
+        """The number of unknowns (columns of J)."""
+        return self._lam2.size
+
+    def inverse(self) -> np.ndarray:
+        """(JᵀJ)⁻¹ from the eigendecomposition of the column-scaled JᵀJ: W Λ⁻¹ Wᵀ, W = V/norms (the
+        pseudo-inverse where directions were left out)."""
+        W = self._V / self._norms[:, None]
+        inv = 1.0 / self._lam2 if self._all_kept else np.where(self._keep, 1.0 / np.where(self._keep, self._lam2,
+                                                                                          1.0), 0.0)
+        return (W * inv) @ W.T
 
     def without(self, columns: np.ndarray) -> NormalEquations:
         """The system with the given columns of J set to zero (an active bound)."""
