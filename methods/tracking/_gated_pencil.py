@@ -34,7 +34,8 @@ What. On each window of W samples (every H samples):
    died away between sparse pulses fails it), and it is not another mode's pole (:func:`_labelled`).
    **Kicks the detector missed** (``split_kicks``, an option, off by default): a pulse at the noise level (at
    Δt = 0.1 s a 100 N·m pulse is 2–3 × the AR residual's scale) leaves a run that straddles it, whose phase
-   jump the shared poles read as frequency. With the poles of that fit fixed, each run is tested for one more
+   jump the shared poles read as frequency. With the poles of that fit fixed (and their first-order
+   corrections in both hypotheses, so that a pole error is not read as a kick), each run is tested for one more
    change of its amplitudes and offset (a Chow/sup-F test over every split, family-wise level ``split_level`` per run,
    Bonferroni; binary segmentation ``split_rounds`` deep; :func:`methods.tracking._segments.split_kicks`);
    where a kick is found the runs are split there and the fit repeated. The samples flagged or split in

@@ -5,16 +5,25 @@ The fit over them — shared frequencies and damping, each segment's own amplitu
 pem's :func:`methods.pem.separable_fit` (variable projection; its docstring gives the model).
 
 **The kick test** (:func:`split_kicks`). With the poles fixed, a free decay of n samples is linear in its
-p = 2m + 1 amplitudes and offset, y = Xc + e, X = [e^{−ζᵢωᵢt}cos ω_dᵢt, e^{−ζᵢωᵢt}sin ω_dᵢt, 1]. A kick at
-sample k changes c from sample k + 1 on, and sample k itself carries the pulse's feed-through; so the
-alternative at k is c₁ on [0, k), a free value at k, c₂ on [k + 1, n) — p + 1 more parameters — and its
-F statistic is (Chow 1960; Andrews 1993's sup-F over k)
+2m amplitudes and offset. The poles are the window's estimate, though, not the truth, and a pole error δs
+leaves a misfit c·t·e^{st}·δs that grows along the run — which a test of the amplitudes alone reads as a
+change (a while after a step, while the window's shared poles are wrong, it split clean runs as if kicked).
+So both hypotheses carry the first-order pole corrections: under H₀ y = Zβ + e,
 
-    F(k) = [(RSS₀ − RSS₁(k)) / (p + 1)] / [RSS₁(k) / (n − 2p − 1)],
-    RSS₁(k) = RSS([0, k)) + RSS([k + 1, n)),   RSS(S) = Σ_S y² − b_Sᵀ G_S⁻¹ b_S,   G_S = Σ_S x xᵀ,  b_S = Σ_S x y,
+    Z = [e^{−ζᵢωᵢt}cos ω_dᵢt, e^{−ζᵢωᵢt}sin ω_dᵢt (the 2m amplitudes), t·e^{−ζᵢωᵢt}cos ω_dᵢt,
+         t·e^{−ζᵢωᵢt}sin ω_dᵢt (the 2m corrections), 1],   p = 4m + 1 columns,
 
-F(p + 1, n − 2p − 1) under white noise at each k; every k at once from cumulative Gram matrices (forward for
-[0, k), backward for [k + 1, n): sums of positive terms, no cancellation), O(n p²) and K small p × p solves.
+and a kick at sample k changes the amplitudes and offset from sample k + 1 on while sample k carries the
+pulse's feed-through: H₁(k) adds D_k = [X(t)·1{t > k}, e_k], X the 2m + 1 amplitude and offset columns,
+q = 2m + 2 more parameters. The corrections stay shared: their coefficients are amplitude × δs, and a kick's
+change of them is of second order (a small kick × a small pole error). The F statistic (Chow 1960;
+Andrews 1993's sup-F over k) by partitioned regression (Frisch–Waugh–Lovell), r = y − Z(ZᵀZ)⁻¹Zᵀy:
+
+    F(k) = [δ(k) / q] / [(RSS₀ − δ(k)) / (n − p − q)],   RSS₀ = rᵀr,
+    δ(k) = (D_kᵀr)ᵀ S_k⁻¹ (D_kᵀr),   S_k = D_kᵀD_k − D_kᵀZ (ZᵀZ)⁻¹ ZᵀD_k,
+
+F(q, n − p − q) under white noise at each k; D_kᵀr, D_kᵀD_k and ZᵀD_k for every k at once from backward
+cumulative sums over t > k (and the row of sample k), O(n p q) and K small q × q solves.
 The run splits at the k of the largest F when it exceeds the F quantile at level α/K (Bonferroni over the K
 splits tested: a family-wise level per run), each side at least ``min_length`` samples (a shorter side is
 dropped by :func:`segments` anyway); binary segmentation repeats on both sides, ``rounds`` deep.
@@ -39,63 +48,79 @@ def segments(flags: np.ndarray, min_length: int) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(starts, stops, strict=True) if b - a >= min_length]
 
 
-def free_decay_basis(n: int, dt: float, w: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+def free_decay_basis(n: int, dt: float, w: np.ndarray, zeta: np.ndarray, *,
+                     pole_corrections: bool = False) -> np.ndarray:
     """X (n × (2m + 1)): e^{−ζωt}cos ω_d t, e^{−ζωt}sin ω_d t per mode and a constant, t = kΔt from the run's
-    start, ω_d = ω√(1 − ζ²) (the segment model of :func:`methods.pem.separable_fit`)."""
+    start, ω_d = ω√(1 − ζ²) (the segment model of :func:`methods.pem.separable_fit`); with
+    ``pole_corrections`` also t·e^{−ζωt}cos ω_d t, t·e^{−ζωt}sin ω_d t per mode (n × (4m + 1): the
+    derivatives of the first columns in the pole, the kick test's first-order pole errors)."""
     t = np.arange(n) * dt
     s = -zeta * w + 1j * w * np.sqrt(1.0 - zeta * zeta)
     p = np.exp(np.multiply.outer(t, s))
-    return np.hstack([p.real, p.imag, np.ones((n, 1))])
+    cols = [p.real, p.imag]
+    if pole_corrections:
+        tp = t[:, None] * p
+        cols += [tp.real, tp.imag]
+    return np.hstack(cols + [np.ones((n, 1))])
 
 
-def kick_statistic(y: np.ndarray, dt: float, w: np.ndarray, zeta: np.ndarray,
-                   min_length: int) -> tuple[np.ndarray, np.ndarray, int] | None:
-    """(candidate k, F(k), residual dof) of the kick test on one run ``y`` (module docstring); None when no
-    split leaves ``min_length`` samples on both sides or a Gram matrix is singular."""
+def kick_statistic(y: np.ndarray, dt: float, w: np.ndarray, zeta: np.ndarray, min_length: int, *,
+                   pole_corrections: bool = True) -> tuple[np.ndarray, np.ndarray, int, int] | None:
+    """(candidate k, F(k), numerator dof q, residual dof n − p − q) of the kick test on one run ``y`` (module
+    docstring: Z the p = 4m + 1 columns with the pole corrections, D_k the q = 2m + 2 change columns; without
+    ``pole_corrections`` Z = X, p = 2m + 1: Chow's test of the amplitudes alone); None when no split leaves
+    ``min_length`` samples on both sides or a Gram matrix is singular."""
     n = y.size
-    X = free_decay_basis(n, dt, w, zeta)
-    p = X.shape[1]
-    lo, hi = max(min_length, p), n - 1 - max(min_length, p)
-    dof = n - 2 * p - 1
+    m = np.size(w)
+    Z = free_decay_basis(n, dt, w, zeta, pole_corrections=pole_corrections)
+    Z = Z / np.linalg.norm(Z, axis=0)              # unit columns: the Gram matrices' conditioning
+    # the columns that change at a kick: amplitudes and offset
+    X = Z[:, np.r_[0:2 * m, 4 * m]] if pole_corrections else Z
+    p, q = Z.shape[1], X.shape[1] + 1
+    lo, hi = max(min_length, q), n - 1 - max(min_length, q)
+    dof = n - p - q
     if hi < lo or dof < 1:
         return None
-    X = X / np.linalg.norm(X, axis=0)              # unit columns: the Gram matrices' conditioning
-    outer = X[:, :, None] * X[:, None, :]
-    xy, yy = X * y[:, None], y * y
-    k = np.arange(lo, hi + 1)
-    # [0, k): forward sums up to k − 1; [k + 1, n): backward sums from k + 1
-    fwd_G, fwd_b, fwd_y = (np.cumsum(a, axis=0) for a in (outer, xy, yy))
-    bwd_G, bwd_b, bwd_y = (np.cumsum(a[::-1], axis=0)[::-1] for a in (outer, xy, yy))
-    G = np.concatenate([fwd_G[k - 1], bwd_G[k + 1], fwd_G[-1:]])
-    b = np.concatenate([fwd_b[k - 1], bwd_b[k + 1], fwd_b[-1:]])
     try:
-        c = np.linalg.solve(G, b[:, :, None])[:, :, 0]
+        Gi = np.linalg.inv(Z.T @ Z)                # the whole run's Gram: well conditioned
+        r = y - Z @ (Gi @ (Z.T @ y))
+        k = np.arange(lo, hi + 1)
+        # backward sums over t ≥ k + 1 of X(t)X(t)ᵀ, Z(t)X(t)ᵀ and X(t)r(t)
+        XX, ZX, Xr = (np.cumsum(a[::-1], axis=0)[::-1][k + 1]
+                      for a in (X[:, :, None] * X[:, None, :], Z[:, :, None] * X[:, None, :], X * r[:, None]))
+        K = k.size
+        DtD = np.zeros((K, q, q))
+        DtD[:, :-1, :-1] = XX
+        DtD[:, -1, -1] = 1.0
+        ZtD = np.concatenate([ZX, Z[k][:, :, None]], axis=2)            # (K, p, q)
+        Dtr = np.concatenate([Xr, r[k][:, None]], axis=1)               # (K, q)
+        S = DtD - np.swapaxes(ZtD, 1, 2) @ (Gi @ ZtD)
+        drop = np.einsum("ki,ki->k", Dtr, np.linalg.solve(S, Dtr[:, :, None])[:, :, 0])
     except np.linalg.LinAlgError:
         return None
-    fit = np.einsum("ij,ij->i", b, c)
-    K = k.size
-    rss1 = np.maximum(fwd_y[k - 1] - fit[:K], 0.0) + np.maximum(bwd_y[k + 1] - fit[K:2 * K], 0.0)
-    rss0 = max(fwd_y[-1] - fit[-1], 0.0)
+    rss0 = float(r @ r)
+    rss1 = np.maximum(rss0 - drop, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        F = ((rss0 - rss1) / (p + 1)) / (rss1 / dof)
-    return k, np.where(np.isfinite(F), F, 0.0), dof
+        F = (drop / q) / (rss1 / dof)
+    return k, np.where(np.isfinite(F), F, 0.0), q, dof
 
 
 def split_kicks(y: np.ndarray, dt: float, runs: list[tuple[int, int]], w: np.ndarray, zeta: np.ndarray,
-                min_length: int, level: float, rounds: int) -> tuple[list[tuple[int, int]], list[int]]:
+                min_length: int, level: float, rounds: int, *,
+                pole_corrections: bool = True) -> tuple[list[tuple[int, int]], list[int]]:
     """(runs split at the kicks the test finds, the kick samples) — binary segmentation of each run of ``y``
     at family-wise ``level`` per run, ``rounds`` deep (module docstring); the kick sample itself joins no
     run."""
-    m = np.size(w)
     out, kicks = [], []
     stack = [(a, b, 0) for a, b in runs]
     while stack:
         a, b, depth = stack.pop()
-        found = kick_statistic(y[a:b], dt, w, zeta, min_length) if depth < rounds else None
+        found = (kick_statistic(y[a:b], dt, w, zeta, min_length, pole_corrections=pole_corrections)
+                 if depth < rounds else None)
         if found is not None:
-            k, F, dof = found
+            k, F, dfn, dof = found
             j = int(np.argmax(F))
-            if F[j] > scipy.stats.f.isf(level / k.size, 2 * m + 2, dof):
+            if F[j] > scipy.stats.f.isf(level / k.size, dfn, dof):
                 s = a + int(k[j])
                 kicks.append(s)
                 stack += [(a, s, depth + 1), (s + 1, b, depth + 1)]

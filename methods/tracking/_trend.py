@@ -15,12 +15,27 @@ is followed with no lag once ω̇ is learnt.
 
 **Gate and restart.** A window estimate whose normalised innovation ν²/S exceeds ``trend_gate`` (χ², one
 degree of freedom) is not used; after ``trend_restart_after`` such windows in a row the mode is restarted at
-the last window's estimate (the level's variance set to R, the rate kept): a step of the frequency is taken
-as a new level in about W/2 + ``trend_restart_after``·H samples, and a single outlier (a window that
-mislabels a mode) is ignored. A mode starts at its first window estimate the method calls determined
-(``converged_per_mode``), rate 0 with std ``trend_rate0`` · ω per second; windows it does not determine are
-skipped (the filter only predicts). Reported ``converged``: the mode is started and its last determined
-window passed the gate.
+the last window's estimate: a step of the frequency is taken as a new level in about W/2 +
+``trend_restart_after``·H samples, and a single outlier (a window that mislabels a mode) is ignored.
+**The rate at a restart** (``TrendBank``'s ``restart_rate``). While the windows slide over a step their
+estimates move from the old frequency to the new one over a window's span: a ramp that the filter may learn
+as a rate, which a rate kept at the restart carries past the new level. "keep" (the default) keeps the rate
+and its variance; "reset" sets the rate to 0 ± ``trend_rate0`` · ω; "hold" also lets every later window that
+still holds a sample from before the end of the first gated window — one that may straddle the change —
+re-initialise the mode at its own estimate (level variance R, rate 0) instead of updating it, until the first
+window wholly after that point. The hold removes a ramp's overshoot but is not the default: it slowed the
+re-convergence on six-mode and short-dwell records (likely because its windows are not gated;
+docs/measured/tracking.md, "The trend stage after a step"). **A gap.** When no window has determined a mode for
+more than a window's span (the windows over a step that rang the modes often fail the fit's tests), the
+prediction's variance has grown by the rate's, (τ·σ_ω̇)², and the first window after the gap passes the
+gate however far the frequency jumped; an update would spread the jump over the gap as a rate, which then
+overshoots. So a window after such a gap whose innovation fails the gate against the variance the level had
+before the gap, ν² > ``trend_gate`` · (P₀₀ at the last update + R), sets the level (variance R) and keeps
+the rate held before the gap: a step is a new level, a drift keeps its learnt rate, and a window that agrees
+with the prediction updates the filter as any other (``relevel_gap``, on).
+A mode starts at its first window estimate the method calls determined (``converged_per_mode``), rate 0
+with std ``trend_rate0`` · ω per second; windows it does not determine are skipped (the filter only
+predicts). Reported ``converged``: the mode is started and its last determined window passed the gate.
 
 Causal: the output at window j uses windows 0 … j only.
 """
@@ -33,6 +48,10 @@ from filterpy.kalman import KalmanFilter
 
 from methods.tracking import _defaults
 
+# what a gate restart does with the rate (module docstring): "keep" keeps the rate learnt before; "reset" sets
+# it to 0 ± trend_rate0; "hold" also re-initialises the mode from the windows that may straddle the change
+RESTART_RATES = ("hold", "reset", "keep")
+RESTART_RATE = "keep"
 TREND_FIELDS = ("trend", "trend_rate_noise", "trend_meas_rel", "trend_gate", "trend_restart_after", "trend_rate0")
 # trend_rate_noise (s^-1.5) and trend_rate0 (s^-1): None = from the prior's slowest period
 # (:func:`methods.tracking._defaults.trend_noises`; 1e-4 and 0.002 on the tracking grid's records).
@@ -81,20 +100,34 @@ class TrendBank:
     """
 
     def __init__(self, m: int, *, rate_noise: float, meas_rel: float, gate: float, restart_after: int,
-                 rate0: float):
+                 rate0: float, restart_rate: str = RESTART_RATE, relevel_gap: bool = True):
+        if restart_rate not in RESTART_RATES:
+            raise ValueError(f"restart_rate = {restart_rate!r} must be one of {', '.join(RESTART_RATES)}")
         self.m, self.rate_noise, self.meas_rel = m, rate_noise, meas_rel
         self.gate, self.restart_after, self.rate0 = gate, restart_after, rate0
+        self.restart_rate, self.relevel_gap = restart_rate, relevel_gap
         self.kf: list = [None] * m
         self.t_last = np.zeros(m)
         self.w0 = np.zeros(m)
         self.misses = np.zeros(m, dtype=int)
         self.ok = np.zeros(m, dtype=bool)
         self.restarts = np.zeros(m, dtype=int)
+        self.first_miss_end = np.full(m, -np.inf)   # end time of the first gated window of the current run
+        self.hold_until = np.full(m, -np.inf)       # after a restart: windows starting before this re-initialise
+        self.t_update = np.full(m, -np.inf)         # centre time of the mode's last used window
+        self.p_update = np.zeros(m)                 # the level's variance after it
+        self.relevels = np.zeros(m, dtype=int)
 
     def restart(self, i: int) -> None:
         self.kf[i] = None
         self.misses[i] = 0
         self.ok[i] = False
+        self.hold_until[i] = -np.inf
+
+    def _level(self, kf, zi: float, r_var: float) -> None:
+        """Re-initialise a filter at the window estimate ``zi``: level variance R, rate 0 ± ``rate0``·ω."""
+        kf.x = np.array([zi, 0.0])
+        kf.P = np.diag([r_var, (self.rate0 * zi) ** 2])
 
     def step(self, t_c: float, lead: float, z: np.ndarray, determined: np.ndarray, meas_std=None):
         out = np.full(self.m, np.nan)
@@ -115,16 +148,31 @@ class TrendBank:
                     continue
                 kf = self.kf[i] = KalmanFilter(dim_x=2, dim_z=1)
                 kf.H = np.array([[1.0, 0.0]])
-                kf.x = np.array([zi, 0.0])
-                kf.P = np.diag([r_std ** 2, (self.rate0 * zi) ** 2])
-                self.t_last[i], self.w0[i], self.ok[i] = t_c[i], zi, True
+                self._level(kf, zi, r_std ** 2)
+                self.t_last[i], self.w0[i], self.ok[i], self.t_update[i] = t_c[i], zi, True, t_c[i]
+                self.p_update[i] = kf.P[0, 0]
             else:
                 tau = t_c[i] - self.t_last[i]
                 self.t_last[i] = t_c[i]
                 kf.F = np.array([[1.0, tau], [0.0, 1.0]])
                 kf.Q = Q_discrete_white_noise(dim=2, dt=tau, var=(self.rate_noise * self.w0[i]) ** 2)
                 kf.predict()
-                if good:
+                if good and t_c[i] - lead[i] <= self.hold_until[i]:
+                    # after a restart, a window that still holds samples from before the first gated
+                    # window's end mixes the old and the new frequency: its estimate is the level, no rate
+                    self._level(kf, zi, r_std ** 2)
+                    self.ok[i] = True
+                    self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+                elif (good and self.relevel_gap and t_c[i] - self.t_update[i] > 2 * lead[i]
+                      and (zi - kf.x[0]) ** 2 > self.gate * (self.p_update[i] + r_std ** 2)):
+                    # no window determined the mode for more than a window's span: the level is the window's,
+                    # the rate the one held before the gap (spreading a jump over the gap as a rate overshoots)
+                    kf.x = np.array([zi, kf.x[1]])
+                    kf.P = np.diag([r_std ** 2, kf.P[1, 1]])
+                    self.misses[i], self.ok[i] = 0, True
+                    self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+                    self.relevels[i] += 1
+                elif good:
                     kf.R = np.array([[r_std ** 2]])
                     nu = zi - kf.x[0]
                     s = kf.P[0, 0] + kf.R[0, 0]
@@ -132,14 +180,23 @@ class TrendBank:
                     if nu * nu / s <= self.gate:
                         kf.update(np.array([zi]))
                         self.misses[i], self.ok[i] = 0, True
+                        self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
                     else:
+                        if self.misses[i] == 0:
+                            self.first_miss_end[i] = t_c[i] + lead[i]
                         self.misses[i] += 1
                         self.ok[i] = False
                         if self.misses[i] >= self.restart_after:
-                            kf.x = np.array([zi, kf.x[1]])
-                            kf.P = np.diag([kf.R[0, 0], kf.P[1, 1]])
+                            if self.restart_rate == "keep":
+                                kf.x = np.array([zi, kf.x[1]])
+                                kf.P = np.diag([kf.R[0, 0], kf.P[1, 1]])
+                            else:
+                                self._level(kf, zi, kf.R[0, 0])
+                                if self.restart_rate == "hold":
+                                    self.hold_until[i] = self.first_miss_end[i]
                             self.misses[i], self.ok[i] = 0, True
                             self.restarts[i] += 1
+                            self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
             x = ahead @ kf.x
             P = ahead @ kf.P @ ahead.T
             out[i] = x[0]
@@ -149,8 +206,9 @@ class TrendBank:
 
 def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray, window_s, *,
            rate_noise: float, meas_rel: float, gate: float, restart_after: int, rate0: float,
-           meas_std: np.ndarray | None = None):
-    """Run the trend stage over a track's window estimates (module docstring).
+           meas_std: np.ndarray | None = None, restart_rate: str = RESTART_RATE):
+    """Run the trend stage over a track's window estimates (module docstring; ``restart_rate``: what a
+    restart does with the rate, :data:`RESTART_RATES`).
 
     Parameters
     ----------
@@ -165,7 +223,7 @@ def smooth(t_end_s: np.ndarray, frequencies: np.ndarray, determined: np.ndarray,
     K, m = frequencies.shape
     lead = np.broadcast_to(np.asarray(window_s, dtype=float) / 2.0, (K,))
     bank = TrendBank(m, rate_noise=rate_noise, meas_rel=meas_rel, gate=gate, restart_after=restart_after,
-                     rate0=rate0)
+                     rate0=rate0, restart_rate=restart_rate)
     out = np.full((K, m), np.nan)
     std = np.full((K, m), np.nan)
     conv = np.zeros((K, m), dtype=bool)

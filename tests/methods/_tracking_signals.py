@@ -116,12 +116,13 @@ def ringing_force(n: int, steps, rng, dt: float, period_s: float, *, pulses_per_
 
 
 def anyrate_record(dt: float, m: int, seed: int, *, duration_periods: float = 400.0, noise_rel: float = 0.01,
-                   zeta: float = 0.005):
+                   zeta: float = 0.005, parts: bool = False):
     """A record at sample interval ``dt`` with ``m`` modes: frequencies log-uniform with ωΔt in [0.08, 1.2]
     rad per sample (5–80 samples per period) at least 8 % apart, stepping ±5–20 % after dwells of 15–60 periods
     of the slowest mode, every step ringing the modes, blows between, white noise of ``noise_rel`` × the
     99th percentile of |y| (the rings' level).
-    Returns (y, truth (n, m), step samples, prior = the start frequencies × (1 ± 5 %), sorted)."""
+    Returns (y, truth (n, m), step samples, prior = the start frequencies × (1 ± 5 %), sorted); with ``parts``
+    also (the force u (n,), the noise's std, ζ), what a bound of the record needs."""
     rng = np.random.default_rng([seed, m, int(round(1e6 * dt))])
     for _ in range(1000):
         wdt = np.sort(np.exp(rng.uniform(np.log(0.08), np.log(1.2), m)))
@@ -133,9 +134,10 @@ def anyrate_record(dt: float, m: int, seed: int, *, duration_periods: float = 40
     w, steps = stepped_schedule(n, dt, freq, rng)
     u = ringing_force(n, steps, rng, dt, period)
     y = modal_response(w, u, zeta=zeta, gain=np.ones(m), dt=dt)
-    y = y + noise_rel * np.percentile(np.abs(y), 99) * rng.standard_normal(n)
+    noise_std = noise_rel * np.percentile(np.abs(y), 99)
+    y = y + noise_std * rng.standard_normal(n)
     prior = np.sort(freq * (1 + 0.05 * rng.uniform(-1, 1, m)))
-    return y, w, steps, prior
+    return (y, w, steps, prior, u, noise_std, zeta) if parts else (y, w, steps, prior)
 
 
 def lab_record(seed: int, *, n_modes: int = 1, duration_s: float = 12.0, fs_hz: float = 5000.0,
