@@ -93,8 +93,7 @@ def fitted_autocorrelation(basis: np.ndarray, lags: int, gram_inverse: np.ndarra
         if p <= n and norms.min() > 0 and np.isfinite(norms).all():
             lam, V = symmetric_eigh((basis.T @ basis) / np.multiply.outer(norms, norms))
             if lam[0] > 1e-10 * lam[-1]:
-                W = V / norms[:, None]
-                a, b = basis @ ((W / lam) @ W.T), basis
+                a, b = basis @ _unscaled_inverse(norms, lam, V), basis
     if a is None:
         a = b = np.linalg.qr(basis)[0]
         p = a.shape[1]
@@ -324,12 +323,18 @@ def tangent_gram_inverse(fit: dict, m: int, interleaved: bool = True) -> np.ndar
     q = 2 * m + 1
     if V.shape[0] != q or not lam[0] > 1e-10 * lam[-1]:     # (a fit without the offset's column: the
         return None                                          # modal basis has one column more)
-    W = V / norms[:, None]
     out = np.zeros((q + system.size, q + system.size))
-    inverse = (W / lam) @ W.T
+    inverse = _unscaled_inverse(norms, lam, V)
     out[:q, :q] = inverse[_interleaved(m)] if interleaved else inverse
     out[q:, q:] = system.inverse()
     return out
+
+
+def _unscaled_inverse(norms: np.ndarray, lam: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """G⁻¹ = W Λ⁻¹ Wᵀ, W = V/norms, from the eigendecomposition V Λ Vᵀ of the column-scaled Gram
+    G/(norms·normsᵀ)."""
+    W = V / norms[:, None]
+    return (W / lam) @ W.T
 
 
 @functools.lru_cache(maxsize=32)

@@ -329,7 +329,7 @@ class NormalEquations:
         self._gv = V.T @ (g / norms)
         # scaled singular values within 1e-5 of each other: the eigh's std equals the SVD's to ~1e-10
         self.well_conditioned = self._all_kept and low > 1e-10 * top
-        inv = 1.0 / lam2 if self._all_kept else np.where(keep, 1.0 / np.where(keep, lam2, 1.0), 0.0)
+        inv = self._inv = 1.0 / lam2 if self._all_kept else np.where(keep, 1.0 / np.where(keep, lam2, 1.0), 0.0)
         var = (V * V) @ inv / scale.diagonal()                 # the diagonal is norms * norms
         sigma2 = ee / max(n - H.shape[0], 1)
         if var.size and var.min() > 0:
@@ -347,9 +347,7 @@ class NormalEquations:
         """(JᵀJ)⁻¹ from the eigendecomposition of the column-scaled JᵀJ: W Λ⁻¹ Wᵀ, W = V/norms (the
         pseudo-inverse where directions were left out)."""
         W = self._V / self._norms[:, None]
-        inv = 1.0 / self._lam2 if self._all_kept else np.where(self._keep, 1.0 / np.where(self._keep, self._lam2,
-                                                                                          1.0), 0.0)
-        return (W * inv) @ W.T
+        return (W * self._inv) @ W.T
 
     def without(self, columns: np.ndarray) -> NormalEquations:
         """The system with the given columns of J set to zero (an active bound)."""

@@ -38,6 +38,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.stats
 
+from methods import pem
+
 
 def segments(flags: np.ndarray, min_length: int) -> list[tuple[int, int]]:
     """Runs [a, b) of unflagged samples at least ``min_length`` long: a flagged sample belongs to no segment
@@ -54,14 +56,14 @@ def free_decay_basis(n: int, dt: float, w: np.ndarray, zeta: np.ndarray, *,
     start, ω_d = ω√(1 − ζ²) (the segment model of :func:`methods.pem.separable_fit`); with
     ``pole_corrections`` also t·e^{−ζωt}cos ω_d t, t·e^{−ζωt}sin ω_d t per mode (n × (4m + 1): the
     derivatives of the first columns in the pole, the kick test's first-order pole errors)."""
-    t = np.arange(n) * dt
-    s = -zeta * w + 1j * w * np.sqrt(1.0 - zeta * zeta)
-    p = np.exp(np.multiply.outer(t, s))
-    cols = [p.real, p.imag]
+    w, zeta = np.atleast_1d(np.asarray(w, float)), np.atleast_1d(np.asarray(zeta, float))
+    m = w.size
+    phi = pem.predictor.modal_basis(w, zeta, dt, n)          # pem's basis: [cos₁, sin₁, …, cosₘ, sinₘ, 1]
+    cols = [phi[:, 0:2 * m:2], phi[:, 1:2 * m:2]]
     if pole_corrections:
-        tp = t[:, None] * p
-        cols += [tp.real, tp.imag]
-    return np.hstack(cols + [np.ones((n, 1))])
+        t = np.arange(n) * dt
+        cols += [t[:, None] * cols[0], t[:, None] * cols[1]]
+    return np.hstack(cols + [phi[:, 2 * m:]])
 
 
 def kick_statistic(y: np.ndarray, dt: float, w: np.ndarray, zeta: np.ndarray, min_length: int, *,

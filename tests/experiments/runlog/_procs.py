@@ -25,3 +25,15 @@ def identify(cwd, *overrides, **kw):
     return run("-m", "experiments.jobs.identify", "progress=false", *overrides, cwd=cwd, **kw)
 
 
+
+
+def grid_jobs(cwd, dataset, grid, methods=("fft", "pll")):
+    """The identify jobs of one cell of grid ``grid`` (one per method) run in ``cwd`` as the workflow runs
+    them; their tables' paths, as a runlog step takes them."""
+    tables = []
+    for method in methods:
+        out = Path(cwd) / "results" / grid / "identify" / method / "noise1000ug_n64.csv"
+        identify(cwd, f"method={method}", f"data.dataset={dataset}", f"out={out}", f"grid_name={grid}",
+                 "runlog.enabled=false", f"hydra.run.dir={Path(cwd) / 'runs' / method}")
+        tables.append(str(out))
+    return tables

@@ -12,7 +12,7 @@ import time
 
 import mlflow
 import pytest
-from _procs import identify, run
+from _procs import grid_jobs, run
 
 pytestmark = pytest.mark.slow
 N_PROC = 4
@@ -72,12 +72,7 @@ def test_racing_processes_log_every_run_exactly_once_on_a_fresh_then_a_used_stor
 
     # used store: the workflow's runlog step, 4 at once over the same two jobs
     a, _ = cells
-    tables = []
-    for method in ("fft", "pll"):
-        out = tmp_path / "results" / "race" / "identify" / method / "noise1000ug_n64.csv"
-        identify(tmp_path, f"method={method}", f"data.dataset={a}", f"out={out}", "grid_name=race",
-                 "runlog.enabled=false", f"hydra.run.dir={tmp_path / 'runs' / method}")
-        tables.append(str(out))
+    tables = grid_jobs(tmp_path, a, "race")
     results = race(tmp_path, TRACK, lambda i: ["--grid", "race", "--out", f"record{i}.json", "--", *tables])
     for code, err in results:
         assert code == 0, err[-2000:]

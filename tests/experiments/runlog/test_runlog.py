@@ -3,7 +3,7 @@ import json
 
 import mlflow
 import pytest
-from _procs import identify
+from _procs import grid_jobs, identify
 
 from experiments.runlog.identify_runs import run_key
 from experiments.runlog.store import log_run, tracking_uri
@@ -138,12 +138,7 @@ def test_jobs_logged_first_become_the_grid_runs_children_without_being_logged_ag
     from experiments.runlog.identify_runs import main
 
     a, _ = cells
-    tables = []
-    for method in ("fft", "pll"):
-        out = tmp_path / "results" / "g" / "identify" / method / "noise1000ug_n64.csv"
-        identify(tmp_path, f"method={method}", f"data.dataset={a}", f"out={out}", "grid_name=g",
-                 "runlog.enabled=false", f"hydra.run.dir={tmp_path / 'runs' / method}")
-        tables.append(str(out))
+    tables = grid_jobs(tmp_path, a, "g")
     assert main(["--grid", "g", "--jobs-only", "--out", str(tmp_path / "jobs.json"), "--", *tables]) == 0
     assert "2 job runs in MLflow experiment grid-g (2 newly logged)" in capsys.readouterr().out
     first = json.loads((tmp_path / "jobs.json").read_text())["runs"]
