@@ -12,7 +12,8 @@ scored where it can fail. They are scenario axes (``experiments.simulate.scenari
 - ``duffing`` = δ: every mode a Duffing oscillator ẍ + 2ζωẋ + ω²x + εx³ = 0 with the backbone
   ω(A) = ω√(1 + 2δA²), A = 1 at release (frequency ≈ (1 + δ)ω there; δ < 0 softening);
 - ``saturation`` = s in (0, 1]: the sensor clips at s × the largest clean |sample|;
-- ``quantisation`` = q > 0: the sensor rounds to a step of q × σ (after the noise).
+- ``quantisation`` = q > 0: the sensor rounds to a step of q × σ (after the noise), on a grid offset by its
+  own fraction of a step in each record (:func:`sensor`).
 
 The truth that scores a cell is the generating model's small-amplitude eigenfrequencies (the plant's), for
 the Duffing axis too: the frequency a linear model of the structure would have. A method that averages a
