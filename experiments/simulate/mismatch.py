@@ -137,9 +137,8 @@ def sensor(y: np.ndarray, signal: np.ndarray, sigma: float, axes: dict,
     With ``rng`` the rounding grid is offset by u·step, u ~ U(−½, ½) drawn per record: a converter's zero
     is not the structure's, and each record's is its own. Without it every replicate of a cell (the same
     clean signal) is rounded on the same grid, so the rounding error's part that follows the signal is one
-    draw shared by all of them: on the 10σ cell (seed 777, R = 200) pem's four frequencies carried a common
-    bias of 0.2–0.55 of their std and spread 0.66–0.79 of it, and the replicates scored one rounding
-    pattern, not the population of records a coverage describes (docs/uncertainty.md §5)."""
+    draw shared by all of them: a coverage over the replicates then scores one rounding pattern, not the
+    population of records it describes (measured: docs/uncertainty.md §5)."""
     if axes.get("saturation"):
         limit = float(axes["saturation"]) * float(np.max(np.abs(signal)))
         y = np.clip(y, -limit, limit)
