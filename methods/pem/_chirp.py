@@ -105,13 +105,16 @@ def fit(y, dt: float, w: np.ndarray, z: np.ndarray) -> dict:
     -------
     dict
         ``frequencies`` ω (rad/s, the small-amplitude ones), ``std`` (robust), ``kappa`` κ (rad/s, the shift
-        at the record's start), ``kappa_std``, ``damping`` ζ, ``success``; NaN where the fit failed.
+        at the record's start), ``kappa_std``, ``damping`` ζ, ``success``, ``record_average`` ω + k̄κ (the
+        frequency a constant-frequency fit of this mode alone would return, :func:`record_weight`) and its
+        ``record_average_std``; NaN where the fit failed.
     """
     y = np.asarray(y, float)
     w, z = np.asarray(w, float), np.asarray(z, float)
     m = w.size
     nan = np.full(m, np.nan)
-    out = {"frequencies": nan, "std": nan, "kappa": nan, "kappa_std": nan, "damping": nan, "success": False}
+    out = {"frequencies": nan, "std": nan, "kappa": nan, "kappa_std": nan, "damping": nan, "success": False,
+           "record_average": nan, "record_average_std": nan}
     if not (np.isfinite(w).all() and np.isfinite(z).all()) or y.size < 3 * m + 2 * m + 2:
         return out
     if np.any(w <= 0):
@@ -137,10 +140,36 @@ def fit(y, dt: float, w: np.ndarray, z: np.ndarray) -> dict:
         return out
     e = res.fun
     p = 3 * m + 2 * m + 1
-    hac = _residual.sandwich_std(res.jac, e, p)[0]
-    spec = _residual.spectral_sandwich_std(res.jac, e, p)
-    std = np.fmax(hac, spec)
+    std = _robust_std(res.jac, e, p)
+    # the record average ω̄ = ω + k̄κ (:func:`record_weight`) is a linear function of θ: its std is the
+    # sandwich's of the first column after the change of unknowns (ω, ζ, κ) → (ω̄, ζ, κ), whose Jacobian is
+    # (J_ω, J_ζ, J_κ − k̄J_ω) (the sandwich is covariant under a linear change of unknowns)
+    kbar = record_weight(res.x[:m] * res.x[m:2 * m], y.size, dt)
+    std_bar = _robust_std(np.hstack([res.jac[:, :2 * m], res.jac[:, 2 * m:] - kbar * res.jac[:, :m]]), e, p)
     free = (res.active_mask[:m] == 0) & (res.active_mask[2 * m:] == 0)
     return {"frequencies": np.where(free, res.x[:m], np.nan), "std": np.where(free, std[:m], np.nan),
             "kappa": np.where(free, res.x[2 * m:], np.nan), "kappa_std": np.where(free, std[2 * m:], np.nan),
-            "damping": np.where(free, res.x[m:2 * m], np.nan), "success": bool(res.success)}
+            "damping": np.where(free, res.x[m:2 * m], np.nan), "success": bool(res.success),
+            "record_average": np.where(free, res.x[:m] + kbar * res.x[2 * m:], np.nan),
+            "record_average_std": np.where(free, std_bar[:m], np.nan)}
+
+
+def _robust_std(jac, e, p):
+    """The larger of the Newey–West and spectral sandwich stds (:mod:`methods.pem._residual`)."""
+    return np.fmax(_residual.sandwich_std(jac, e, p)[0], _residual.spectral_sandwich_std(jac, e, p))
+
+
+def record_weight(sigma, n: int, dt: float) -> np.ndarray:
+    """k̄ per mode: the frequency a constant-frequency fit of n samples of the backbone chirp
+    ω(t) = ω₀ + κe^{−2σt} returns is ω₀ + k̄κ. Such a fit weighs the phase error by the envelope²,
+    w = e^{−2σt}, so its frequency is the w-weighted regression slope of the phase ∫ω on t; by parts
+
+        k̄ = Σ w(t)K(t) / Σ K(t),   K(t) = Σ_{s ≥ t} w(s)(s − t̄),
+
+    t̄ the w-weighted mean time (:func:`methods.pem._drift.chirp_segment_frequencies`, one segment)."""
+    t = dt * np.arange(int(n))
+    with np.errstate(over="ignore", invalid="ignore"):
+        w = np.exp(-2.0 * np.outer(np.asarray(sigma, float), t))
+        tbar = (w @ t) / w.sum(axis=1)
+        kern = np.cumsum((w * (t - tbar[:, None]))[:, ::-1], axis=1)[:, ::-1]
+        return np.sum(kern * w, axis=1) / kern.sum(axis=1)

@@ -46,6 +46,7 @@ INFO_DECAYS = 5.0        # the drift test and the backbone fit read the record u
 MAX_INFLATION = 5.0      # ω₀ of the backbone fit is reported where its std is at most this × the record's
 LACK_OF_FIT_ALPHA = 0.05  # the amplitude line is "not straight within its errors" below this p (_backbone_check)
 SCATTER_ALPHA = 0.05     # the segments scatter about the backbone fit beyond their std below this p (chirp_scatter)
+NONLINEAR_ALPHA = 0.01   # the record shows a backbone (some mode's κ ≠ 0) below this p, Bonferroni over the modes
 
 
 @dataclass
@@ -430,15 +431,32 @@ def _small_amplitude(est, y, dt, extra, report, drifting):
     fit = _chirp.fit(y, dt, est.frequencies, np.asarray(est.extra["damping"], float))
     extra["backbone"] = fit
     s = fit["std"]
-    use = (est.converged_per_mode & np.isfinite(fit["frequencies"]) & np.isfinite(s) & (s > 0)
-           & (s <= MAX_INFLATION * est.std))
+    determined = est.converged_per_mode & np.isfinite(fit["frequencies"]) & np.isfinite(s) & (s > 0)
+    # A record whose backbone fit finds a shift κ in some mode (|κ|/std beyond the two-sided NONLINEAR_ALPHA
+    # level, Bonferroni over the modes) shows a structure whose frequencies follow the amplitude: then every
+    # mode answers ω₀, however wide, since a record average refers to this record's amplitude only. A slow
+    # mode's average moves between two windows by more than its own spread (mismatch grid mode 1: halves
+    # 0.0016 rad/s apart, 4σ of an honest record-average std; docs/uncertainty.md §4).
+    z = np.abs(np.asarray(fit["kappa"], float)) / np.asarray(fit["kappa_std"], float)
+    limit = scipy.special.ndtri(1.0 - NONLINEAR_ALPHA / (2.0 * max(z.size, 1)))
+    nonlinear = bool(np.any(determined & np.isfinite(z) & (z > limit)))
+    fit["nonlinear"] = nonlinear
+    use = determined & (nonlinear | (s <= MAX_INFLATION * est.std))
     scatter = chirp_scatter(fit, report, y.size // report.t_mid_s.size, dt)
     fit["scatter_chi2"], fit["scatter_segments"], fit["scatter_p"] = scatter
     s = fit["reported_std"] = extrapolation_std(s, report, scatter)
     # a drifting mode that keeps its record average carries the spread between its segments, as with "record"
     tau = np.where(drifting & ~use & np.isfinite(report.tau_rad_s), report.tau_rad_s, 0.0)
-    freq = np.where(use, fit["frequencies"], est.frequencies)
-    std = np.where(use, s, np.hypot(est.std, tau))
+    # a kept mode answers its record average from the same fit, ω + k̄κ (the frequency a constant-frequency
+    # fit of it alone returns), not the constant-frequency fit's: there every other drifting mode's misfit
+    # stays in the residual, leaks into the mode's frequency (mode 1 of the mismatch grid's Duffing cells:
+    # 0.0004 rad/s, 1.6 × its spread, on the noise-free record) and swells its Newey–West std (~4×)
+    average = np.asarray(fit["record_average"], float)
+    average_std = np.asarray(fit["record_average_std"], float)
+    own = np.isfinite(average) & np.isfinite(average_std) & (average_std > 0)
+    fit["record_average_used"] = (~use & own & est.converged_per_mode).tolist()
+    freq = np.where(use, fit["frequencies"], np.where(own, average, est.frequencies))
+    std = np.where(use, s, np.hypot(np.where(own, average_std, est.std), tau))
     notes = [report.notes[i] for i in np.flatnonzero(drifting)]
     if use.any():
         notes.append("reported at small amplitude (ω₀ of the backbone fit ω(t) = ω₀ + κ·exp(−2ζωt), its std "
