@@ -22,8 +22,9 @@ replicate determined (``converged_per_mode``). For pem these stds are scored:
 The truth of a Duffing cell depends on the claim (:func:`duffing_truth`): an answer at small amplitude is
 scored against the linear frequency ω; an answer about the record (a mode whose segments agree, and the
 white/robust/spectral rows, which describe the whole-record fit) against the frequency the record holds,
-``experiments.simulate.mismatch.record_frequency_rad_s`` (the backbone averaged over the record's
-envelope): nothing in a record whose amplitude hardly changes tells the frequency at another amplitude.
+``experiments.simulate.mismatch.record_frequency_rad_s`` (where a constant-frequency fit of the mode's
+noise-free record converges to): nothing in a record whose amplitude hardly changes tells the frequency at
+another amplitude.
 
 ``flagged`` is the share of records whose final residual check failed; ``absorbed`` the share whose
 residual line outside every band was refitted as an extra mode (``methods.pem._lines``). Rows with
