@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from methods.pem import search
-from methods.pem.predictor import _BLOCK, _powers, scaled_lstsq
+from methods.pem.predictor import _powers, scaled_lstsq
 
 # A fit keeps its basis Φ (for the residual check, which would otherwise rebuild it) up to this many samples:
 # at most 4096 × (2m + 1) values per start; a longer record's check rebuilds it rather than hold N × (2m + 1)
@@ -57,7 +57,7 @@ class _Model:
         root = [math.sqrt(1.0 - zi * zi) for zi in z.tolist()]
         logp = np.array([complex(-zi * wi * dt, wi * ri * dt)
                          for wi, zi, ri in zip(w.tolist(), z.tolist(), root, strict=True)])
-        p = np.exp(np.multiply.outer(self.k, logp)) if n <= 2 * _BLOCK else _powers(logp, n)
+        p = _powers(logp, n)
         phi[:, :m] = p.real
         phi[:, m:2 * m] = p.imag
         solved = scaled_lstsq(phi, self.target)

@@ -123,7 +123,8 @@ def identify(y, dt, prior, **options) -> Estimate:
     _check_options(opts, prior)
     # One BLAS thread inside the fit: its matrices are small (p ≤ 4m + 1 columns), and OpenBLAS's own
     # threads made it 2.6–5× slower on 2 cores (measured: experiments.benchmarks.pem_speed --parts warm blas).
-    with _blas().limit(limits=1, user_api="blas"):
+    restore = _one_blas_thread()
+    try:
         clip = _saturation.detect(y) if opts.skip_clipped else None
         start = 0 if clip is None or y.size - clip["last_clipped"] - 1 < MIN_TAIL else clip["last_clipped"] + 1
         y = y[start:]
@@ -134,11 +135,29 @@ def identify(y, dt, prior, **options) -> Estimate:
                                 lambda wider: _identify(y, dt, wider, opts))
             est = _drift.attach(est, y, dt, prior, opts, identify)
         return est if clip is None else _saturation.attach(est, clip, start)
+    finally:
+        for pool, threads in restore:
+            pool.set_num_threads(threads)
 
 
 @functools.cache
-def _blas():
-    return ThreadpoolController()
+def _blas_pools() -> tuple:
+    """The process's BLAS thread pools (threadpoolctl's controllers, found once: the search for loaded
+    libraries costs more than a fit)."""
+    return tuple(ThreadpoolController().select(user_api="blas").lib_controllers)
+
+
+def _one_blas_thread() -> list:
+    """Every BLAS pool set to one thread; returns the (pool, threads) to restore. The pools already at one
+    thread are left alone: threadpoolctl's ``limit`` (its info, select and restore: 13 µs, 1 % of a fit)
+    for the two get/set calls that matter."""
+    restore = []
+    for pool in _blas_pools():
+        threads = pool.get_num_threads()
+        if threads != 1:
+            pool.set_num_threads(1)
+            restore.append((pool, threads))
+    return restore
 
 
 def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Estimate:
