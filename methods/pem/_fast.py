@@ -88,10 +88,13 @@ class _Model:
         M = [0.0] * (2 * m * cols)                                   # row-major 2m × cols
         for j, f in enumerate(factor):
             M[(j % m) * cols + j], M[(m + j % m) * cols + j] = f.real, -f.imag
-        Jn = (phi[:, :2 * m] @ np.array(M).reshape(2 * m, cols)) * self.t
+        Jn = phi[:, :2 * m] @ np.array(M).reshape(2 * m, cols)
+        Jn *= self.t
         # P⊥Jn = Jn − Φ (ΦᵀΦ)⁻¹ ΦᵀJn, through the eigendecomposition of the scaled ΦᵀΦ of the linear solve
+        # (in place: two N × 2m temporaries fewer)
         W = V / norms[:, None]
-        return Jn - phi @ (W @ ((W.T @ (phi.T @ Jn)) / lam[:, None]))
+        Jn -= phi @ (W @ ((W.T @ (phi.T @ Jn)) / lam[:, None]))
+        return Jn
 
 
 class _Handover(Exception):

@@ -30,6 +30,7 @@ See methods/pem/README.md for the choices and the measured numbers.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -344,8 +345,8 @@ def _explains_record(fit: dict, w_std: np.ndarray, n: int, dt: float, energy: bo
     power = float(e @ e)
     if power <= fit.get("floor", 0.0) * n:
         return True                       # fitted to the rounding of the data: nothing left to find
-    spectrum = np.abs(np.fft.rfft(e, 2 * n)) ** 2
-    return bool(2.0 * spectrum.max() / power < 2.0 * np.log(n / (2.0 * WHITENESS_ALPHA)))
+    peak = float(np.abs(np.fft.rfft(e, 2 * n)).max()) ** 2      # the largest |E(f)|², squared once
+    return 2.0 * peak / power < 2.0 * math.log(n / (2.0 * WHITENESS_ALPHA))
 
 
 def _repaired_start(best: dict, free, prior: np.ndarray, opts: Options):
@@ -545,7 +546,7 @@ def detection_std(n: int, dt: float, alpha: float = 0.01) -> float:
     std is above √(3/ln(N/2α))/(N·Δt) — about a tenth of the Fourier resolution 2π/(NΔt) — is not told
     apart from noise.
     """
-    return float(np.sqrt(3.0 / np.log(n / (2.0 * alpha))) / (n * dt))
+    return math.sqrt(3.0 / math.log(n / (2.0 * alpha))) / (n * dt)
 
 
 def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt: float, opts: Options,
