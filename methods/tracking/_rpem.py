@@ -62,9 +62,17 @@ class Options(_ambient.SharedOptions):
     ----------
     estimate_damping : bool
         ζᵢ are parameters (True, started at ``damping_ratio``) or held at ``damping_ratio``.
+    frequency_model : str
+        ``"walk"`` (default): ωᵢ walks at random; ``"trend"``: θ also carries each frequency's rate ω̇ᵢ, a local
+        linear trend in the parameters' time update (module docstring).
+    trend_horizon_s : float or None
+        ``"trend"``: the rate may change by the stated rate over this horizon (as ``akf_ambient``'s); None: ten
+        windows.
     """
 
     estimate_damping: bool = True
+    frequency_model: str = "walk"
+    trend_horizon_s: float | None = None
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -72,6 +80,11 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     _ambient.check_shared(name, opts, prior, dt, n_samples)
     if not isinstance(opts.estimate_damping, bool):
         raise ValueError(f"{name}: estimate_damping = {opts.estimate_damping!r} must be true or false")
+    if opts.frequency_model not in ("trend", "walk"):
+        raise ValueError(f"{name}: frequency_model = {opts.frequency_model!r} must be 'trend' or 'walk'")
+    h = opts.trend_horizon_s
+    if h is not None and not (isinstance(h, (int, float)) and math.isfinite(h) and h >= dt):
+        raise ValueError(f"{name}: trend_horizon_s = {h!r} must be None or at least one sample ({dt} s)")
     return opts
 
 
@@ -118,7 +131,7 @@ def _sx_transition(w, z, dt):
 
 
 @functools.lru_cache(maxsize=8)
-def _step_function(m: int, est_z: bool):
+def _step_function(m: int, est_z: bool, trend: bool = False):
     """One sample of the recursion (module docstring) as a CasADi SX function, its derivatives algorithmic:
 
         (state, y(k), const) ↦ (state', [ω̂; P_ωω; ζ̂; pulse]),   state = [θ, vec P, x̂, vec W, Λ],
@@ -131,7 +144,8 @@ def _step_function(m: int, est_z: bool):
     import casadi as ca  # 0.2 s of start-up, paid only by this tracker, once per process (cached)
 
     nz = m if est_z else 0
-    p = 3 * m + nz
+    na = m if trend else 0
+    p = 3 * m + nz + na
     n_state = p + p * p + 2 * m + 2 * m * p + 1
     st, yk = ca.SX.sym("state", n_state), ca.SX.sym("y")
     c = ca.SX.sym("const", 5 + 2 * m + p + 2 * m)
@@ -145,23 +159,31 @@ def _step_function(m: int, est_z: bool):
     lam = st[n_state - 1]
     w = th[:m]
     z = th[m:2 * m] if est_z else ca.repmat(zeta0, m, 1)
-    K = th[m + nz:] * kscale
+    K = th[m + nz:3 * m + nz] * kscale
     C = ca.vertcat(*[v for i in range(m) for v in (-w[i] * w[i], -2 * z[i] * w[i])])
     Cx = ca.dot(C, x)
     e = yk - Cx
     psi = (ca.mtimes(C.T, W) + ca.jacobian(Cx, th)).T
-    Pm = P + ca.diag(ca.vertcat(nu2 * dt * w * w, q_fixed[m:]))
+    q = ca.diag(ca.vertcat(nu2 * dt * w * w, q_fixed[m:]))
+    if trend:       # θ's time update: ω ← ω + Δt ω̇ (the rest held), P ← F P Fᵀ + Q
+        F = ca.SX.eye(p)
+        for i in range(m):
+            F[i, 3 * m + nz + i] = dt
+        th_pred = ca.mtimes(F, th)
+        Pm = ca.mtimes(ca.mtimes(F, P), F.T) + q
+    else:
+        th_pred, Pm = th, P + q
     Ppsi = ca.mtimes(Pm, psi)
     S = ca.dot(psi, Ppsi) + lam
     ok = ca.logic_and(S > 0, e * e <= gate * S)
     pulse = ca.logic_and(S > 0, e * e > gate * S)
     L = Ppsi / ca.if_else(S > 0, S, 1)
-    th_up = th + L * e
+    th_up = th_pred + L * e
     th_up = ca.vertcat(ca.fmin(ca.fmax(th_up[:m], lo_w), hi_w),
                        ca.fmin(ca.fmax(th_up[m:m + nz], 1e-4), 0.2), th_up[m + nz:])
     P_up = Pm - ca.mtimes(L, Ppsi.T)
     P_up = 0.5 * (P_up + P_up.T)
-    th_new = ca.if_else(ok, th_up, th)
+    th_new = ca.if_else(ok, th_up, th_pred)
     P_new = ca.if_else(ok, P_up, Pm)
     lam_new = ca.if_else(ok, lam + gam * (e * e - lam), lam)
     # the predictor and its sensitivities at θ(k−1): W ← Φ W − K ψ + (∂Φ/∂θ)x̂ + (∂K/∂θ)ε
@@ -178,10 +200,10 @@ def _step_function(m: int, est_z: bool):
 
 
 @functools.lru_cache(maxsize=32)
-def _run_function(m: int, est_z: bool, n_samples: int):
+def _run_function(m: int, est_z: bool, trend: bool, n_samples: int):
     """:func:`_step_function` repeated over ``n_samples`` samples (``Function.mapaccum``): one call per hop
     instead of some forty numpy calls per sample, which cost 0.4–0.6 ms per sample on this machine."""
-    return _step_function(m, est_z).mapaccum("rpem_run", n_samples)
+    return _step_function(m, est_z, trend).mapaccum("rpem_run", n_samples)
 
 
 @dataclass
@@ -201,7 +223,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     iw = np.arange(m)
     iz = np.arange(m, 2 * m) if est_z else np.arange(0)
     ik = np.arange(m + iz.size, m + iz.size + 2 * m)
-    p = m + iz.size + 2 * m
+    trend = opts.frequency_model == "trend"
+    ia = np.arange(3 * m + iz.size, 4 * m + iz.size) if trend else np.arange(0)
+    p = m + iz.size + 2 * m + ia.size
     kscale = np.empty(2 * m)
     kscale[0::2], kscale[1::2] = 1 / prior ** 2, 1 / prior
     freq = np.full((n, m), np.nan)
@@ -236,7 +260,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         K0 = _steady_gain(w0, z0, dt, q0, max(r0, 1e-30))
     except (ValueError, np.linalg.LinAlgError):     # nothing to learn from (a flat window): the gain starts at 0
         K0 = np.zeros(2 * m)
-    theta = np.concatenate([w0, z0 if est_z else [], K0 / kscale])
+    theta = np.concatenate([w0, z0 if est_z else [], K0 / kscale, np.zeros(ia.size)])
     P = np.zeros((p, p))
     P[iw, iw] = (0.01 * w0) ** 2
     if est_z:
@@ -245,6 +269,11 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     Qth = np.zeros(p)
     Qth[iz] = (0.1 * 0.5 * z0) ** 2 / W_len if est_z else 0.0
     Qth[ik] = np.diag(P)[ik] * 0.01 / W_len
+    # the rate's prior spread is the stated rate; its walk lets it change by that much over the trend horizon
+    rate_var = (opts.rate_rel_per_s * prior[:ia.size]) ** 2
+    trend_h = opts.trend_horizon_s if opts.trend_horizon_s is not None else 10 * W_len * dt
+    P[ia, ia] = rate_var
+    Qth[ia] = rate_var * dt / trend_h
     # the predictor over the first window starts x̂
     w, z, K = unpack(theta)
     phi, _ = modal_transition(w, z, dt)
@@ -265,7 +294,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         # the samples up to the next look (k + 1 − W a multiple of the hop), one mapaccum call
         k1 = min(n, k0 + (W_len - 1 - k0) % hop + 1)
         state = np.concatenate([theta, P.ravel(), x, Wm.ravel(order="F"), [lam]])
-        state, out = _run_function(m, est_z, k1 - k0)(state, y[k0:k1][None, :], const)
+        state, out = _run_function(m, est_z, trend, k1 - k0)(state, y[k0:k1][None, :], const)
         state, out = np.asarray(state)[:, -1], np.asarray(out)
         theta, P = state[:p].copy(), state[p:p + p * p].reshape(p, p).copy()
         x = state[p + p * p:p + p * p + 2 * m].copy()
@@ -297,6 +326,11 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 P[:, iw[i]] = 0.0
                 P[iw[i], iw[i]] = (s_i * peak[i]) ** 2
                 Wm[:, iw[i]] = 0.0
+                if trend:                  # its rate starts again at 0 ± the stated rate
+                    theta[ia[i]] = 0.0
+                    P[ia[i], :] = 0.0
+                    P[:, ia[i]] = 0.0
+                    P[ia[i], ia[i]] = rate_var[i]
                 n_restarts += 1
             if unstable:
                 theta[ik] = K0 / kscale
