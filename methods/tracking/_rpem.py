@@ -238,6 +238,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
     n_restarts = n_pulses = 0
+    resolution = 2 * math.pi / (W_len * dt) if opts.frequency_model == "trend" else 0.0
     gam = dt / (W_len * dt)                     # innovation variance memory: one window
     if n < W_len:
         return _Run(freq, var, started, 0, 0, seen, damping=damp)
@@ -318,9 +319,12 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             peak, r_f, v_f, _ = _ambient.periodogram_look(y[k + 1 - W_len:k + 1], dt, ref, opts.band,
                                                           opts.damping_ratio)
             seen_now = np.isfinite(peak) & _ambient.visible(v_f, r_f, ref, opts.band, dt)
-            d = np.log(peak / theta[iw])
-            for i, s_i in _ambient.modes_to_restart(np.flatnonzero(np.isfinite(d)), d, np.ones(m), -np.inf, d,
-                                                    strikes, hist_d, opts):
+            # the peak is the window's frequency, about its middle: with a rate in θ, ω̂ is carried back there
+            # (ω̂ − ω̇ (W − 1)Δt/2), so that a drift it follows is no disagreement
+            at_mid = theta[iw] - theta[ia] * (W_len - 1) * dt / 2 if trend else theta[iw]
+            d = np.log(peak / at_mid)
+            for i, s_i in _ambient.modes_to_restart(np.flatnonzero(np.isfinite(d)), peak - at_mid, at_mid,
+                                                    resolution, d, strikes, hist_d, opts):
                 theta[iw[i]] = peak[i]
                 P[iw[i], :] = 0.0
                 P[:, iw[i]] = 0.0
