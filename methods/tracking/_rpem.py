@@ -22,21 +22,27 @@ instead of a forgetting factor, so that its walk is the frequencies' stated rate
 
 W = ∂x̂/∂θ (2m × p), Φ and ∂Φ/∂ω in closed form (``methods.kalman.modal_transition``), ∂Φ/∂ζ by
 complex step. Q_θ: (ν ωᵢ)²Δt on ωᵢ (ν = rate·√horizon, as ``akf_ambient``), and on ζᵢ, k̃ a walk whose spread
-over the window is a tenth of their start's scale.
+over the window is a tenth of their start's scale. ``frequency_model="trend"`` appends each frequency's rate
+ω̇ᵢ to θ and gives the time update a local linear trend, θ⁻ = Fθ (ωᵢ ← ωᵢ + Δt ω̇ᵢ), P⁻ = F P Fᵀ + Q_θ, θ ← θ⁻ + L e
+(ω̇ᵢ's prior 0 ± rate·ω̄ᵢ, its walk (rate·ω̄ᵢ)²/``trend_horizon_s`` per s, as ``akf_ambient``'s ``trend``);
+ψ's entries for ω̇ are 0 (x̂ does not depend on the rate within a step), so the rate learns through P.
 
 Start, restarts, pulses: as ``akf_ambient`` — the first window's periodogram gives the starting ω (its peaks),
 q and r, from which K starts at the steady Kalman gain of the diagonal-force model
 (``scipy.linalg.solve_discrete_are``) and the predictor is run over that window to start x̂; every hop the
 periodogram's peaks are compared with ω̂ and a mode that disagrees ``restart_after`` times in a row restarts
-at the peak; a sample whose e²/S exceeds ``pulse_gate`` does not update θ.
+at the peak; a sample whose e²/S exceeds ``pulse_gate`` does not update θ. With the rate (``"trend"``) the
+peak, the frequency about the window's middle, is compared with ω̂ − ω̇ (W − 1)Δt/2, beyond ``akf_ambient``'s
+floor (the window's resolution), so that a drift the filter follows is no disagreement; a restart resets the
+mode's rate.
 
 Written by hand: no maintained Python library has a recursive prediction-error method for a state-space
 innovations model (filterpy has Kalman filters; padasip adaptive FIR/RLS filters). The per-sample step is one
 CasADi SX function (:func:`_step_function`, its derivatives algorithmic), repeated between two looks with
 ``Function.mapaccum`` (the way ``methods.pem.predictor`` runs its Kalman predictor): the same arithmetic as
 the numpy loop it replaced (tested against it step by step), a sixth of its CPU (some forty numpy calls per
-sample cost 0.4–0.6 ms on this machine). The step is built once per process and (m, ζ estimated or not),
-about 1 s.
+sample cost 0.4–0.6 ms on this machine). The step is built once per process and (m, ζ estimated or not, rate or
+not), about 1 s.
 """
 
 from __future__ import annotations
