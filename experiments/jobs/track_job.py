@@ -41,8 +41,8 @@ from experiments.report.tracking_metrics import score_record
 from experiments.simulate.tracking_grid import load_grid, make_grid_cell, nominal_prior_rad_s
 from experiments.tracker_variants import split, variant_options
 
-__all__ = ["WARM_UP_SAMPLES", "check_tracker", "grid_trackers", "main", "rescore_tracker", "run_cell", "run_data",
-           "run_tracker", "score_cell", "track_record", "tracker_cells", "tracker_names", "warm_up"]
+__all__ = ["WARM_UP_SAMPLES", "check_tracker", "grid_trackers", "hold_on", "main", "rescore_tracker", "run_cell",
+           "run_data", "run_tracker", "score_cell", "track_record", "tracker_cells", "tracker_names", "warm_up"]
 
 
 def tracker_names() -> list[str]:
@@ -149,23 +149,46 @@ def track_record(tracker: str, y: np.ndarray, dt_s: float, prior: np.ndarray, op
         return None, f"{type(exc).__name__}: {' '.join(str(exc).split())}"
 
 
+def hold_on(t_ref: np.ndarray, t_s: np.ndarray, dt: float, *arrays: np.ndarray) -> list[np.ndarray]:
+    """Each array of a track (its first axis on the times ``t_s``) held onto the times ``t_ref``: at each t the
+    latest estimate made at or before t (a causal zero-order hold), NaN (False for a boolean) before the first.
+    Times are compared as sample indices (t / dt rounded), so float noise in them cannot move an estimate.
+
+    A tracker's window and hop follow from the record's prior, so two replicates of one cell (priors drawn
+    apart) report on different times; the hold puts them on one time axis without using any estimate
+    before it was made."""
+    k = np.searchsorted(np.rint(t_s / dt), np.rint(t_ref / dt), side="right") - 1
+    before = k < 0
+    out = []
+    for a in arrays:
+        held = a[np.maximum(k, 0)]
+        held[before] = False if a.dtype == bool else np.nan
+        out.append(held)
+    return out
+
+
 def run_cell(tracker: str, options: dict, data: dict, cell_meta: dict) -> tuple[dict, pd.DataFrame]:
-    """Every replicate of a cell through the tracker; the tracks (arrays) and their scores (a table)."""
+    """Every replicate of a cell through the tracker; the tracks (arrays) and their scores (a table).
+    The replicates share the time axis of the one with the most estimates; the others are held onto it
+    (:func:`hold_on`)."""
     y_all, prior_all = data["accel_m_s2"], data["prior_rad_s"]
     dt = float(data["dt_s"])
     n, m = data["truth_freq_rad_s"].shape
     tracks = [track_record(tracker, y_all[r], dt, prior_all[r], options) for r in range(y_all.shape[0])]
-    t_ref = next((tr.t_s for tr, _ in tracks if tr is not None), np.arange(n) * dt)
+    done = [tr for tr, _ in tracks if tr is not None]
+    t_ref = max((tr.t_s for tr in done), key=len) if done else np.arange(n) * dt
     freq = np.full((len(tracks), t_ref.size, m), np.nan)
     std = np.full_like(freq, np.nan)
     conv = np.zeros(freq.shape, bool)
     runtime = np.zeros(len(tracks))
     messages = []
     for r, (tr, message) in enumerate(tracks):
-        if tr is not None and (tr.t_s.shape != t_ref.shape or not np.allclose(tr.t_s, t_ref)):
-            tr, message = None, "the track's times differ from the other replicates'"
         if tr is not None:
-            freq[r], std[r], conv[r], runtime[r] = tr.frequencies, tr.std, tr.converged, tr.runtime_s
+            if tr.t_s.shape == t_ref.shape and np.allclose(tr.t_s, t_ref):
+                freq[r], std[r], conv[r] = tr.frequencies, tr.std, tr.converged
+            else:
+                freq[r], std[r], conv[r] = hold_on(t_ref, tr.t_s, dt, tr.frequencies, tr.std, tr.converged)
+            runtime[r] = tr.runtime_s
             message = tr.message
         messages.append(message)
     arrays = {"t_s": t_ref, "frequencies": freq, "std": std, "converged": conv, "runtime_s": runtime}

@@ -22,6 +22,11 @@ class StandInTrack:
     extra: dict = field(default_factory=dict)
 
 
+def prior_hop(prior) -> int:
+    """The hop of the stand-in ``prior_hop``: 20-30 samples, set by the prior as a real tracker's hop is."""
+    return 20 + int(round(1000 * float(np.asarray(prior)[0]))) % 11
+
+
 def track(name, y, dt, prior, **options):
     if name == "broken":
         raise RuntimeError("the stand-in breaks on purpose")
@@ -29,7 +34,8 @@ def track(name, y, dt, prior, **options):
     prior = np.asarray(prior, dtype=float)
     m = prior.size
     window = int(2.0 / dt)
-    ends = np.arange(24, y.size, 25)
+    hop = prior_hop(prior) if name == "prior_hop" else 25
+    ends = np.arange(hop - 1, y.size, hop)
     out = np.tile(prior, (ends.size, 1))
     freqs = 2 * np.pi * np.fft.rfftfreq(4 * window, dt)
     for j, e in enumerate(ends):
@@ -49,7 +55,7 @@ WINDOWED = ["n4sid", "ssi_cov", "ssi_data", "lsce", "hdmd", "bopdmd"]
 
 
 def track_names():
-    return ["stand_in", "broken", *WINDOWED]
+    return ["stand_in", "broken", "prior_hop", *WINDOWED]
 
 
 def check_track_options(name, prior, dt, options=None, *, n_samples=None):

@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 from experiments.io import read_npz
-from experiments.jobs.track_job import main
+from experiments.jobs.track_job import hold_on, main
 from tests.experiments.jobs import _stand_in_tracker
 
 GRID = {
@@ -55,6 +55,39 @@ def test_a_tracker_that_raises_is_recorded_per_record(grid_file, tmp_path):
     table = pd.read_csv(tmp_path / "b" / "step_thrusters_noise100ug_8s.csv")
     assert table["diverged"].all() and table["message"].str.contains("on purpose").all()
     assert np.isnan(read_npz(tmp_path / "b" / "step_thrusters_noise100ug_8s.npz")["frequencies"]).all()
+
+
+def test_hold_on_takes_the_latest_estimate_made_at_or_before_each_time():
+    dt = 0.1
+    t_s = np.array([0.3, 0.7, 1.2])                    # estimates at samples 3, 7, 12
+    f = np.array([[1.0], [2.0], [3.0]])
+    conv = np.array([[False], [True], [True]])
+    t_ref = np.array([0.2, 0.3, 0.5, 0.7000000000000001, 1.1, 1.2, 2.0])
+    held_f, held_c = hold_on(t_ref, t_s, dt, f, conv)
+    np.testing.assert_array_equal(held_f[:, 0], [np.nan, 1.0, 1.0, 2.0, 2.0, 3.0, 3.0])
+    np.testing.assert_array_equal(held_c[:, 0], [False, False, False, True, True, True, True])
+
+
+def test_replicates_whose_prior_sets_other_times_are_all_scored(grid_file, tmp_path):
+    """A tracker whose hop follows the prior reports on other times in each replicate; every replicate is
+    scored on the time axis of the one with the most estimates, none thrown away."""
+    grid = grid_file()
+    main(["data", grid, "--out", str(tmp_path / "data")])
+    cell = "step_thrusters_noise100ug_8s"
+    data = read_npz(tmp_path / "data" / f"{cell}.npz")
+    hops = [_stand_in_tracker.prior_hop(p) for p in data["prior_rad_s"]]
+    assert hops[0] != hops[1]                          # the premise: the two replicates' times differ
+    main(["run", grid, "--tracker", "prior_hop", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "t")])
+    tracks = read_npz(tmp_path / "t" / f"{cell}.npz")
+    table = pd.read_csv(tmp_path / "t" / f"{cell}.csv")
+    assert (table["message"] == "stand-in").all()        # no replicate set aside for its times
+    finest = int(np.argmin(hops))
+    np.testing.assert_allclose(tracks["t_s"], np.arange(hops[finest] - 1, 400, hops[finest]) * 0.02)
+    own = _stand_in_tracker.track("prior_hop", data["accel_m_s2"][1 - finest], 0.02, data["prior_rad_s"][1 - finest])
+    held = tracks["frequencies"][1 - finest]
+    k = np.searchsorted(own.t_s, tracks["t_s"] + 1e-12, side="right") - 1
+    np.testing.assert_array_equal(held[k >= 0], own.frequencies[k[k >= 0]])
+    assert np.isnan(held[k < 0]).all() and np.isfinite(held[k >= 0]).all()
 
 
 @pytest.mark.parametrize("change, words", [
