@@ -153,7 +153,7 @@ def make_cell(cfg: DatasetConfig) -> dict[str, np.ndarray]:
         rng = replicate_rng(cfg.seed, cfg.noise_ug, cfg.n_samples, r)
         if wrong:
             y = signal + cfg.bias_m_s2 + mismatch.noise(rng, cfg.n_samples, sigma, wrong)
-            noisy[r] = mismatch.sensor(y, signal, sigma, wrong)
+            noisy[r] = mismatch.sensor(y, signal, sigma, wrong, rng)   # (its grid's offset after the noise)
         else:
             noisy[r] = clean + cfg.bias_m_s2 + sigma * rng.standard_normal(cfg.n_samples)
     modal = (truth["freq_rad_s"], truth["damping"], truth["amplitude_m_s2"], truth["phase_rad"])

@@ -12,7 +12,8 @@ scored where it can fail. They are scenario axes (``experiments.simulate.scenari
 - ``duffing`` = δ: every mode a Duffing oscillator ẍ + 2ζωẋ + ω²x + εx³ = 0 with the backbone
   ω(A) = ω√(1 + 2δA²), A = 1 at release (frequency ≈ (1 + δ)ω there; δ < 0 softening);
 - ``saturation`` = s in (0, 1]: the sensor clips at s × the largest clean |sample|;
-- ``quantisation`` = q > 0: the sensor rounds to a step of q × σ (after the noise).
+- ``quantisation`` = q > 0: the sensor rounds to a step of q × σ (after the noise), on a grid offset by its
+  own fraction of a step in each record (:func:`sensor`).
 
 The truth that scores a cell is the generating model's small-amplitude eigenfrequencies (the plant's), for
 the Duffing axis too: the frequency a linear model of the structure would have. A method that averages a
@@ -129,12 +130,20 @@ def noise(rng: np.random.Generator, n: int, sigma: float, axes: dict) -> np.ndar
     return ar1_noise(rng, n, sigma, phi) if phi else sigma * rng.standard_normal(n)
 
 
-def sensor(y: np.ndarray, signal: np.ndarray, sigma: float, axes: dict) -> np.ndarray:
-    """What the sensor gives for y: clipped at ``saturation`` × max|signal|, rounded to ``quantisation`` × σ."""
+def sensor(y: np.ndarray, signal: np.ndarray, sigma: float, axes: dict,
+           rng: np.random.Generator | None = None) -> np.ndarray:
+    """What the sensor gives for y: clipped at ``saturation`` × max|signal|, rounded to ``quantisation`` × σ.
+
+    With ``rng`` the rounding grid is offset by u·step, u ~ U(−½, ½) drawn per record: a converter's zero
+    is not the structure's, and each record's is its own. Without it every replicate of a cell (the same
+    clean signal) is rounded on the same grid, so the rounding error's part that follows the signal is one
+    draw shared by all of them: a coverage over the replicates then scores one rounding pattern, not the
+    population of records it describes (measured: docs/uncertainty.md §5)."""
     if axes.get("saturation"):
         limit = float(axes["saturation"]) * float(np.max(np.abs(signal)))
         y = np.clip(y, -limit, limit)
     if axes.get("quantisation"):
         step = float(axes["quantisation"]) * sigma
-        y = step * np.round(y / step)
+        u = 0.0 if rng is None else float(rng.uniform(-0.5, 0.5))
+        y = step * (np.round(y / step - u) + u)
     return y

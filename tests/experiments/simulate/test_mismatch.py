@@ -56,7 +56,11 @@ def test_sensor_axes_clip_and_round_the_record():
     limit = 0.5 * np.abs(plain["accel_clean_m_s2"]).max()
     assert np.abs(clipped["accel_m_s2"]).max() == pytest.approx(limit)
     step = 3 * 1000 * UG
-    np.testing.assert_allclose(rounded["accel_m_s2"] / step, np.round(rounded["accel_m_s2"] / step), atol=1e-9)
+    # each record on one grid of that step, offset by its own fraction of a step (a converter's zero)
+    frac = np.mod(rounded["accel_m_s2"] / step, 1.0)
+    offset = frac[:, :1]
+    np.testing.assert_allclose(np.mod(frac - offset + 0.5, 1.0) - 0.5, 0, atol=1e-9)
+    assert np.unique(np.round(offset, 6)).size == offset.size > 1
     # the same noise draws as the plain cell (common random numbers), and the truth is the plant's
     np.testing.assert_allclose(np.abs(rounded["accel_m_s2"] - plain["accel_m_s2"]), 0, atol=step / 2 + 1e-12)
     np.testing.assert_array_equal(clipped["truth_freq_rad_s"], plain["truth_freq_rad_s"])
