@@ -124,17 +124,23 @@ def assign(freq, prior, *, band: float = 0.5, prior_rel_std=None, common_log_std
     t2 = tau**2
     if k == 0:
         return Labels(np.zeros(0, int), np.zeros(0, bool), np.zeros(0), 0.0)
-    order = np.argsort(w, kind="stable")
-    lw, lp = np.log(w[order]), np.log(p)
     s2 = common_log_std**2
-    slot, placed, probability = np.empty(k, int), np.empty(k, bool), np.empty(k)
     if k == m:
         # closed form: one injection, the sorted one, with all the probability; only ĉ and the band remain
-        # (ĉ = s² a/b of the Sherman–Morrison sums below)
-        r = lw - lp
-        log_scale = float(s2 * (r / t2).sum() / (1.0 + s2 * (1.0 / t2).sum()))
-        slot[order], placed[order], probability[order] = np.arange(m), np.abs(r) <= np.log1p(band), 1.0
-        return Labels(slot, placed, probability, log_scale)
+        # (ĉ = s² a/b of the Sherman–Morrison sums below), over the m ≤ 20 values as Python floats (the
+        # sums in the same order as numpy's below eight terms)
+        order = sorted(range(k), key=wl.__getitem__)                   # stable, as argsort(kind="stable")
+        t2l = t2.tolist()
+        r = [math.log(wl[i]) - math.log(pj) for i, pj in zip(order, pl, strict=True)]
+        a = sum(ri / ti for ri, ti in zip(r, t2l, strict=True))
+        b = 1.0 + s2 * sum(1.0 / ti for ti in t2l)
+        reach = math.log1p(band)
+        slot, placed = np.empty(k, int), np.empty(k, bool)
+        slot[order], placed[order] = range(m), [abs(ri) <= reach for ri in r]
+        return Labels(slot, placed, np.ones(k), float(s2 * a / b))
+    order = np.argsort(w, kind="stable")
+    lw, lp = np.log(w[order]), np.log(p)
+    slot, placed, probability = np.empty(k, int), np.empty(k, bool), np.empty(k)
     slots = _injections(m, k)                                           # (n_injections, k), rows sorted
     r = lw - lp[slots]
     t2 = t2[slots]

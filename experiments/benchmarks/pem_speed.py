@@ -4,7 +4,8 @@
     python -m experiments.benchmarks.pem_speed [--repeats 21] [--sizes 256 4096 65536 1000000]
 
 Every row is a median over ``--repeats`` rounds in this one process, the rows interleaved within each round
-(a shared machine: quote ratios). The
+(a shared machine: quote ratios), in two groups: pem and the fits on its own predictor, then the peers (their
+large SVDs leave OpenBLAS's workers spinning, which a row timed right after them paid for). The
 record is the Table 5 cell (truth plant, 1000 µg, Table 4 prior, replicate 0 of seed 1). Comparison columns:
 
 - ``scipy.optimize.least_squares`` (``method='lm'``) on the *same problem* — the closed-form output-error
@@ -133,13 +134,23 @@ def warm(repeats: int) -> None:
         rows["ERA (control.era directly, order 9, 64 x 64 blocks) — peer library"] = lambda: _era_fit(y)
     except ImportError:
         print("(python-control not installed: no ERA row)")
+    peer_rows = [name for name in rows if "— peer" in name]
     print(f"\n## Warm fit, 4 modes, N = 256, 1000 µg (median of {repeats}; OPENBLAS_NUM_THREADS="
           f"{os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}; load average {os.getloadavg()[0]:.1f} on "
           f"{os.cpu_count()} cores)")
     print("| fit | median ms | / pem | median CPU ms | max error (rad/s) |")
     print("|---|---|---|---|---|")
     errors = {name: np.max(np.abs(np.sort(fn()) - truth)) for name, fn in rows.items()}   # and warm-up
-    wall, cpu = interleaved_medians(rows, repeats, cpu=True)
+    # Two interleaved groups: pem and the fits on its own predictor, then the peers. The peers' large SVDs
+    # run on OpenBLAS's threads, whose idle workers then spin (until OpenBLAS's thread timeout) and took a
+    # core from whatever ran next: with the machine's default threads pem's row, right after them, took
+    # 2.73 ms wall and 6.72 ms CPU against 2.05 and 2.05 with one thread (docs/notes/pem-speed.md), a cost
+    # a loop of pem fits never pays.
+    own = {name: fn for name, fn in rows.items() if name not in peer_rows}
+    wall, cpu = interleaved_medians(own, repeats, cpu=True)
+    if peer_rows:
+        wall_peers, cpu_peers = interleaved_medians({name: rows[name] for name in peer_rows}, repeats, cpu=True)
+        wall, cpu = {**wall, **wall_peers}, {**cpu, **cpu_peers}
     ms = {name: 1e3 * s for name, s in wall.items()}
     cpu_ms = {name: 1e3 * s for name, s in cpu.items()}
     for name in rows:

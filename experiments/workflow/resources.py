@@ -12,7 +12,7 @@ from experiments.workflow.grids import Grids
 from experiments.workflow.targets import method_cells
 
 __all__ = ["CPU_S_PER_SAMPLE", "DATASET_CPU_S_PER_SAMPLE", "DEFAULT_COSTS", "identify_runtime", "dataset_runtime",
-           "batch_cpu_s", "job_cpu_s", "identify_priority", "job_priority", "write_defaults"]
+           "batch_cpu_s", "job_cpu_s", "downstream_cpu_s", "identify_priority", "job_priority", "write_defaults"]
 
 # CPU seconds per replicate × sample of the costliest method (pem) and of the dataset job.
 CPU_S_PER_SAMPLE = 0.0035
@@ -117,29 +117,53 @@ def _priority(cost: float | None) -> int:
     return 0 if cost is None else int(math.ceil(cost))
 
 
+# The serial steps after a grid's jobs, to its page (report.smk): the identify batches feed runlog_jobs (MLflow
+# runs of the jobs) and the aggregate, the yardstick and the paper experiments feed the aggregate; runlog waits
+# for both.
+AFTER = {"identify": (("runlog_jobs", "aggregate"), "runlog"), "runlog_jobs": ((), "runlog"),
+         "other": (("aggregate",), "runlog")}
+
+
+def downstream_cpu_s(root: Path, grid: str, kind: str) -> float:
+    """CPU s of the longest chain of steps that must follow a job of ``kind`` (``identify``, ``runlog_jobs``,
+    else ``other``: the yardstick, a paper experiment) before the grid's page is written, from those steps'
+    known costs (:func:`job_cpu_s`; 0 where unknown)."""
+    parallel, last = AFTER.get(kind, AFTER["other"])
+    return max([job_cpu_s(root, grid, j) or 0.0 for j in parallel], default=0.0) + (job_cpu_s(root, grid, last) or 0.0)
+
+
 def identify_priority(root: Path, grid: str, method: str) -> int:
-    """Snakemake priority of an identify batch: its known CPU seconds (:func:`batch_cpu_s`), 0 when unknown.
-    Among the jobs ready at once the scheduler starts the highest first, so the longest jobs start first and
-    the short ones fill the cores at the end (Graham's LPT order: the wall time the cost model predicts). A
-    fresh clone, with no benchmark and no cost model, takes the committed defaults (:data:`DEFAULT_COSTS`)."""
-    return _priority(batch_cpu_s(root, grid, method))
+    """Snakemake priority of an identify batch: its known CPU seconds (:func:`batch_cpu_s`) plus the longest
+    chain of steps that must follow it (:func:`downstream_cpu_s`), 0 when its own cost is unknown. Among the
+    jobs ready at once the scheduler starts the highest first: the jobs with the longest path to the end
+    first (list scheduling by "bottom level", Graham's LPT order where no step follows), so that the MLflow
+    runs of the jobs, which wait for the last identify batch, run beside the yardstick and the paper
+    experiments rather than after them. A fresh clone, with no benchmark and no cost model, takes the
+    committed defaults (:data:`DEFAULT_COSTS`)."""
+    cost = batch_cpu_s(root, grid, method)
+    return _priority(None if cost is None else cost + downstream_cpu_s(root, grid, "identify"))
 
 
 def job_priority(root: Path, grid: str, job: str) -> int:
-    """Snakemake priority of the yardstick or a paper experiment: its known CPU seconds (:func:`job_cpu_s`),
-    on the identify batches' scale, so that all of them start longest first."""
-    return _priority(job_cpu_s(root, grid, job))
+    """Snakemake priority of the yardstick, a paper experiment or ``runlog_jobs``: its known CPU seconds
+    (:func:`job_cpu_s`) plus the steps that must follow it (:func:`downstream_cpu_s`), on the identify
+    batches' scale, so that all of them start longest path first."""
+    cost = job_cpu_s(root, grid, job)
+    kind = "runlog_jobs" if job == "runlog_jobs" else "other"
+    return _priority(None if cost is None else cost + downstream_cpu_s(root, grid, kind))
 
 
 def measured_costs(root: Path, grid: str) -> dict[str, float]:
     """CPU s per job of a grid, as :data:`DEFAULT_COSTS` keeps them: the identify batches from the cost model
     (:func:`_model_cpu_s`; Snakemake samples a job's CPU time every few seconds, and a batch of a few seconds
     is charged one sample), the yardstick and the paper experiments from the last run's Snakemake benchmark
-    files (``results/<grid>/benchmarks``), and a tracking grid's tracker jobs (``track/<tracker>``) too."""
+    files (``results/<grid>/benchmarks``), the serial steps after them (``runlog_jobs``, ``aggregate``, ``runlog``:
+    :func:`downstream_cpu_s`), and a tracking grid's tracker jobs (``track/<tracker>``) too."""
     costs = {f"identify/{m}": t for m, t in _model_cpu_s(root, grid).items()}
     folder = Path(root, "results", grid, "benchmarks")
+    serial = [folder / f"{job}.tsv" for job in ("runlog_jobs", "aggregate", "runlog")]
     for path in [folder / "yardstick.tsv", *sorted(folder.glob("paper/*.tsv")),
-                 *sorted(folder.glob("track/*.tsv"))]:
+                 *sorted(folder.glob("track/*.tsv")), *serial]:
         cost = _benchmark_cpu_s(path)
         if cost is not None:
             costs[path.relative_to(folder).with_suffix("").as_posix()] = cost

@@ -14,6 +14,9 @@ take the prior entries in sorted order; missing ones keep the prior value.
 
 from __future__ import annotations
 
+import cmath
+import math
+
 import numpy as np
 import scipy.linalg.lapack
 
@@ -55,9 +58,10 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
         return np.zeros(0, complex), np.zeros(0, complex)
     cols = min(max(n // 3, order), max(min(max_columns, n - order - 1), order))
     rows = n - cols
-    # the Hankel matrix as a view of y's buffer (sliding_window_view's, without its argument checks and
-    # as_strided's array-interface round trip)
-    Y = np.ndarray((rows, cols + 1), float, y, 0, (8, 8))
+    # the Hankel matrix from a view of y's buffer (sliding_window_view's, without its argument checks and
+    # as_strided's array-interface round trip), copied: BLAS's product takes a contiguous matrix only, and
+    # numpy's own loop on the overlapping view took twice the copy and product (24 against 16 µs at L = 32)
+    Y = np.ndarray((rows, cols + 1), float, y, 0, (8, 8)).copy()
     lam, vecs = symmetric_eigh(Y.T @ Y)                # ascending
     if not lam[-1] > 0:
         return np.zeros(0, complex), np.zeros(0, complex)
@@ -65,11 +69,20 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
     V = vecs[:, ::-1][:, :order]                       # (L+1) × M, strongest first
     V1 = V[:-1]
     z = None
-    if V1.shape[0] >= 2 * V1.shape[1]:                 # V₁⁺V₂ = (V₁ᵀV₁)⁻¹V₁ᵀV₂: V has orthonormal columns, so
-        try:                                           # V₁ᵀV₁ = I − vvᵀ (v the last row) is well conditioned
-            z = _eigvals(_solve(V1.T @ V1, V1.T @ V[1:]))
-        except np.linalg.LinAlgError:                  # |v| = 1: a pole at infinity
-            z = None
+    if V1.shape[0] >= 2 * V1.shape[1]:
+        # V₁⁺V₂ = (V₁ᵀV₁)⁻¹V₁ᵀV₂: V has orthonormal columns, so V₁ᵀV₁ = I − vvᵀ (v the last row of V), whose
+        # inverse is I + vvᵀ/(1 − vᵀv) (Sherman–Morrison): the solve in two products (a third of LAPACK's
+        # call here); |v| = 1 is a pole at infinity
+        v = V[-1]
+        gap = 1.0 - float(v @ v)
+        if gap > 0:
+            B = V1.T @ V[1:]
+            pencil = B + np.multiply.outer(v / gap, v @ B)
+            if np.isfinite(pencil).all():
+                try:
+                    z = _eigvals(pencil)
+                except np.linalg.LinAlgError:          # no convergence: the pseudo-inverse's route below
+                    z = None
     if z is None:                                      # few rows (a short record): the pseudo-inverse
         z = np.linalg.eigvals(np.linalg.lstsq(V1, V[1:], rcond=None)[0])
     head = min(n, max(amplitude_samples, 2 * order))
@@ -86,17 +99,6 @@ def matrix_pencil(y: np.ndarray, order: int, max_columns: int = 120,
     if not keep.all():
         z, vander = z[keep], vander[:, keep]
     return z, _amplitudes(vander, y[:head].astype(complex))
-
-
-def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``numpy.linalg.solve(a, b)`` of real a, b through numpy's LAPACK kernel without its wrapper's checks
-    (the same values, without its checks and error-state context); the wrapper itself where the kernel
-    gave no finite answer (a singular a: it raises ``LinAlgError``)."""
-    if _umath_linalg is not None:
-        x = _umath_linalg.solve(a, b, signature="dd->d")
-        if np.isfinite(x).all():
-            return x
-    return np.linalg.solve(a, b)
 
 
 def _eigvals(a: np.ndarray) -> np.ndarray:
@@ -132,22 +134,29 @@ def _amplitudes(vander: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 
 def modes_from_poles(z: np.ndarray, amp: np.ndarray, n_samples: int, dt: float):
-    """Oscillatory modes (upper half plane, below Nyquist) as (ω = |s|, ζ = −Re s/|s|, energy), strongest first."""
-    abs_z = np.abs(z)
-    keep = (z.imag > 1e-12) & (abs_z > 1e-6)
-    z, amp, abs_z = z[keep], amp[keep], abs_z[keep]
-    s = np.log(z) / dt
-    omega = np.abs(s)
-    zeta = -s.real / omega
-    # energy over the record of the real mode 2 Re(c zᵏ): ≈ 2|c|² Σ|z|^{2k}
-    r2 = abs_z ** 2
-    r2_1 = r2 - 1
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        geo = np.where(np.abs(r2_1) < 1e-12, n_samples, (r2 ** n_samples - 1) / r2_1)
-    energy = 2 * np.abs(amp) ** 2 * geo
-    energy = np.where(np.isfinite(energy), energy, 0.0)
-    order = (-energy).argsort()
-    return omega[order], zeta[order], energy[order]
+    """Oscillatory modes (upper half plane, below Nyquist) as (ω = |s|, ζ = −Re s/|s|, energy), strongest first.
+
+    The energy over the record of the real mode 2 Re(c zᵏ) is ≈ 2|c|² Σ|z|^{2k} = 2|c|²(|z|^{2N} − 1)/(|z|² − 1)
+    (N where |z|² = 1 to 1e-12; 0 where it overflows). Over the ≤ 2m + 7 poles as Python numbers: the same
+    operations as numpy's on arrays, in a third of the time of a dozen calls on ~8 values."""
+    modes = []
+    for zj, cj in zip(z.tolist(), amp.tolist(), strict=True):
+        r = abs(zj)
+        if not (zj.imag > 1e-12 and r > 1e-6):
+            continue
+        s = cmath.log(zj) / dt
+        omega = abs(s)
+        r2 = r * r
+        r2_1 = r2 - 1.0
+        try:
+            geo = n_samples if abs(r2_1) < 1e-12 else (r2 ** n_samples - 1.0) / r2_1
+            energy = 2.0 * abs(cj) ** 2 * geo
+        except OverflowError:
+            energy = math.inf
+        modes.append((omega, -s.real / omega, energy if math.isfinite(energy) else 0.0))
+    out = np.array(modes, dtype=float).reshape(-1, 3)
+    out = out[(-out[:, 2]).argsort()]                 # strongest first (numpy's order of ties, as before)
+    return out[:, 0], out[:, 1], out[:, 2]
 
 
 def match_to_prior(omega: np.ndarray, zeta: np.ndarray, prior: np.ndarray, default_zeta: float,
@@ -157,28 +166,26 @@ def match_to_prior(omega: np.ndarray, zeta: np.ndarray, prior: np.ndarray, defau
     The m strongest candidates within ``max_relative_distance`` of some prior entry are sorted by frequency
     and given to the prior entries in sorted order. With fewer candidates than prior entries, each candidate
     goes to the nearest free prior entry (log distance) in order of strength; the rest keep the prior.
+    (Over Python numbers: a handful of candidates and m ≤ 20 entries.)
     """
-    prior = np.asarray(prior, dtype=float)
-    m = prior.size
-    near = np.abs(np.log(omega[:, None] / prior[None, :])).min(axis=1) <= np.log1p(max_relative_distance) \
-        if omega.size else np.zeros(0, bool)
-    omega, zeta = omega[near][:m], zeta[near][:m]
-    freq = prior.copy()
-    damp = np.full(m, float(default_zeta))
-    order = prior.argsort()
-    if omega.size == m:
-        by_freq = omega.argsort()
-        freq[order] = omega[by_freq]
-        damp[order] = zeta[by_freq]
-        return freq, damp
-    taken: set[int] = set()
-    for w, z in zip(omega, zeta, strict=True):
-        dist = np.abs(np.log(w / prior))
-        dist[list(taken)] = np.inf
-        i = int(np.argmin(dist))
-        taken.add(i)
-        freq[i], damp[i] = w, z
-    return freq, damp
+    p = np.asarray(prior, dtype=float).tolist()
+    m = len(p)
+    reach = 1.0 + max_relative_distance
+    bands = [(pj / reach, pj * reach) for pj in p]          # |log(ω/pⱼ)| ≤ log(1 + d) for some j
+    cand = [(w, z) for w, z in zip(np.asarray(omega, float).tolist(), np.asarray(zeta, float).tolist(), strict=True)
+            if any(a <= w <= b for a, b in bands)][:m]
+    freq, damp = list(p), [float(default_zeta)] * m
+    if len(cand) == m:
+        cand.sort(key=lambda c: c[0])
+        for i, (w, z) in zip(sorted(range(m), key=p.__getitem__), cand, strict=True):
+            freq[i], damp[i] = w, z
+    else:
+        taken: set[int] = set()
+        for w, z in cand:
+            i = min((j for j in range(m) if j not in taken), key=lambda j: abs(math.log(w / p[j])))
+            taken.add(i)
+            freq[i], damp[i] = w, z
+    return np.array(freq), np.array(damp)
 
 
 PENCIL_WINDOW = 4096   # samples the start looks at: its cost is then bounded whatever N is
@@ -197,6 +204,7 @@ def pencil_start(y: np.ndarray, dt: float, prior: np.ndarray, *, extra_order: in
     y = np.asarray(y, dtype=float)[:window]
     z, amp = matrix_pencil(y, 2 * prior.size + 1 + extra_order, max_columns=max_columns)
     omega, zeta, _ = modes_from_poles(z, amp, y.size, dt)
-    ok = (omega < np.pi / dt) & (zeta > -0.05) & (zeta < max_zeta)
-    freq, damp = match_to_prior(omega[ok], zeta[ok], prior, default_zeta)
+    nyquist = np.pi / dt
+    ok = [(w, zj) for w, zj in zip(omega.tolist(), zeta.tolist(), strict=True) if w < nyquist and -0.05 < zj < max_zeta]
+    freq, damp = match_to_prior(np.array([w for w, _ in ok]), np.array([zj for _, zj in ok]), prior, default_zeta)
     return freq, np.minimum(np.maximum(damp, 0.0), max_zeta)     # np.clip's values

@@ -262,11 +262,11 @@ def _blocked_by_bounds(theta, free_idx, d, bounds) -> np.ndarray:
 def search_bounds(prior: np.ndarray, dt: float, opts):
     """(lower, upper) of (ω, ζ): ω within prior·(1 + band)^±1 and below Nyquist, ζ within damping_bounds."""
     band = np.inf if opts.frequency_band is None else opts.frequency_band
-    w_lo = prior / (1.0 + band)
-    w_hi = np.minimum(prior * (1.0 + band), 0.98 * np.pi / dt)
-    m = prior.size
-    return (np.concatenate([w_lo, np.full(m, float(opts.damping_bounds[0]))]),
-            np.concatenate([w_hi, np.full(m, float(opts.damping_bounds[1]))]))
+    top = 0.98 * np.pi / dt
+    p = np.asarray(prior, dtype=float).tolist()           # (m Python floats: numpy's values, two calls)
+    z_lo, z_hi = float(opts.damping_bounds[0]), float(opts.damping_bounds[1])
+    return (np.array([w / (1.0 + band) for w in p] + [z_lo] * len(p)),
+            np.array([min(w * (1.0 + band), top) for w in p] + [z_hi] * len(p)))
 
 
 class LinearizedSystem:

@@ -247,6 +247,23 @@ def test_a_fresh_clone_orders_its_jobs_by_the_committed_costs(tmp_path):
     assert sum(r.startswith("paper,yardstick,") for r in rows) == 1
 
 
+def test_a_job_s_priority_counts_the_steps_that_must_follow_it(tmp_path):
+    # bottom-level list scheduling: an identify batch is followed by runlog_jobs (beside the aggregate) and runlog,
+    # the yardstick and the paper experiments by the aggregate and runlog; unknown steps count 0
+    from experiments.workflow.resources import DEFAULT_COSTS, downstream_cpu_s, identify_priority, job_priority
+
+    (tmp_path / DEFAULT_COSTS).parent.mkdir(parents=True)
+    (tmp_path / DEFAULT_COSTS).write_text("grid,job,cpu_s\npaper,identify/era,10\npaper,paper/paper_fig4,25\n"
+                                          "paper,runlog_jobs,40\npaper,aggregate,20\npaper,runlog,5\n")
+    assert downstream_cpu_s(tmp_path, "paper", "identify") == 45 and downstream_cpu_s(tmp_path, "full", "identify") == 0
+    assert identify_priority(tmp_path, "paper", "era") == 55                 # 10 + max(40, 20) + 5
+    assert job_priority(tmp_path, "paper", "paper/paper_fig4") == 50         # 25 + 20 + 5
+    assert job_priority(tmp_path, "paper", "runlog_jobs") == 45              # 40 + 5
+    assert identify_priority(tmp_path, "paper", "fft") == 0                  # its own cost unknown
+    # the shorter batch first: the job runs that wait for it are the longer chain
+    assert identify_priority(tmp_path, "paper", "era") > job_priority(tmp_path, "paper", "paper/paper_fig4")
+
+
 def test_the_committed_costs_put_the_longest_jobs_first():
     # the shipped table (what a fresh clone orders its jobs by): the paper grid's yardstick and BOPDMD batch
     # ahead of pem's, and pem's ahead of the other batches; every job of the shipped paper and full grids costed

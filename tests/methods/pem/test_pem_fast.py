@@ -163,3 +163,38 @@ def test_symmetric_eigh_is_numpys_eigh_to_the_bit(p):
         ref_lam, ref_v = np.linalg.eigh(h)
         assert lam.shape == (p,) and v.shape == (p, p)
         assert np.array_equal(lam, ref_lam) and np.array_equal(v, ref_v)
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 64, 255, 256, 1000, 1024, 1025, 5000])
+def test_basis_powers_are_the_exponentials_to_rounding(n):
+    """zᵏ = e^{k·sΔt} by blocks, e^{jB·sΔt}·e^{r·sΔt} (k = jB + r), equals the direct exponential to a few
+    rounding errors of the phase k·|sΔt| (both round it; the blocks round two exponentials and a product)."""
+    logp = np.array([-0.0002 + 0.064j, -0.003 + 1.13j, -0.05 + 2.9j])
+    k = np.arange(n)[:, None]
+    direct = np.exp(k * logp)
+    got = pp._powers(logp, n)
+    assert got.shape == (n, 3)
+    tol = 16 * np.finfo(float).eps * (1.0 + k * np.abs(logp)) * np.abs(direct)
+    assert np.all(np.abs(got - direct) <= tol)
+
+
+def test_identify_runs_on_one_blas_thread_and_restores_the_callers(monkeypatch):
+    """The fit's small matrices run on one BLAS thread; the caller's thread count comes back unchanged."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    def blas_threads():
+        return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+    y = damped_sinusoids(TRUE_W, np.full(4, 0.005), np.ones(4), np.zeros(4), 256)
+    seen, search = [], _pem_fast.fit_one_start
+
+    def spy(*args, **kwargs):
+        seen.append(blas_threads())
+        return search(*args, **kwargs)
+
+    monkeypatch.setattr(_pem_fast, "fit_one_start", spy)
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = blas_threads()
+        pem.identify(y, DT, TABLE4_PRIOR)
+        assert blas_threads() == before == [2] * len(before)
+    assert seen and all(threads == [1] * len(threads) for threads in seen)

@@ -31,6 +31,8 @@ BAD = [
     ("rpem_ambient", {"estimate_damping": "yes"}, "estimate_damping = 'yes'"),
     ("rpem_ambient", {"pulse_gate": -1.0}, "pulse_gate = -1.0"),
     ("rpem_ambient", {"colour": "red"}, "unknown option 'colour'"),
+    ("rpem_ambient", {"frequency_model": "spline"}, "frequency_model = 'spline'"),
+    ("rpem_ambient", {"trend_horizon_s": 0.0}, "trend_horizon_s = 0.0"),
 ]
 
 
@@ -86,14 +88,16 @@ def stationary():
     return driven_modes(w, force=1.0, noise_ug=300.0, seed=11), w[0]
 
 
-def test_late_estimate_agrees_with_batch_innovation_form_pem(stationary):
+@pytest.mark.parametrize("name, options", [("akf_ambient", {}), ("rpem_ambient", {"frequency_model": "trend"})],
+                         ids=["akf_ambient", "rpem_ambient-trend"])
+def test_late_estimate_agrees_with_batch_innovation_form_pem(stationary, name, options):
     """On a stationary white-force record the tracker's mean estimate over its last 15 s and the batch
     innovation-form pem (``predictor="kalman"``, its own noise model) of the same 15 s agree within the scatter
     of the two: 4σ of the difference, σ² = the tracker's reported variance + pem's reported one. Compared on the
     modes pem reports determined (with the paper's fixed gain it determines mode 1 here and loses modes 2–4,
     which is pem's limit on a forced record, not the tracker's), at least one."""
     y, truth = stationary
-    tr = methods.track("akf_ambient", y, DT, truth * np.array([1.03, 0.97, 1.02, 1.04]))   # a prior 2–4 % off
+    tr = methods.track(name, y, DT, truth * np.array([1.03, 0.97, 1.02, 1.04]), **options)   # a prior 2–4 % off
     last = tr.t_s >= tr.t_s[-1] - 15.0
     mine = tr.frequencies[last].mean(axis=0)
     my_std = np.median(tr.std[last], axis=0)
@@ -144,3 +148,79 @@ def test_reported_std_covers_its_error_60_to_75_percent_on_stationary_records():
         inside.append(np.abs(tr.frequencies[late] - w[0]) <= tr.std[late])
     share = float(np.mean(np.concatenate(inside)))
     assert 0.60 <= share <= 0.75, share
+
+
+def _rpem_step_numpy(theta, P, x, W, lam, yk, m, est_z, dt, nu2, gam, gate, zeta0, kscale, q_fixed, lo, hi):
+    """One sample of ``rpem_ambient`` written from its docstring's equations in numpy: Φ and ∂Φ/∂ω closed
+    form (``modal_transition``), ∂Φ/∂ζ by complex step, ∂C/∂θ by hand."""
+    nz = m if est_z else 0
+    p = theta.size
+    w = theta[:m]
+    z = theta[m:2 * m] if est_z else np.full(m, zeta0)
+    K = theta[m + nz:] * kscale
+    phi, dphi = _ambient.modal_transition(w, z, dt)
+    dphz = _ambient.modal_transition(w, z + 1e-20j, dt)[0].imag / 1e-20
+    C = np.column_stack([-w * w, -2 * z * w]).ravel()
+    xi = x.reshape(m, 2)
+    e = yk - C @ x
+    dC = np.zeros(p)
+    dC[:m] = -2 * w * xi[:, 0] - 2 * z * xi[:, 1]
+    if est_z:
+        dC[m:2 * m] = -2 * w * xi[:, 1]
+    psi = C @ W + dC
+    Pm = P + np.diag(np.concatenate([nu2 * dt * w * w, q_fixed[m:]]))
+    S = psi @ Pm @ psi + lam
+    pulse = S > 0 and e * e > gate * S
+    if S > 0 and not pulse:
+        L = Pm @ psi / S
+        theta_new = theta + L * e
+        theta_new[:m] = np.clip(theta_new[:m], lo, hi)
+        theta_new[m:m + nz] = np.clip(theta_new[m:m + nz], 1e-4, 0.2)
+        P_new = Pm - np.outer(L, Pm @ psi)
+        P_new = 0.5 * (P_new + P_new.T)
+        lam_new = lam + gam * (e * e - lam)
+    else:
+        theta_new, P_new, lam_new = theta, Pm, lam
+    Fb = scipy.linalg.block_diag(*phi)
+    M = np.zeros((2 * m, p))
+    for i in range(m):
+        M[2 * i:2 * i + 2, i] = dphi[i] @ xi[i]
+        if est_z:
+            M[2 * i:2 * i + 2, m + i] = dphz[i] @ xi[i]
+    M[np.arange(2 * m), m + nz + np.arange(2 * m)] = kscale * e
+    W_new = (Fb - np.outer(K, C)) @ W + M - np.outer(K, dC)
+    x_new = Fb @ x + K * e
+    return theta_new, P_new, x_new, W_new, lam_new, pulse
+
+
+@pytest.mark.parametrize("est_z", [True, False])
+@pytest.mark.parametrize("yk", [0.3, 1e4], ids=["update", "pulse"])
+def test_rpem_casadi_step_is_the_numpy_recursion(est_z, yk):
+    """``rpem_ambient``'s per-sample step (a CasADi function, algorithmic derivatives) against the same
+    equations in numpy at a random state, on an update and on a pulse (e²/S over the gate)."""
+    from methods.tracking import _rpem
+
+    rng = np.random.default_rng(7 + est_z)
+    m = 3
+    nz = m if est_z else 0
+    p = 3 * m + nz
+    w = np.array([3.1, 20.0, 47.0])
+    theta = np.concatenate([w, np.full(nz, 0.01), 0.1 * rng.standard_normal(2 * m)])
+    A = rng.standard_normal((p, p))
+    P = 1e-3 * (A @ A.T + np.eye(p))
+    x, W = 0.01 * rng.standard_normal(2 * m), 0.01 * rng.standard_normal((2 * m, p))
+    lam = 0.04
+    kscale = np.ravel(np.column_stack([1 / w**2, 1 / w]))
+    q_fixed = np.concatenate([np.zeros(m), 1e-6 * rng.uniform(size=p - m)])
+    consts = dict(dt=DT, nu2=1e-5, gam=0.002, gate=25.0, zeta0=0.005, kscale=kscale, q_fixed=q_fixed,
+                  lo=w / 1.3, hi=w * 1.3)
+    ref = _rpem_step_numpy(theta, P, x, W, lam, yk, m, est_z, **consts)
+    const = np.concatenate([[DT, 1e-5, 0.002, 25.0, 0.005], kscale, q_fixed, w / 1.3, w * 1.3])
+    state = np.concatenate([theta, P.ravel(), x, W.ravel(order="F"), [lam]])
+    new, out = (np.asarray(v).ravel() for v in _rpem._step_function(m, est_z)(state, yk, const))
+    got = (new[:p], new[p:p + p * p].reshape(p, p), new[p + p * p:p + p * p + 2 * m],
+           new[p + p * p + 2 * m:-1].reshape((2 * m, p), order="F"), new[-1])
+    for a, b in zip(got, ref[:5], strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+    assert bool(out[-1]) == ref[5] == (yk > 1)
+    np.testing.assert_allclose(out[:m], ref[0][:m], rtol=1e-12)
