@@ -355,17 +355,14 @@ def chirp_segment_frequencies(omega0, kappa, zeta, n_segments: int, n_per_segmen
     t̄ the w-weighted mean time (a parabola peaking mid-segment for w = 1), here on the segment's samples."""
     omega0, kappa, zeta = (np.atleast_1d(np.asarray(v, float)) for v in (omega0, kappa, zeta))
     sigma = zeta * omega0
+    # the kernel mean of e^{−2σt} over a segment is e^{−2σt₀} times that over [0, n·dt) (K is shift-
+    # invariant): :func:`methods.pem._chirp.record_weight`; an envelope that grows without bound (ζ < 0 at
+    # the fit's bound) gives a non-finite prediction, which chirp_scatter leaves out
+    weight = _chirp.record_weight(sigma, int(n_per_segment), dt)
     out = np.full((int(n_segments), omega0.size), np.nan)
-    for k in range(int(n_segments)):
-        t = dt * (k * n_per_segment + np.arange(n_per_segment))
-        # the weights relative to the segment's start (e^{−2σt₀} cancels in the kernel mean); an envelope
-        # that grows without bound (ζ < 0 at the fit's bound) gives a non-finite prediction, which
-        # chirp_scatter leaves out
-        with np.errstate(over="ignore", invalid="ignore"):
-            w = np.exp(-2.0 * np.outer(sigma, t - t[0]))                   # (m, n)
-            tbar = (w @ t) / w.sum(axis=1)
-            kern = np.cumsum((w * (t[None, :] - tbar[:, None]))[:, ::-1], axis=1)[:, ::-1]
-            out[k] = omega0 + kappa * np.exp(-2.0 * sigma * t[0]) * np.sum(kern * w, axis=1) / kern.sum(axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(int(n_segments)):
+            out[k] = omega0 + kappa * np.exp(-2.0 * sigma * dt * k * n_per_segment) * weight
     return out
 
 
