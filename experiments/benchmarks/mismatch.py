@@ -109,8 +109,10 @@ def drift_claims(est, truth: np.ndarray, amplitude: np.ndarray, delta: float) ->
     if drift is None:
         return {}
     ref = np.asarray(drift["reference_amplitude_m_s2"], float)
-    at_ref = mismatch.backbone_rad_s(truth, ref / amplitude, delta)
     drifting = np.asarray(drift["drifting"], bool) & est.converged_per_mode
+    # the backbone only where a claim is scored: a mode that does not drift may carry a reference amplitude
+    # far outside the backbone's range (1 + 2δA² < 0), whose square root would only warn and be masked
+    at_ref = mismatch.backbone_rad_s(truth, np.where(drifting, ref / amplitude, 0.0), delta)
     return {"small_amplitude": (np.where(drifting, drift["small_amplitude_rad_s"] - truth, np.nan),
                                 drift["small_amplitude_std"]),
             "at_reference_amplitude": (np.where(drifting, np.asarray(drift["whole_record"]) - at_ref, np.nan),

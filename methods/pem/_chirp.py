@@ -145,13 +145,22 @@ def fit(y, dt: float, w: np.ndarray, z: np.ndarray) -> dict:
     # sandwich's of the first column after the change of unknowns (ω, ζ, κ) → (ω̄, ζ, κ), whose Jacobian is
     # (J_ω, J_ζ, J_κ − k̄J_ω) (the sandwich is covariant under a linear change of unknowns)
     kbar = record_weight(res.x[:m] * res.x[m:2 * m], y.size, dt)
+    # ζ may go negative within its bounds: a mode whose fitted envelope grows over the record has k̄ > 1, and
+    # one that grows by more than e^14 (k̄ ≥ 1e6, or no finite k̄ at all) is no free decay — no record
+    # average for it, and its column must not poison the sandwich of the others (an overflowing Jacobian
+    # stops the Gram's eigendecomposition: a stationary forced record fitted with the Kalman predictor)
+    finite = np.isfinite(kbar) & (np.abs(kbar) < MAX_RECORD_WEIGHT)
+    kbar = np.where(finite, kbar, 0.0)
     std_bar = _robust_std(np.hstack([res.jac[:, :2 * m], res.jac[:, 2 * m:] - kbar * res.jac[:, :m]]), e, p)
     free = (res.active_mask[:m] == 0) & (res.active_mask[2 * m:] == 0)
     return {"frequencies": np.where(free, res.x[:m], np.nan), "std": np.where(free, std[:m], np.nan),
             "kappa": np.where(free, res.x[2 * m:], np.nan), "kappa_std": np.where(free, std[2 * m:], np.nan),
             "damping": np.where(free, res.x[m:2 * m], np.nan), "success": bool(res.success),
-            "record_average": np.where(free, res.x[:m] + kbar * res.x[2 * m:], np.nan),
-            "record_average_std": np.where(free, std_bar[:m], np.nan)}
+            "record_average": np.where(free & finite, res.x[:m] + kbar * res.x[2 * m:], np.nan),
+            "record_average_std": np.where(free & finite, std_bar[:m], np.nan)}
+
+
+MAX_RECORD_WEIGHT = 1e6     # k̄ beyond which a fitted envelope grew too much to be a free decay (:func:`fit`)
 
 
 def _robust_std(jac, e, p):

@@ -144,3 +144,20 @@ def test_a_kept_modes_record_average_is_its_own_not_the_other_modes_misfit():
     assert abs(average_d - alone) <= 0.02 * abs(kappa[0])
     assert abs(both - alone) > 5 * abs(average_d - alone)
     assert 0 < fit["record_average_std"][0] < np.inf
+
+
+def test_a_mode_whose_fitted_envelope_grows_has_no_record_average():
+    """The backbone fit's ζ may go negative within its bounds. A mode whose envelope grows e^{2.7} over the
+    record has k̄ far beyond 1 (e^{-2σt} weighted): no record average for it (NaN, so the drift path keeps
+    pem's own answer), while the decaying mode beside it keeps a finite one."""
+    from methods.pem import _chirp  # the backbone fit itself, private to pem
+
+    dt = 0.02
+    t = np.arange(750) * dt
+    rng = np.random.default_rng(1)
+    y = (np.exp(3.0 * (t - t[-1])) * np.sin(56.0 * t) + np.exp(-0.05 * t) * np.sin(20.0 * t)
+         + 0.01 * rng.standard_normal(t.size))
+    fit = _chirp.fit(y, dt, np.array([20.0, 56.0]), np.array([0.0025, -3.0 / 56.0]))
+    assert fit["damping"][1] < 0                                      # the premise: a growing envelope
+    assert np.isnan(fit["record_average"][1]) and np.isnan(fit["record_average_std"][1])
+    assert abs(fit["record_average"][0] - 20.0) < 0.01 and 0 < fit["record_average_std"][0] < 0.01
