@@ -359,11 +359,9 @@ def chirp_segment_frequencies(omega0, kappa, zeta, n_segments: int, n_per_segmen
     # invariant): :func:`methods.pem._chirp.record_weight`; an envelope that grows without bound (ζ < 0 at
     # the fit's bound) gives a non-finite prediction, which chirp_scatter leaves out
     weight = _chirp.record_weight(sigma, int(n_per_segment), dt)
-    out = np.full((int(n_segments), omega0.size), np.nan)
+    k = np.arange(int(n_segments), dtype=float)[:, None]            # segment k starts at t₀ = k·n·Δt
     with np.errstate(over="ignore", invalid="ignore"):
-        for k in range(int(n_segments)):
-            out[k] = omega0 + kappa * np.exp(-2.0 * sigma * dt * k * n_per_segment) * weight
-    return out
+        return omega0 + kappa * np.exp(-2.0 * sigma * dt * k * n_per_segment) * weight
 
 
 def chirp_scatter(fit: dict, report: DriftReport, n_per_segment: int, dt: float) -> tuple[np.ndarray, ...]:

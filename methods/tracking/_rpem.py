@@ -244,7 +244,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
     n_restarts = n_pulses = 0
-    resolution = 2 * math.pi / (W_len * dt) if opts.frequency_model == "trend" else 0.0
+    resolution = 2 * math.pi / (W_len * dt) if trend else 0.0
     gam = dt / (W_len * dt)                     # innovation variance memory: one window
     if n < W_len:
         return _Run(freq, var, started, 0, 0, seen, damping=damp)
