@@ -129,7 +129,8 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     with_offset = bool(free[4 * m])
     n_unknowns = int(sum(free))
     lo, hi = bounds
-    x = np.clip(np.concatenate([w0, z0]), lo, hi)               # (ω, ζ); ζ fixed when not estimated
+    x = np.concatenate([w0, z0])                                 # (ω, ζ); ζ fixed when not estimated
+    np.minimum(np.maximum(x, lo, out=x), hi, out=x)                 # np.clip's values, two ufunc calls
     model = _Model(y, dt, m, with_offset, 0.0)
     n = model.y.size
     sol = model.fit(x[:m], x[m:])
@@ -180,7 +181,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
 
         def try_point(d, mu, base=x):
             cand = base.copy()
-            cand[:nn] += mu * d
+            cand[:nn] += d if mu == 1.0 else mu * d          # (1.0·d is d: one product fewer)
             np.minimum(np.maximum(cand, lo, out=cand), hi, out=cand)     # np.clip's values, two ufunc calls
             if not search.valid_modes(cand[:m], cand[m:], dt, n):
                 return None

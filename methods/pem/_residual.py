@@ -188,7 +188,7 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: f
     # one FFT of the centred residual, zero-padded to 2N, serves both tests: its |X|² inverse-transformed is
     # the autocovariance (as in :func:`autocorrelation`), and its even bins are the N-point DFT of the
     # periodogram (bin 2j of the 2N-point transform is frequency 2πj/N)
-    x = e - e.mean()
+    x = e - e.sum() / n                               # e.mean()'s value (the same sum and division)
     spec = np.fft.rfft(x, 2 * n)
     acov = np.fft.irfft(spec * spec.conj(), 2 * n)[:h + 1]
     power = np.abs(spec[2:2 * ((n - 1) // 2) + 1:2]) ** 2 / n        # bins 1…⌊(N−1)/2⌋: no DC, no Nyquist
