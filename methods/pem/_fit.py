@@ -311,6 +311,8 @@ def _detected(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, ene
 def _detect(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, energy: bool) -> np.ndarray:
     """:func:`_detected`, computed."""
     found = w_std <= detection_std(n, dt, alpha)
+    if found.all():                                    # every mode detected by its std: nothing to add
+        return found
     if not energy or fit.get("e") is None or "theta" not in fit or not np.isfinite(fit["theta"]).all():
         return found
     # only for a mode the record determines (std ≤ 1 % of ω): on a short record the Wald statistic at a
@@ -647,8 +649,16 @@ def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray, band: floa
     reported frequencies increasing and within the band of their entry.
     """
     m = prior.size
-    good = np.flatnonzero(w_std <= search.IDENTIFIED_REL_STD * w)
-    good = good[w[good].argsort()]
+    # the determined modes in frequency order over m Python floats (numpy's comparisons; numpy's argsort
+    # where two frequencies are equal, Python's sort otherwise: the same order)
+    wl, sl = w.tolist(), w_std.tolist()
+    good_l = [i for i in range(m) if sl[i] <= search.IDENTIFIED_REL_STD * wl[i]]
+    if len({wl[i] for i in good_l}) == len(good_l):
+        good_l.sort(key=wl.__getitem__)
+        good = np.array(good_l, dtype=int)
+    else:
+        good = np.array(good_l, dtype=int)
+        good = good[w[good].argsort()]
     lab = labels.assign(w[good], prior, band=band)
     slot, placed = np.empty(m, int), np.zeros(m, bool)
     slot[lab.slot], placed[lab.slot] = good, lab.placed
