@@ -26,13 +26,15 @@ What. On each window of W samples (every H samples):
    (the prior at first); a mode without a pole in its band is not determined in that window.
 4. **Segment fit** (``refine``, on by default; :mod:`methods.tracking._segments`,
    :func:`methods.pem.separable_fit`): the window cut at the flagged samples into pulse-free runs of ≥
-   ``min_segment`` samples; m damped sinusoids with (ω, ζ) shared by every run and amplitudes, phases and offset per
-   run (projected out), fitted by least squares from the pencil's poles (a mode the pencil missed: from its last
-   refined value) — the maximum-likelihood fit of the piecewise free decay under white noise — with the std of ω
-   from the reduced Jacobian. A refined mode counts when it is within ``band`` of its last estimate, lightly damped,
-   its std × the window span is under ``max_phase_std`` rad (an energy test alike for every frequency: a mode that
-   died away between sparse pulses fails it), and it is not another mode's pole (:func:`_labelled`).
-   **Kicks the detector missed** (``split_kicks``, an option, off by default): a pulse at the noise level (at
+   ``min_segment`` samples (a run whose own basis is near-singular at the start — much shorter than the slowest
+   period — is left out, :func:`_fittable`); m damped sinusoids with (ω, ζ) shared by every run and amplitudes,
+   phases and offset per run (projected out), fitted by least squares from the pencil's poles (a mode the
+   pencil missed: from its last refined value) — the maximum-likelihood fit of the piecewise free decay under
+   white noise — with the std of ω from the reduced Jacobian. A refined mode counts when it is within ``band``
+   of its last estimate, lightly damped, its std × the window span is under ``max_phase_std`` rad (an energy
+   test alike for every frequency: a mode that died away between sparse pulses fails it), and it is not another
+   mode's pole (:func:`_labelled`).
+   **Kicks the detector missed** (``split_kicks``, on by default): a pulse at the noise level (at
    Δt = 0.1 s a 100 N·m pulse is 2–3 × the AR residual's scale) leaves a run that straddles it, whose phase
    jump the shared poles read as frequency. With the poles of that fit fixed (and their first-order
    corrections in both hypotheses, so that a pole error is not read as a kick), each run is tested for one more
@@ -40,10 +42,13 @@ What. On each window of W samples (every H samples):
    Bonferroni; binary segmentation ``split_rounds`` deep; :func:`methods.tracking._segments.split_kicks`);
    where a kick is found the runs are split there and the fit repeated. The samples flagged or split in
    earlier windows stay flagged, and a run inside one an earlier window tested clean is not tested again.
+   A run whose pieces still reject the free decay after ``split_rounds`` rounds is a continuing force, not
+   missed pulses: it stays whole (under a white force every sample is a kick).
 5. **Trend stage** (``trend``, on by default; :mod:`methods.tracking._trend`): each window's estimate put at
    the window's centre and carried to the present by a local-linear-trend Kalman filter per mode; with the
    segment fit, a window weighs by its own std: R = ``overlap_inflation``·(W/H)·std² + (``trend_meas_rel``·ω)²
-   (consecutive windows share W − H samples; the floor is the model error of a constant-frequency fit).
+   (consecutive windows share W − H samples; the floor is the model error of a constant-frequency fit), and
+   its gate tests the window against its own std, √(std² + (``trend_meas_rel``·ω)²) (``gate_std``).
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
