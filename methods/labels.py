@@ -135,9 +135,10 @@ def assign(freq, prior, *, band: float = 0.5, prior_rel_std=None, common_log_std
         a = sum(ri / ti for ri, ti in zip(r, t2l, strict=True))
         b = 1.0 + s2 * sum(1.0 / ti for ti in t2l)
         reach = math.log1p(band)
-        slot, placed = np.empty(k, int), np.empty(k, bool)
-        slot[order], placed[order] = range(m), [abs(ri) <= reach for ri in r]
-        return Labels(slot, placed, np.ones(k), float(s2 * a / b))
+        slot, placed = [0] * k, [False] * k                # the inverse permutation, as Python lists
+        for j, i in enumerate(order):
+            slot[i], placed[i] = j, abs(r[j]) <= reach
+        return Labels(np.array(slot), np.array(placed), np.ones(k), float(s2 * a / b))
     order = np.argsort(w, kind="stable")
     lw, lp = np.log(w[order]), np.log(p)
     slot, placed, probability = np.empty(k, int), np.empty(k, bool), np.empty(k)

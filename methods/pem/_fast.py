@@ -20,6 +20,7 @@ the full model (measured side by side in ``experiments.benchmarks.pem_speed``) i
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -33,14 +34,23 @@ from methods.pem.predictor import _powers, scaled_lstsq
 KEEP_BASIS_SAMPLES = 4096
 
 
+@functools.lru_cache(maxsize=64)
+def _sample_times(n: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """(k, t) = (0…N−1, kΔt as a column), read-only; kept per (N, Δt) up to ``KEEP_BASIS_SAMPLES`` samples
+    (at most 64 × 64 kB: a warm fit's model makes no new ones), made afresh for a longer record."""
+    k = np.arange(n)
+    t = (k * dt)[:, None]
+    k.flags.writeable = t.flags.writeable = False
+    return k, t
+
+
 class _Model:
     """Basis, linear solve, residual and reduced Jacobian of the damped-sinusoid model at (ω, ζ)."""
 
     def __init__(self, y: np.ndarray, dt: float, m: int, with_offset: bool, fixed_offset: float):
         self.y = np.ascontiguousarray(y, dtype=float)
         n = self.y.size
-        self.k = np.arange(n)
-        self.t = (self.k * dt)[:, None]
+        self.k, self.t = _sample_times(n, dt) if n <= KEEP_BASIS_SAMPLES else _sample_times.__wrapped__(n, dt)
         self.dt, self.m = dt, m
         self.target = self.y - fixed_offset if fixed_offset else self.y
         self.phi = np.empty((n, 2 * m + with_offset))      # columns: e^{−σt}cos (m), e^{−σt}sin (m), [1]
@@ -129,7 +139,8 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
     with_offset = bool(free[4 * m])
     n_unknowns = int(sum(free))
     lo, hi = bounds
-    x = np.clip(np.concatenate([w0, z0]), lo, hi)               # (ω, ζ); ζ fixed when not estimated
+    x = np.concatenate([w0, z0])                                 # (ω, ζ); ζ fixed when not estimated
+    np.minimum(np.maximum(x, lo, out=x), hi, out=x)                 # np.clip's values, two ufunc calls
     model = _Model(y, dt, m, with_offset, 0.0)
     n = model.y.size
     sol = model.fit(x[:m], x[m:])
@@ -180,7 +191,7 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
 
         def try_point(d, mu, base=x):
             cand = base.copy()
-            cand[:nn] += mu * d
+            cand[:nn] += d if mu == 1.0 else mu * d          # (1.0·d is d: one product fewer)
             np.minimum(np.maximum(cand, lo, out=cand), hi, out=cand)     # np.clip's values, two ufunc calls
             if not search.valid_modes(cand[:m], cand[m:], dt, n):
                 return None

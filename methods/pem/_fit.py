@@ -171,7 +171,7 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         y = y - y.mean()
     shape = np.asarray(opts.tip_mode_shape if len(opts.tip_mode_shape) == m else np.ones(m), float)
     bounds = search.search_bounds(prior, dt, opts)
-    fits, join = [], None
+    fits, join, accepted = [], None, False
     for label, w0, z0 in starts(y, dt, prior, opts):
         fit = _fit(y, dt, w0, z0, shape, free, opts, bounds, join)
         fit["start"] = label
@@ -181,7 +181,7 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
             if (std[:m] <= search.IDENTIFIED_REL_STD * fit["theta"][:m]).all():   # every mode determined
                 if (opts.accept_white and label in (QUICK, "pencil")
                         and _explains_record(fit, std[:m], n, dt, opts.predictor == "output_error")):
-                    fits = [fit]
+                    fits, accepted = [fit], True
                     break
                 join = (fit["theta"], std)
     # a start that joined an earlier fit stopped short of the common minimum: it never wins
@@ -190,7 +190,8 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         reasons = "; ".join(f"{f['start']}: {f['message']}" for f in fits)
         return failed(prior, f"every start failed: {reasons}")
     best = min(ok, key=lambda f: f["loss"])
-    for _ in range(opts.repair_rounds):
+    # an accepted fit determines every mode: both repairs below would return None (nothing to repair)
+    for _ in range(0 if accepted else opts.repair_rounds):
         start = _repaired_start(best, free, prior, opts)
         if start is None:
             break
@@ -200,7 +201,7 @@ def _identify(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> Est
         if not fit["loss"] < best["loss"]:
             break
         best = fit
-    for _ in range(opts.repair_rounds):
+    for _ in range(0 if accepted else opts.repair_rounds):
         start = _line_start(best, free, prior, opts, n, dt)
         if start is None:
             break
@@ -310,6 +311,8 @@ def _detected(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, ene
 def _detect(fit: dict, w_std: np.ndarray, n: int, dt: float, alpha: float, energy: bool) -> np.ndarray:
     """:func:`_detected`, computed."""
     found = w_std <= detection_std(n, dt, alpha)
+    if found.all():                                    # every mode detected by its std: nothing to add
+        return found
     if not energy or fit.get("e") is None or "theta" not in fit or not np.isfinite(fit["theta"]).all():
         return found
     # only for a mode the record determines (std ≤ 1 % of ω): on a short record the Wald statistic at a
@@ -558,8 +561,12 @@ def _estimate(best: dict, fits: list[dict], prior: np.ndarray, free, n: int, dt:
     freq, std, damp, damp_std = w[slot], w_std[slot], z[slot], z_std[slot]
     identified = std <= search.IDENTIFIED_REL_STD * freq
     agree, agree_converged = 0, False
+    finite = bool(np.isfinite(freq).all())
     for f in fits:
-        if np.isfinite(f["loss"]):
+        if f is best and finite:    # its own frequencies: within 3 std of themselves in every determined mode
+            agree += 1
+            agree_converged |= f["converged"]
+        elif np.isfinite(f["loss"]):
             fw, _, _, _, fw_slot, _ = _labelled(f, free, prior, opts)
             fw = fw[fw_slot]
             if (np.abs(fw - freq)[identified] <= 3 * std[identified]).all():
@@ -642,8 +649,16 @@ def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray, band: floa
     reported frequencies increasing and within the band of their entry.
     """
     m = prior.size
-    good = np.flatnonzero(w_std <= search.IDENTIFIED_REL_STD * w)
-    good = good[w[good].argsort()]
+    # the determined modes in frequency order over m Python floats (numpy's comparisons; numpy's argsort
+    # where two frequencies are equal, Python's sort otherwise: the same order)
+    wl, sl = w.tolist(), w_std.tolist()
+    good_l = [i for i in range(m) if sl[i] <= search.IDENTIFIED_REL_STD * wl[i]]
+    if len({wl[i] for i in good_l}) == len(good_l):
+        good_l.sort(key=wl.__getitem__)
+        good = np.array(good_l, dtype=int)
+    else:
+        good = np.array(good_l, dtype=int)
+        good = good[w[good].argsort()]
     lab = labels.assign(w[good], prior, band=band)
     slot, placed = np.empty(m, int), np.zeros(m, bool)
     slot[lab.slot], placed[lab.slot] = good, lab.placed

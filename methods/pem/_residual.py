@@ -98,9 +98,10 @@ def fitted_autocorrelation(basis: np.ndarray, lags: int, gram_inverse: np.ndarra
         a = b = np.linalg.qr(basis)[0]
         p = a.shape[1]
     # Σᵢ aᵢ·bᵢ₊ₖ: rows 0…N−k−1 of A against rows k…N−1 of B, both C-ordered, so each is one BLAS dot
-    # of two contiguous (N − k)·p vectors
-    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
-    lagged = np.array([np.dot(a[:n - k].ravel(), b[k:].ravel()) for k in range(1, lags + 1)])
+    # of two contiguous (N − k)·p vectors, sliced from the flattened buffers (a[:N − k].ravel() and
+    # b[k:].ravel() without their two calls a lag)
+    a, b = np.ascontiguousarray(a).ravel(), np.ascontiguousarray(b).ravel()
+    lagged = np.array([np.dot(a[:(n - k) * p], b[k * p:]) for k in range(1, lags + 1)])
     return -lagged / max(n - p, 1)
 
 
@@ -188,7 +189,7 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: f
     # one FFT of the centred residual, zero-padded to 2N, serves both tests: its |X|² inverse-transformed is
     # the autocovariance (as in :func:`autocorrelation`), and its even bins are the N-point DFT of the
     # periodogram (bin 2j of the 2N-point transform is frequency 2πj/N)
-    x = e - e.mean()
+    x = e - e.sum() / n                               # e.mean()'s value (the same sum and division)
     spec = np.fft.rfft(x, 2 * n)
     acov = np.fft.irfft(spec * spec.conj(), 2 * n)[:h + 1]
     power = np.abs(spec[2:2 * ((n - 1) // 2) + 1:2]) ** 2 / n        # bins 1…⌊(N−1)/2⌋: no DC, no Nyquist
@@ -198,7 +199,8 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: f
     if basis is not None:
         rho = rho - fitted_autocorrelation(np.asarray(basis, float), h, gram_inverse)
     q = float(n * (n + 2) * (rho ** 2 / (n - _LAGS[:h])).sum())
-    p_lb = float(scipy.special.chdtrc(h, q))          # χ²_h survival (scipy.stats.chi2.sf, without its overhead)
+    p_lb = float(scipy.special.chdtrc(float(h), q))   # χ²_h survival (scipy.stats.chi2.sf, without its overhead;
+                                                      # h as the double the ufunc takes: no type resolution)
     floor = float(_median(power) / math.log(2.0))
     if floor > 0:
         ratio = power / floor

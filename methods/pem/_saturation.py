@@ -28,7 +28,7 @@ PILE_UP = 2.0        # ... and more than this many times the count of the next l
 def _side(y: np.ndarray, level: float) -> tuple[int, int]:
     """(samples at ``level``, samples at the nearest other value on the inner side)."""
     at = y == level
-    n = int(at.sum())
+    n = int(np.count_nonzero(at))                    # (at.sum()'s value, without the bool → int reduction)
     if n < MIN_PLATEAU or at.all():
         return n, 0
     rest = y[~at]

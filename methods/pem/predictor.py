@@ -112,13 +112,13 @@ _BLOCK = 512
 
 
 @functools.lru_cache(maxsize=64)
-def _power_grid(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """(r, jB) of k = jB + r for k < n, as read-only columns: B = ``_BLOCK`` above 2·``_BLOCK`` samples,
-    ⌈√n⌉ below (made once per n)."""
+def _power_grid(n: int) -> tuple[np.ndarray, int]:
+    """(r, then jB, of k = jB + r for k < n) in one read-only column, and the number of r: B = ``_BLOCK``
+    above 2·``_BLOCK`` samples, ⌈√n⌉ below (made once per n)."""
     block = _BLOCK if n > 2 * _BLOCK else math.isqrt(max(n - 1, 0)) + 1
-    r, jb = np.arange(block, dtype=float), np.arange(-(-n // block), dtype=float) * block
-    r.flags.writeable = jb.flags.writeable = False
-    return r, jb
+    grid = np.concatenate([np.arange(block, dtype=float), np.arange(-(-n // block), dtype=float) * block])
+    grid.flags.writeable = False
+    return grid, block
 
 
 def _powers(logp: np.ndarray, n: int) -> np.ndarray:
@@ -127,9 +127,10 @@ def _powers(logp: np.ndarray, n: int) -> np.ndarray:
     long records, and was 40 % of a 256-sample fit's basis: 2√n exponentials per mode here); each factor is
     exact to rounding, so the product is too (a few ulp from e^{k·logp} itself, whose argument k·logp is
     rounded alike)."""
-    r, jb = _power_grid(n)
-    head = np.exp(np.multiply.outer(r, logp))                                  # r < B
-    steps = np.exp(np.multiply.outer(jb, logp))                                # jB
+    grid, block = _power_grid(n)
+    # e^{r·logp} (r < B) and e^{jB·logp} in one product and one exp (each entry its own: the same values)
+    powers = np.exp(np.multiply.outer(grid, logp))
+    head, steps = powers[:block], powers[block:]
     return (steps[:, None, :] * head).reshape(-1, logp.size)[:n]
 
 
