@@ -16,6 +16,8 @@ one's; damped steps differ, the minimum does not (test: the two paths agree to 1
 
 Hand-written because no kept library solves separable least squares: ``scipy.optimize.least_squares`` on
 the full model (measured side by side in ``experiments.benchmarks.pem_speed``) is the comparison.
+The same iteration as one CasADi Function (MX, or compiled to C) is slower at these sizes: its products are
+not BLAS (``experiments.benchmarks.pem_casadi``; docs/notes/pem-speed.md, seventh pass).
 """
 
 from __future__ import annotations
