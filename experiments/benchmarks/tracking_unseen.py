@@ -201,9 +201,9 @@ def run(trackers: list[str], seed: int, replicates: int, which: str = "grid-rate
                 rows.append({"cell": label, "tracker": name, "r": r, **score})
         print(f"{label}: done", flush=True)
     s = summary(pd.DataFrame(rows)).rename(columns={"beats": "halves"})
-    if "reconverge_periods" in s:
+    other = ~s.cell.isin(list(CELLS) + list(AMBIENT_CELLS))
+    if "reconverge_periods" in s and other.any():     # none in --set grid-rate: an empty division fails
         steps = s.cell.str.startswith("step") | s.cell.str.startswith("laboratory")
-        other = ~s.cell.isin(list(CELLS) + list(AMBIENT_CELLS))
         base = s[s.tracker == "next_era"].set_index("cell")["err_rel_median"]
         s.loc[other, "ratio"] = s.loc[other, "err_rel_median"] / s.loc[other, "cell"].map(base)
         s.loc[other, "halves"] = (s.loc[other, "ratio"] <= 0.5) & (

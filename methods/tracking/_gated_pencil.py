@@ -26,13 +26,15 @@ What. On each window of W samples (every H samples):
    (the prior at first); a mode without a pole in its band is not determined in that window.
 4. **Segment fit** (``refine``, on by default; :mod:`methods.tracking._segments`,
    :func:`methods.pem.separable_fit`): the window cut at the flagged samples into pulse-free runs of ≥
-   ``min_segment`` samples; m damped sinusoids with (ω, ζ) shared by every run and amplitudes, phases and offset per
-   run (projected out), fitted by least squares from the pencil's poles (a mode the pencil missed: from its last
-   refined value) — the maximum-likelihood fit of the piecewise free decay under white noise — with the std of ω
-   from the reduced Jacobian. A refined mode counts when it is within ``band`` of its last estimate, lightly damped,
-   its std × the window span is under ``max_phase_std`` rad (an energy test alike for every frequency: a mode that
-   died away between sparse pulses fails it), and it is not another mode's pole (:func:`_labelled`).
-   **Kicks the detector missed** (``split_kicks``, an option, off by default): a pulse at the noise level (at
+   ``min_segment`` samples (a run whose own basis is near-singular at the start — much shorter than the slowest
+   period — is left out, :func:`_fittable`); m damped sinusoids with (ω, ζ) shared by every run and amplitudes,
+   phases and offset per run (projected out), fitted by least squares from the pencil's poles (a mode the
+   pencil missed: from its last refined value) — the maximum-likelihood fit of the piecewise free decay under
+   white noise — with the std of ω from the reduced Jacobian. A refined mode counts when it is within ``band``
+   of its last estimate, lightly damped, its std × the window span is under ``max_phase_std`` rad (an energy
+   test alike for every frequency: a mode that died away between sparse pulses fails it), and it is not another
+   mode's pole (:func:`_labelled`).
+   **Kicks the detector missed** (``split_kicks``, on by default): a pulse at the noise level (at
    Δt = 0.1 s a 100 N·m pulse is 2–3 × the AR residual's scale) leaves a run that straddles it, whose phase
    jump the shared poles read as frequency. With the poles of that fit fixed (and their first-order
    corrections in both hypotheses, so that a pole error is not read as a kick), each run is tested for one more
@@ -40,10 +42,13 @@ What. On each window of W samples (every H samples):
    Bonferroni; binary segmentation ``split_rounds`` deep; :func:`methods.tracking._segments.split_kicks`);
    where a kick is found the runs are split there and the fit repeated. The samples flagged or split in
    earlier windows stay flagged, and a run inside one an earlier window tested clean is not tested again.
+   A run whose pieces still reject the free decay after ``split_rounds`` rounds is a continuing force, not
+   missed pulses: it stays whole (under a white force every sample is a kick).
 5. **Trend stage** (``trend``, on by default; :mod:`methods.tracking._trend`): each window's estimate put at
    the window's centre and carried to the present by a local-linear-trend Kalman filter per mode; with the
    segment fit, a window weighs by its own std: R = ``overlap_inflation``·(W/H)·std² + (``trend_meas_rel``·ω)²
-   (consecutive windows share W − H samples; the floor is the model error of a constant-frequency fit).
+   (consecutive windows share W − H samples; the floor is the model error of a constant-frequency fit), and
+   its gate tests the window against its own std, √(std² + (``trend_meas_rel``·ω)²) (``gate_std``).
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -91,7 +96,7 @@ class Options:
     refine_steps: int = 10
     min_segment: int | None = None
     max_phase_std: float = 0.5
-    split_kicks: bool = False
+    split_kicks: bool = True
     split_level: float = 0.01
     split_rounds: int = 3
     overlap_inflation: float = 1.0
@@ -215,11 +220,18 @@ def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: in
     if keep.sum() < 2 * rows:                      # pulses everywhere: this window determines nothing
         return np.empty(0, dtype=complex), float(keep.mean())
     y0, y1 = cols[keep, :rows].T, cols[keep, 1:].T
-    u, sv, vt = np.linalg.svd(y0, full_matrices=False)
+    # Y₀'s left singular vectors and values from the eigendecomposition of Y₀Y₀ᵀ (L × L; λ = σ²): a third of
+    # the SVD's CPU at L ≈ W/3; only the r ≪ L leading vectors are used, and with V_rᵀ = Σ_r⁻¹U_rᵀY₀,
+    # Â = U_rᵀY₁V_rΣ_r⁻¹ = U_rᵀY₁Y₀ᵀU_rΣ_r⁻². The squared spectrum resolves σ down to ~1e-8·σ₁ (not 1e-16):
+    # the rank cut is 1e-7·σ₁, far under any noise floor, and the median below is unaffected.
+    lam, u = np.linalg.eigh(y0 @ y0.T)
+    lam, u = lam[::-1], u[:, ::-1]
+    sv = np.sqrt(np.clip(lam, 0.0, None))
     if not sv[0] >= detect_ratio * np.median(sv):   # a flat singular spectrum: noise, no mode to find
         return np.empty(0, dtype=complex), float(keep.mean())
-    r = min(order, int(np.sum(sv > sv[0] * 1e-12)))
-    a = (u[:, :r].T @ y1 @ vt[:r].T) / sv[None, :r]
+    r = min(order, int(np.sum(sv > sv[0] * 1e-7)))
+    ur = u[:, :r]
+    a = ((ur.T @ y1) @ (y0.T @ ur)) / lam[None, :r]
     z = np.linalg.eigvals(a)
     z = z[np.abs(z) > 0]
     return np.log(z.astype(complex)) / dt, float(keep.mean())
@@ -330,7 +342,8 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
             continue
         meas = np.sqrt(opts.overlap_inflation * np.maximum(1.0, (span_j / dt + 1) / H)) * wstd[j] if opts.refine \
             else None
-        out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas)
+        out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas,
+                                                        wstd[j] if opts.refine else None)
         if state.get("flags") is not None and state["flags"].any():
             last_pulse = max(last_pulse, state["seg_start"] + int(np.flatnonzero(state["flags"])[-1]))
         if cusum is not None:
@@ -356,6 +369,17 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     extra |= {"window_frequencies": freq, "window_converged": found, "trend_restarts": bank.restarts}
     message += f"; trend stage: {bank.restarts.tolist()} restarts"
     return Track(ends * dt, out, out_std, out_conv, message=message, extra=extra)
+
+
+def _fittable(y: np.ndarray, dt: float, runs: list, w0: np.ndarray, z0: np.ndarray) -> list:
+    """The runs whose own basis (m damped sinusoids at the start (w0, z0) and an offset) is not near-singular.
+
+    A run much shorter than the slowest period cannot tell that mode's cosine and sine from the offset and the
+    other modes (scaled condition number over 1e12: :func:`methods.pem.predictor.scaled_lstsq`); the shared fit
+    refuses a basis it cannot solve, so one such run would cost the whole window its estimate. Left out, the
+    run's samples are lost to the fit (what little they hold on the slowest mode is lost anyway)."""
+    m = w0.size
+    return [(a, b) for a, b in runs if pem.SeparableModel(y[a:b], dt, m, True, 0.0).fit(w0, z0) is not None]
 
 
 def _shorter(n: int, m: int, order: int, opts: Options) -> tuple[int, int, int]:
@@ -409,7 +433,7 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         w0 = np.where(found, freq, np.where(np.isfinite(last_w), last_w, ref))
         z0 = np.where(np.isfinite(last_z), last_z, 0.005)
         z0[cc[hit]] = zc
-        runs = _segments.segments(flags, min_segment)
+        runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w0, z0)
         refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
         if refined is not None and opts.split_kicks:
             # a run inside one an earlier window tested clean is not tested again (the windows overlap by
@@ -423,6 +447,7 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
             if kicks:
                 state["kicks"].update(start + k for k in kicks)
                 flags[kicks] = True
+                split = _fittable(centred, dt, split, refined[0], refined[1])
                 again = pem.separable_fit(centred, dt, split, refined[0], refined[1], opts.refine_steps) \
                     if split else None
                 refined = again if again is not None else refined

@@ -25,12 +25,19 @@ still holds a sample from before the end of the first gated window — one that 
 re-initialise the mode at its own estimate (level variance R, rate 0) instead of updating it, until the first
 window wholly after that point. The hold removes a ramp's overshoot but is not the default: it slowed the
 re-convergence on six-mode and short-dwell records (likely because its windows are not gated;
-docs/measured/tracking.md, "The trend stage after a step"). **A gap.** When no window has determined a mode for
-more than a window's span (the windows over a step that rang the modes often fail the fit's tests), the
+docs/measured/tracking.md, "The trend stage after a step"). **The gate's std.** A tracker that weighs its
+windows by their own std inflated for their overlap (``gated_pencil``: R = (W/H)·std², consecutive windows
+sharing W − H samples) gives the window's own std too (``gate_std``): the gate tests ν against √(P₀₀ + std² +
+(``trend_meas_rel``·ω)²), the one window's error, while the update weighs it by the inflated R — tested against
+the inflated R, a window 4 % off after a step with a std of 1 % passes the gate (√10 × 1 %) and the level
+follows the step as a ramp, learning a rate that then overshoots.
+**A gap.** When no window has determined a mode for
+more than half a window's span (the windows over a step that rang the modes often fail the fit's tests), the
 prediction's variance has grown by the rate's, (τ·σ_ω̇)², and the first window after the gap passes the
 gate however far the frequency jumped; an update would spread the jump over the gap as a rate, which then
 overshoots. So a window after such a gap whose innovation fails the gate against the variance the level had
-before the gap, ν² > ``trend_gate`` · (P₀₀ at the last update + R), sets the level (variance R) and keeps
+before the gap, ν² > ``trend_gate`` · (P₀₀ at the last update + R) (R with the gate's std), sets the level
+(variance R) and keeps
 the rate held before the gap: a step is a new level, a drift keeps its learnt rate, and a window that agrees
 with the prediction updates the filter as any other (``relevel_gap``, on).
 A mode starts at its first window estimate the method calls determined (``converged_per_mode``), rate 0
@@ -93,7 +100,8 @@ class TrendBank:
     """The local-linear-trend filters of m modes, fed one window at a time (module docstring).
 
     :meth:`step` takes window j's centre time and half-span (per mode, or one for all), estimates,
-    determined flags and (optional) stds; it returns the estimates carried to the window's end, their std,
+    determined flags, (optional) stds that weigh the update and (optional) the windows' own stds that the
+    gate tests against (module docstring); it returns the estimates carried to the window's end, their std,
     the converged flags and each mode's normalised innovation ν/√S (NaN where the mode was not updated or
     not started), which a change detector reads. :meth:`restart` forgets a mode: it starts again at its
     next determined estimate.
@@ -129,7 +137,7 @@ class TrendBank:
         kf.x = np.array([zi, 0.0])
         kf.P = np.diag([r_var, (self.rate0 * zi) ** 2])
 
-    def step(self, t_c: float, lead: float, z: np.ndarray, determined: np.ndarray, meas_std=None):
+    def step(self, t_c: float, lead: float, z: np.ndarray, determined: np.ndarray, meas_std=None, gate_std=None):
         out = np.full(self.m, np.nan)
         std = np.full(self.m, np.nan)
         nu_norm = np.full(self.m, np.nan)
@@ -142,6 +150,9 @@ class TrendBank:
             r_std = self.meas_rel * zi
             if meas_std is not None and np.isfinite(meas_std[i]):
                 r_std = float(np.hypot(meas_std[i], r_std))
+            g_std = r_std                   # the gate's: the window's own std, where given (docstring)
+            if gate_std is not None and np.isfinite(gate_std[i]):
+                g_std = float(np.hypot(gate_std[i], self.meas_rel * zi))
             kf = self.kf[i]
             if kf is None:
                 if not good:
@@ -163,10 +174,11 @@ class TrendBank:
                     self._level(kf, zi, r_std ** 2)
                     self.ok[i] = True
                     self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
-                elif (good and self.relevel_gap and t_c[i] - self.t_update[i] > 2 * lead[i]
-                      and (zi - kf.x[0]) ** 2 > self.gate * (self.p_update[i] + r_std ** 2)):
-                    # no window determined the mode for more than a window's span: the level is the window's,
-                    # the rate the one held before the gap (spreading a jump over the gap as a rate overshoots)
+                elif (good and self.relevel_gap and t_c[i] - self.t_update[i] > lead[i]
+                      and (zi - kf.x[0]) ** 2 > self.gate * (self.p_update[i] + g_std ** 2)):
+                    # no window determined the mode for more than half a window's span: the level is the
+                    # window's, the rate the one held before the gap (spreading a jump over the gap as a rate
+                    # overshoots)
                     kf.x = np.array([zi, kf.x[1]])
                     kf.P = np.diag([r_std ** 2, kf.P[1, 1]])
                     self.misses[i], self.ok[i] = 0, True
@@ -177,7 +189,7 @@ class TrendBank:
                     nu = zi - kf.x[0]
                     s = kf.P[0, 0] + kf.R[0, 0]
                     nu_norm[i] = nu / np.sqrt(s)
-                    if nu * nu / s <= self.gate:
+                    if nu * nu / (kf.P[0, 0] + g_std ** 2) <= self.gate:
                         kf.update(np.array([zi]))
                         self.misses[i], self.ok[i] = 0, True
                         self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]

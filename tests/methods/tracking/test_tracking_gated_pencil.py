@@ -9,6 +9,7 @@ estimates must sit on the true frequencies; the same windows through NExT-ERA (t
 import numpy as np
 
 import methods
+from methods import pem
 from methods.tracking import _gated_pencil
 
 DT = 0.02
@@ -79,3 +80,23 @@ def test_white_noise_is_never_tracked_as_converged():
         y = 0.01 * np.random.default_rng(seed).standard_normal(3000)
         tr = methods.track("gated_pencil", y, DT, PRIOR)
         assert not tr.converged.any(), tr.message
+
+
+def test_a_run_too_short_for_the_slowest_mode_is_left_out_not_the_window():
+    # six modes at Δt = 0.1 s (the slowest period 7.5 s): a 2.7 s run cannot tell mode 1's cosine and sine
+    # from the offset and the other modes, and the shared fit refuses the whole window with it; left out,
+    # the window's other run gives the exact poles of a noise-free decay
+    dt = 0.1
+    w, z = np.array([0.84, 1.365, 2.08, 3.016, 4.223, 5.665]), np.full(6, 0.005)
+    runs = [(0, 27), (28, 400)]
+    rng = np.random.default_rng(0)
+    y = np.zeros(400)
+    for a, b in runs:
+        t = np.arange(b - a) * dt
+        for wi, zi in zip(w, z, strict=True):
+            y[a:b] += rng.uniform(0.5, 1.0) * np.exp(-zi * wi * t) * np.cos(wi * np.sqrt(1 - zi ** 2) * t
+                                                                          + rng.uniform(0, 2 * np.pi))
+    assert pem.separable_fit(y, dt, runs, w * 1.002, z, 10) is None
+    kept = _gated_pencil._fittable(y, dt, runs, w * 1.002, z)
+    assert kept == [(28, 400)]
+    np.testing.assert_allclose(pem.separable_fit(y, dt, kept, w * 1.002, z, 10)[0], w, rtol=1e-6)

@@ -6,6 +6,8 @@ one segment, solved by pem's own search), and the scatter of its estimates over 
 
 import numpy as np
 import pytest
+import scipy.signal
+import scipy.stats
 from test_tracking_gated_pencil import DT, FREQ, pulsed_decays
 
 import methods
@@ -124,11 +126,35 @@ def test_a_pole_error_is_not_read_as_a_kick():
     wrong = np.array([1.003, 0.997, 1.003, 0.997, 1.003, 0.997])
 
     def splits(corrections):
-        return sum(bool(_segments.split_kicks(y, dt, [(0, 387)], w * wrong, z, 26, 0.05, 1,
-                                              pole_corrections=corrections)[1]) for y, w, z, dt in records)
+        # the first round's decision (split_kicks returns a run whose pieces reject again whole, as a force)
+        return sum(_rejects(y, dt, w * wrong, z, 26, 0.05, corrections) for y, w, z, dt in records)
 
     with_corrections, without = splits(True), splits(False)
     assert with_corrections <= 4 and without >= 30, (with_corrections, without)
+
+
+def _rejects(y, dt, w, z, min_length, level, corrections=True) -> bool:
+    found = _segments.kick_statistic(y, dt, w, z, min_length, pole_corrections=corrections)
+    if found is None:
+        return False
+    k, F, dfn, dof = found
+    return bool(F.max() > scipy.stats.f.isf(level / k.size, dfn, dof))
+
+
+def test_a_response_to_a_continuing_force_is_not_split_into_kicks():
+    # two modes driven by a white force (each a resonator filtering white noise, scipy.signal.lfilter): every
+    # sample is a kick, the test rejects the free decay at once and would go on splitting every piece; the
+    # run is returned whole, with no kick, at every depth
+    dt, w, z = 0.02, np.array([3.2, 20.0]), np.array([0.005, 0.005])
+    rng = np.random.default_rng(3)
+    y = np.zeros(512)
+    for wi, zi in zip(w, z, strict=True):
+        p = np.exp((-zi * wi + 1j * wi * np.sqrt(1 - zi ** 2)) * dt)
+        y += scipy.signal.lfilter([1.0], np.poly([p, np.conj(p)]).real, rng.standard_normal(y.size))
+    y += 0.01 * np.std(y) * rng.standard_normal(y.size)
+    assert _rejects(y, dt, w, z, 20, 0.01)
+    for rounds in (1, 2, 3):
+        assert _segments.split_kicks(y, dt, [(0, y.size)], w, z, 20, 0.01, rounds) == ([(0, y.size)], [])
 
 
 def test_the_kick_test_options_are_checked():

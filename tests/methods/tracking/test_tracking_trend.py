@@ -180,6 +180,26 @@ def test_a_drift_across_a_gap_keeps_its_rate():
     np.testing.assert_allclose(freq[after], 20.0 * (1 + 0.001 * t_end[after]), rtol=1e-3)
 
 
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_gate_tests_a_window_against_its_own_std(seed):
+    # windows with their own std 0.3 %, weighed as gated_pencil weighs them, R = 10·std² (ten windows share
+    # each sample), and a +3 % jump: against the inflated R the jump passes the gate, the level follows it as
+    # an update and learns a rate that overshoots by ~1 %; against the window's own std it fails the gate and
+    # the restart takes the new level
+    n, own = 140, 0.003
+    t_c = _ends(n) - LEAD
+    z = np.where(t_c[:, None] < 60.0, 20.0, 20.6) * (1 + own * np.random.default_rng(seed).standard_normal((n, 1)))
+    after = t_c > 60.0 + 2 * LEAD
+    err, restarts = {}, {}
+    for own_gate in (True, False):
+        bank = _trend.TrendBank(1, **_bank_opts())
+        f = np.array([bank.step(t_c[j], LEAD, z[j], np.ones(1, bool), np.sqrt(10) * own * z[j],
+                                own * z[j] if own_gate else None)[0][0] for j in range(n)])
+        err[own_gate], restarts[own_gate] = np.max(np.abs(f[after] / 20.6 - 1)), bank.restarts[0]
+    assert restarts[True] == 1 and err[True] < 0.004, (err, restarts)
+    assert restarts[False] == 0 and err[False] > 0.008, (err, restarts)
+
+
 def _bank_opts():
     return {"rate_noise": OPTS["rate_noise"], "meas_rel": OPTS["meas_rel"], "gate": OPTS["gate"],
             "restart_after": OPTS["restart_after"], "rate0": OPTS["rate0"]}
