@@ -35,6 +35,16 @@ def test_no_tracker_converged_names_the_smallest_late_error():
     assert "no tracker held every mode within 1 %; the smallest late error: fft, 4 %" in lines[0]
 
 
+def test_a_tracker_converged_in_one_replicate_of_three_does_not_lead():
+    lucky, steady, base = row("ssi_cov", 0.0005, 0.01, math.nan), row("gated_pencil", 0.001, 0.001, 9.0), \
+        row("next_era", 0.005, 0.005, 6.0)
+    lucky["never_converged_rate"], steady["never_converged_rate"], base["never_converged_rate"] = 2 / 3, 0.0, 0.0
+    lines = verdict(pd.DataFrame([lucky, steady, base]))
+    assert "**gated_pencil**" in lines[0] and "ssi_cov" not in lines[0]
+    lone = verdict(pd.DataFrame([lucky]))
+    assert "no tracker held every mode within 1 % in most replicates; the smallest late error: ssi_cov" in lone[0]
+
+
 def test_baseline_ratio_and_the_bound_stand_beside_the_error():
     from experiments.report.tracking_report import add_baseline_ratio
 
