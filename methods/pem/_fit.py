@@ -41,7 +41,7 @@ from methods import labels
 from methods.estimate import Estimate, check_inputs, failed, flat_record, make_options
 from methods.pem import _drift, _lines, _map, _residual, _saturation, search
 from methods.pem import _fast as fast
-from methods.pem._pencil import PENCIL_WINDOW, pencil_start
+from methods.pem._pencil import PENCIL_WINDOW, argsort_few, pencil_start
 from methods.pem.predictor import modal_basis
 
 PREDICTORS = ("output_error", "kalman")
@@ -649,16 +649,10 @@ def _label_modes(w: np.ndarray, w_std: np.ndarray, prior: np.ndarray, band: floa
     reported frequencies increasing and within the band of their entry.
     """
     m = prior.size
-    # the determined modes in frequency order over m Python floats (numpy's comparisons; numpy's argsort
-    # where two frequencies are equal, Python's sort otherwise: the same order)
+    # the determined modes in frequency order, over m Python floats (numpy's comparisons and argsort order)
     wl, sl = w.tolist(), w_std.tolist()
     good_l = [i for i in range(m) if sl[i] <= search.IDENTIFIED_REL_STD * wl[i]]
-    if len({wl[i] for i in good_l}) == len(good_l):
-        good_l.sort(key=wl.__getitem__)
-        good = np.array(good_l, dtype=int)
-    else:
-        good = np.array(good_l, dtype=int)
-        good = good[w[good].argsort()]
+    good = np.array([good_l[j] for j in argsort_few([wl[i] for i in good_l])], dtype=int)
     lab = labels.assign(w[good], prior, band=band)
     slot, placed = np.empty(m, int), np.zeros(m, bool)
     slot[lab.slot], placed[lab.slot] = good, lab.placed

@@ -145,8 +145,8 @@ def modes_from_poles(z: np.ndarray, amp: np.ndarray, n_samples: int, dt: float):
 def _pole_modes(z: np.ndarray, amp: np.ndarray, n_samples: int, dt: float) -> list[tuple[float, float, float]]:
     """:func:`modes_from_poles` as a list of (ω, ζ, energy) triples, strongest first. Over the ≤ 2m + 7 poles
     as Python numbers: the same operations as numpy's on arrays, in a third of the time of a dozen calls on
-    ~8 values; the order is numpy's argsort of −energy (Python's sort where no two energies are equal, where
-    every sort agrees; numpy's own where some are, e.g. two overflowing modes' 0)."""
+    ~8 values; the order is numpy's argsort of −energy (:func:`argsort_few`; ties e.g. two overflowing
+    modes' 0)."""
     modes = []
     for zj, cj in zip(z.tolist(), amp.tolist(), strict=True):
         r = abs(zj)
@@ -162,12 +162,15 @@ def _pole_modes(z: np.ndarray, amp: np.ndarray, n_samples: int, dt: float) -> li
         except OverflowError:
             energy = math.inf
         modes.append((omega, -s.real / omega, energy if math.isfinite(energy) else 0.0))
-    if len({mode[2] for mode in modes}) == len(modes):
-        modes.sort(key=lambda mode: -mode[2])
-    else:                                            # ties: numpy's order of equal energies, as before
-        order = (-np.array([mode[2] for mode in modes])).argsort()
-        modes = [modes[i] for i in order.tolist()]
-    return modes
+    return [modes[i] for i in argsort_few([-mode[2] for mode in modes])]
+
+
+def argsort_few(keys: list[float]) -> list[int]:
+    """numpy's ``argsort`` of a few Python floats, as a list: Python's sort where no two keys are equal (every
+    sort then agrees, without numpy's call overhead), numpy's own where some are (its order of ties)."""
+    if len(set(keys)) == len(keys):
+        return sorted(range(len(keys)), key=keys.__getitem__)
+    return np.argsort(np.array(keys, dtype=float)).tolist()
 
 
 def match_to_prior(omega: np.ndarray, zeta: np.ndarray, prior: np.ndarray, default_zeta: float,

@@ -124,7 +124,7 @@ def split_kicks(y: np.ndarray, dt: float, runs: list[tuple[int, int]], w: np.nda
         pieces, found_kicks = [], []
         stack = [(run[0], run[1], 0)]
         continuing = False
-        while stack and not continuing:
+        while stack:
             a, b, depth = stack.pop()
             found = kick_statistic(y[a:b], dt, w, zeta, min_length, pole_corrections=pole_corrections)
             if found is not None:
