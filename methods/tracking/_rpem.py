@@ -36,6 +36,31 @@ peak, the frequency about the window's middle, is compared with ω̂ − ω̇ (W
 floor (the window's resolution), so that a drift the filter follows is no disagreement; a restart resets the
 mode's rate.
 
+Two memories (``memory="two"``, with the rate). A walk of ω over a horizon is a memory of that horizon: it lags
+a drift less than a window does, but it forgets; a constant rate (ω's walk over one sample, Δt, and no walk
+of ω̇) keeps the whole record, as the bound does, and cannot leave a step. So two recursions of the same model
+run side by side on the same samples: the window-memory one above (its walks and restarts) and the
+whole-record one, which is reported. Each keeps its one-step log-likelihood ℓ = ½(ln S + e²/S) per sample;
+over the last window (the periodogram's, five periods of the slowest prior mode) their ratio
+Λ_W = Σ (ℓ_whole − ℓ_window) is the log posterior odds of "the window recursion is right" at equal prior
+odds. Every look:
+
+* when Λ_W > ``restart_gate``²/2 (the signed root of the likelihood ratio, about N(0, 1) without a change,
+  beyond ``restart_gate`` σ), each mode whose two estimates differ by more than ``reset_gate`` σ of their
+  difference, |ω̂ᵢ − ω̂ᵢ'| > ``reset_gate`` √(Pᵢ + Pᵢ'), starts again in the whole-record recursion from the
+  window recursion's ω, rate and their covariance (the interaction step of an interacting multiple model, made
+  hard and per mode); its sensitivities to them start at 0;
+* the reported variance is the mean square error of reporting the whole-record ω̂ under the two models'
+  posterior, μ = 1/(1 + e^(−Λ_W)): (1 − μ) P + μ (P' + (ω̂ − ω̂')²) (the output step of an interacting multiple
+  model, its mean kept at the whole-record recursion's).
+
+A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
+but summed over a window it does: after the grid's steps the window recursion is ahead by 10–25 nats over
+10 s, on the drifts the whole-record one is (design seeds 7 and 11, docs/measured/tracking.md). filterpy's
+``IMMEstimator`` mixes the states of Kalman filters of one state vector by a Markov chain of model switches; a
+recursion here is (θ, P, x̂, W, Λ) stepped by a CasADi function, and a soft mix of two θ would blur a step's
+before and after — so the interaction is a hard reset of the modes that disagree, and written here.
+
 Written by hand: no maintained Python library has a recursive prediction-error method for a state-space
 innovations model (filterpy has Kalman filters; padasip adaptive FIR/RLS filters). The per-sample step is one
 CasADi SX function (:func:`_step_function`, its derivatives algorithmic), repeated between two looks with
@@ -77,9 +102,9 @@ class Options(_ambient.SharedOptions):
     memory : str
         ``"window"`` (default): the recursion above, its walks' memory a horizon; ``"two"``: beside it a
         recursion of the same model whose frequencies have a constant rate (ω's walk over one sample, no walk
-        of the rate), a memory of the whole record since its last reset, which it reports; each mode of it
-        starts again from the window-memory recursion's ω and rate when the two disagree (module docstring).
-        Needs ``frequency_model="trend"``.
+        of the rate), a memory of the whole record since its last reset, which it reports; a mode of it starts
+        again from the window-memory recursion's ω and rate when the window's likelihood ratio favours that
+        one and the two disagree (module docstring). Needs ``frequency_model="trend"``.
     reset_gate : float
         ``memory="two"``: a mode is reset when the two recursions' ω̂ differ by more than this many σ of their
         difference (√(P + P'), both recursions' own variances), once the likelihood ratio has said that the
@@ -260,6 +285,16 @@ def _unstable(wzk, dt: float) -> bool:
     return bool(np.max(np.abs(np.linalg.eigvals(scipy.linalg.block_diag(*phi) - np.outer(K, C)))) >= 1)
 
 
+def _variance_two(w_long, v_long, w_win, v_win, odds):
+    """``memory="two"``: the reported variance of the whole-record recursion's ω̂ under the two recursions'
+    posterior, as an interacting multiple model weighs them: equal prior odds and the last window's likelihood
+    ratio ``odds`` = Σ (ℓ_long − ℓ_window) give the window recursion the probability μ = 1/(1 + e^(−odds)),
+    and the mean square error of reporting ω̂ is (1 − μ) P + μ (P' + (ω̂ − ω̂')²). Rows are samples (``odds``
+    one per row), or one sample."""
+    mu = 1.0 / (1.0 + np.exp(-np.clip(odds, -50.0, 50.0)))
+    mu = mu[:, None] if np.ndim(mu) else mu
+    return (1 - mu) * v_long + mu * (v_win + (w_long - w_win) ** 2)
+
 def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts) -> int:
     """``memory="two"``: modes of the whole-record recursion ``long`` ([θ, P, x̂, W, Λ], changed in place)
     start again from the window-memory recursion's (θ, P) when the window recursion predicts the last window
@@ -359,7 +394,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     const = np.concatenate([[dt, nu2, gam, opts.pulse_gate, opts.damping_ratio], kscale, q_fixed, lo_w,
                             np.minimum(hi_w, nyq)])
     two = opts.memory == "two"
-    nll_win, nll_long = (np.zeros(n), np.zeros(n)) if two else (None, None)   # ½(ln S + e²/S) per sample
+    cum = np.zeros(n + 1) if two else None   # Σ (ℓ_long − ℓ_window) up to each sample, ℓ = ½(ln S + e²/S)
     if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
         q_long = q_fixed.copy()
         q_long[ia] = 0.0
@@ -372,11 +407,15 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         # the samples up to the next look (k + 1 − W a multiple of the hop), one mapaccum call
         k1 = min(n, k0 + (W_len - 1 - k0) % hop + 1)
         theta, P, x, Wm, lam, out = _advance(m, est_z, trend, (theta, P, x, Wm, lam), y[k0:k1], const)
-        if two:
-            nll_win[k0:k1] = out[-2]
-            *long, out = _advance(m, est_z, trend, long, y[k0:k1], const_long)
-            nll_long[k0:k1] = out[-2]
         freq[k0:k1], var[k0:k1] = out[iw].T, out[m + iw].T
+        if two:     # the whole-record recursion over the same samples; it is the one reported
+            ell_win = out[-2]
+            *long, out = _advance(m, est_z, trend, long, y[k0:k1], const_long)
+            cum[k0 + 1:k1 + 1] = cum[k0] + np.cumsum(out[-2] - ell_win)
+            ks = np.arange(k0 + 1, k1 + 1)
+            odds = cum[ks] - cum[np.maximum(ks - W_len, W_len)]          # over the last window
+            var[k0:k1] = _variance_two(out[iw].T, out[m + iw].T, freq[k0:k1], var[k0:k1], odds)
+            freq[k0:k1] = out[iw].T
         damp[k0:k1] = out[2 * m + iw].T if est_z else opts.damping_ratio
         n_pulses += int(np.sum(out[-1]))
         started[k0:k1] = True
@@ -412,15 +451,17 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 theta[ik] = K0 / kscale
                 Wm[:] = 0.0
             if two:
-                gain = float(np.sum(nll_long[k + 1 - W_len:k + 1] - nll_win[k + 1 - W_len:k + 1]))
+                gain = float(odds[-1])
                 n_resets += _reset_from_window(long, theta, P, iw, ia, gain, opts)
                 if _unstable(unpack(long[0]), dt):
                     long[0][ik] = K0 / kscale
                     long[3][:] = 0.0
-            th_out, P_out = (long[0], long[1]) if two else (theta, P)
             seen[k] = seen_now
-            freq[k] = th_out[iw]
-            var[k] = np.diag(P_out)[iw]
+            freq[k], var[k] = theta[iw], np.diag(P)[iw]
+            if two:
+                var[k] = _variance_two(long[0][iw], np.diag(long[1])[iw], freq[k], var[k], gain)
+                freq[k] = long[0][iw]
+            th_out = long[0] if two else theta
             damp[k] = th_out[iz] if est_z else opts.damping_ratio
     return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets)
 
