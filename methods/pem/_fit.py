@@ -471,17 +471,18 @@ def free_mask(m: int, opts: Options) -> tuple[bool, ...]:
 
 
 QUICK = "quick pencil"
-QUICK_EXTRA_ORDER = 2         # the quick start's poles beyond 2m + 1 (the full start's: pencil_extra_order)
+QUICK_EXTRA_ORDER = 4         # the quick start's poles beyond 2m + 1 (the full start's: pencil_extra_order)
 
 
 def quick_pencil_columns(m: int, extra_order: int) -> int:
-    """The quick start's pencil parameter L from the model order M = 2m + 1 + extra: L = 2M + 2, the
-    smallest L at which V₁ (L rows, M columns) has twice as many rows as columns, where
-    :func:`methods.pem._pencil.matrix_pencil` solves V₁⁺V₂ in two products (with fewer rows it takes the
+    """The quick start's pencil parameter L from the model order M = 2m + 1 + extra: L = 2M + 2, so that V₁
+    (L rows, M columns) has more than twice as many rows as columns, where
+    :func:`methods.pem._pencil.matrix_pencil` solves V₁⁺V₂ in two products (with L < 2M it takes the
     pseudo-inverse). The full start's L is N/3 (up to 120), the noise-optimal side of Hua & Sarkar's
     N/3–N/2; the quick one is a cheap first guess that is kept only when its fit explains the record.
-    (4 modes: M = 11, L = 24; the fixed L = 32 with M = 15 it replaces cost 1.12× its fit at N = 256 and
-    was accepted on the same 182 of 240 records: docs/notes/pem-speed.md, eighth pass.)"""
+    (4 modes: M = 13, L = 28; the fixed L = 32 with M = 15 it replaces cost 1.07× its fit at N = 256. With
+    2 extra poles, M = 11 and L = 24, a fit was 4 % faster still but accepted a local minimum on a record
+    where this one does not: docs/notes/pem-speed.md, eighth pass.)"""
     return 2 * (2 * m + 1 + extra_order) + 2
 
 
@@ -522,7 +523,7 @@ def _line_start(best: dict, free, prior: np.ndarray, opts: Options, n: int, dt: 
 
 def starts(y, dt, prior, opts: Options):
     """(label, ω, ζ) of every start, made when asked for: with ``accept_white`` first a quick pencil start
-    (order 2m + 3, L from it, :func:`quick_pencil_columns`: 24 for 4 modes, a small fraction of the full
+    (order 2m + 5, L from it, :func:`quick_pencil_columns`: 28 for 4 modes, a small fraction of the full
     pencil's time at N = 256; kept only if its fit explains the record, see :func:`_explains_record`), then
     the ``n_starts``: the pencil start (L = N/3 up to 120: a quick start alone lost 4 % of the random
     structures of ``experiments.benchmarks.basin`` to local minima), the prior, then seeded perturbations."""
