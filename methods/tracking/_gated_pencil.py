@@ -48,7 +48,10 @@ What. On each window of W samples (every H samples):
    the window's centre and carried to the present by a local-linear-trend Kalman filter per mode; with the
    segment fit, a window weighs by its own std: R = ``overlap_inflation``·(W/H)·std² + (``trend_meas_rel``·ω)²
    (consecutive windows share W − H samples; the floor is the model error of a constant-frequency fit), and
-   its gate tests the window against its own std, √(std² + (``trend_meas_rel``·ω)²) (``gate_std``).
+   its gate tests the window against its own std, √(std² + (``trend_meas_rel``·ω)²) (``gate_std``). After the
+   first window the gate refuses (or a re-level after a gap), the windows that may straddle the change update
+   the level only and the rate goes back to the one before it (``trend_restart_rate="freeze"``; "keep", the
+   rate the ramp of straddling windows taught, is the other trackers' trend stage).
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -305,7 +308,8 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
              "rows_free": given.rows is None,
              "seg_start": 0, "kicks": set(), "clean": []}
     limit = np.log1p(opts.band)
-    bank = _trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate) if (opts.trend or opts.memory) else None
+    bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
+            if (opts.trend or opts.memory) else None)
     cusum = _memory.Cusum(m, opts.change_threshold, opts.change_drift) if opts.memory else None
     out = np.full((ends.size, m), np.nan)
     out_std = np.full((ends.size, m), np.nan)
