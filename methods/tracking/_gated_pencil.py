@@ -48,10 +48,10 @@ What. On each window of W samples (every H samples):
    the window's centre and carried to the present by a local-linear-trend Kalman filter per mode; with the
    segment fit, a window weighs by its own std: R = ``overlap_inflation``·(W/H)·std² + (``trend_meas_rel``·ω)²
    (consecutive windows share W − H samples; the floor is the model error of a constant-frequency fit), and
-   its gate tests the window against its own std, √(std² + (``trend_meas_rel``·ω)²) (``gate_std``). After the
-   first window the gate refuses (or a re-level after a gap), the windows that may straddle the change update
-   the level only and the rate goes back to the one before it (``trend_restart_rate="freeze"``; "keep", the
-   rate the ramp of straddling windows taught, is the other trackers' trend stage).
+   its gate tests the window against its own std, √(std² + (``trend_meas_rel``·ω)²) (``gate_std``). What a
+   restart does with the rate is ``trend_restart_rate`` ("keep", as every trend stage; "freeze", an option:
+   after the first window the gate refuses, or a re-level after a gap, the windows that may straddle the change
+   update the level only and the rate goes back to the one before it — :mod:`methods.tracking._trend`).
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -109,7 +109,7 @@ class Options:
     trend_gate: float = _trend.DEFAULTS["trend_gate"]
     trend_restart_after: int = _trend.DEFAULTS["trend_restart_after"]
     trend_rate0: float | None = _trend.DEFAULTS["trend_rate0"]
-    trend_restart_rate: str = "freeze"
+    trend_restart_rate: str = _trend.RESTART_RATE
     memory: bool = _memory.DEFAULTS["memory"]
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]

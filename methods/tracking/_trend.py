@@ -25,15 +25,16 @@ still holds a sample from before the end of the first gated window — one that 
 re-initialise the mode at its own estimate (level variance R, rate 0) instead of updating it, until the first
 window wholly after that point. The hold removes a ramp's overshoot but is not the default: it slowed the
 re-convergence on six-mode and short-dwell records (likely because its windows are not gated;
-docs/measured/tracking.md, "The trend stage after a step"). "freeze" (``gated_pencil``'s default, its option
-``trend_restart_rate``) keeps the gate: the first window the gate refuses, ending at t_f, holds the change
-somewhere in its span, so the windows that ended before its start are the last wholly before it; the rate (and
-its variance) goes back to the one after the last of them (what the ramp taught since is forgotten), and every
-window that starts before t_f — one that may straddle the change — is still gated but updates the level only
-(the rate's cross-covariance set to 0 before the update: a sample of the level, not of the rate); a gap
-re-level (below) starts the same hold at its window's end. The first window that starts after t_f closes the
-hold: a level-only update, or the level itself where the gate refuses it (its jump from the straddling
-windows' level is the rest of the step). A rate learnt before the change (a drift) is kept throughout.
+docs/measured/tracking.md, "The trend stage after a step"). "freeze" (an option of ``gated_pencil``,
+``trend_restart_rate``; not its default, same page) keeps the gate: the first window the gate refuses, ending
+at t_f, holds the change somewhere in its span, so the windows that ended before its start are the last wholly
+before it; the rate (and its variance) goes back to the one after the last of them (what the ramp taught since
+is forgotten), and every window that starts before t_f — one that may straddle the change — is still gated but
+updates the level only (the rate's cross-covariance set to 0 before the update: a sample of the level, not of
+the rate); a gap re-level (below) starts the same hold at its window's end. The first window that starts after
+t_f closes the hold: a level-only update, or the level itself where the gate refuses it (its jump from the
+straddling windows' level is the rest of the step). A rate learnt before the change (a drift) is kept
+throughout.
 **The gate's std.** A tracker that weighs its
 windows by their own std inflated for their overlap (``gated_pencil``: R = (W/H)·std², consecutive windows
 sharing W − H samples) gives the window's own std too (``gate_std``): the gate tests ν against √(P₀₀ + std² +
