@@ -63,19 +63,20 @@ SETTINGS = {
 
 
 def run_cell(args) -> dict:
-    """R replicates of one (setting, noise, N) cell: errors, convergence, times."""
+    """R replicates of one (setting, noise, N) cell: errors, reported std, convergence, times."""
     setting, noise_ug, n, replicates, seed = args
     plant = build_plant()
     clean = plant.tip_acceleration(n, DT_S)
-    errors, converged, times = [], [], []
+    errors, stds, converged, times = [], [], [], []
     for r in range(replicates):
         y = clean + noise_ug * UG * replicate_rng(seed, noise_ug, n, r).standard_normal(n)
         t0 = time.perf_counter()
         est = pem.identify(y, DT_S, PRIOR, **SETTINGS[setting])
         times.append(time.perf_counter() - t0)
         errors.append(est.frequencies - plant.freq_rad_s)
+        stds.append(est.std)
         converged.append(est.converged)
-    return {"setting": setting, "noise_ug": noise_ug, "n": n, "errors": np.array(errors),
+    return {"setting": setting, "noise_ug": noise_ug, "n": n, "errors": np.array(errors), "std": np.array(stds),
             "converged": np.array(converged), "times": np.array(times)}
 
 
@@ -125,7 +126,7 @@ def grid(replicates: int, seed: int, jobs: int, out: str, compare: str | None, m
         results = list(pool.map(run_cell, cells))
     print(f"pem over {len(cells)} cells x R = {replicates}: {time.perf_counter() - t0:.0f} s wall, {jobs} workers")
     arrays = {"noise_ug": np.array([c[1] for c in cells]), "n": np.array([c[2] for c in cells]),
-              "errors": np.stack([r["errors"] for r in results]),
+              "errors": np.stack([r["errors"] for r in results]), "std": np.stack([r["std"] for r in results]),
               "converged": np.stack([r["converged"] for r in results]),
               "times": np.stack([r["times"] for r in results])}
     io.write_npz(out, arrays)
@@ -158,7 +159,7 @@ def _compare_grids(old: dict, new: dict) -> None:
     def only_common(run):                  # a run restricted with --max-n has fewer cells
         keep = [i for i, cell in enumerate(zip(run["n"], run["noise_ug"], strict=True)) if cell in common]
         return {k: np.asarray(v)[keep] for k, v in run.items()
-                if k in ("n", "noise_ug", "errors", "converged", "times")}
+                if k in ("n", "noise_ug", "errors", "std", "converged", "times")}
 
     old, new = only_common(old), only_common(new)
     r_old, ident, f_old = _grid_scores(old)
@@ -191,6 +192,31 @@ def _compare_grids(old: dict, new: dict) -> None:
               f"{'yes' if ok else 'NO'} |")
     print(f"\ncells outside Monte-Carlo scatter: {outside} of {len(old['n'])}; total fit time old "
           f"{old['times'].sum():.0f} s, new {new['times'].sum():.0f} s")
+    if "std" in old and "std" in new:      # runs saved before the std was: no coverage
+        _compare_coverage(old, new, ident)
+
+
+def _compare_coverage(old: dict, new: dict, ident: np.ndarray) -> None:
+    """How often the truth lies within ±2 reported std (identifiable modes of converged replicates), old and
+    new, pooled over the cells and per cell (the largest difference against 3 binomial standard errors)."""
+    def inside(run):
+        err, std = np.asarray(run["errors"]), np.asarray(run["std"])
+        hit = np.abs(err) <= 2.0 * std                              # NaN std: not inside
+        use = ident[:, None, :] & np.asarray(run["converged"])[:, :, None] & np.isfinite(err)
+        return hit, use
+
+    (h_old, u_old), (h_new, u_new) = inside(old), inside(new)
+    worst, where = 0.0, None
+    for c in range(len(old["n"])):
+        a = h_old[c][u_old[c]].mean() if u_old[c].any() else np.nan
+        b = h_new[c][u_new[c]].mean() if u_new[c].any() else np.nan
+        if np.isfinite(a) and np.isfinite(b) and abs(b - a) > worst:
+            worst, where = abs(b - a), (int(old["n"][c]), float(old["noise_ug"][c]), a, b, int(u_old[c].sum()))
+    print(f"coverage of ±2 std (identifiable modes, converged replicates): old {h_old[u_old].mean():.4f}, new "
+          f"{h_new[u_new].mean():.4f} over {int(u_old.sum())} / {int(u_new.sum())} estimates; largest change in a "
+          f"cell {worst:.3f}" + ("" if where is None else f" (N = {where[0]}, {where[1]:g} µg: {where[2]:.3f} → "
+                                  f"{where[3]:.3f} of {where[4]}; 3 binomial s.e. "
+                                  f"{3 * np.sqrt(2 * 0.05 * 0.95 / where[4]):.3f})"))
 
 
 def starts(replicates: int, seed: int) -> None:

@@ -75,6 +75,9 @@ class Options:
     max_iterations: int = 50             # Gauss–Newton iterations per start
     tol_loss: float = 1e-10              # stop when the relative loss improvement falls below this
     tol_step: float = 1e-4               # stop when every step is below this many standard deviations
+    # the default (variable-projection) search also stops when its Gauss–Newton step would lower Σε² by less
+    # than this times σ̂²: the point is then within √this std of the minimum in the joint metric (0: off)
+    tol_decrease: float = 0.01
     # 1σ of the prior frequencies, rad/s (a list, or one number for every mode): a Gaussian prior, and the
     # fit is the MAP one (methods/pem/_map.py); None: no prior information, the ML fit. Typed Any because
     # OmegaConf's structured configs take no union of a list and a number; _check_prior_std checks it.
@@ -348,7 +351,10 @@ def _explains_record(fit: dict, w_std: np.ndarray, n: int, dt: float, energy: bo
     power = float(e @ e)
     if power <= fit.get("floor", 0.0) * n:
         return True                       # fitted to the rounding of the data: nothing left to find
-    peak = float(np.abs(np.fft.rfft(e, 2 * n)).max()) ** 2      # the largest |E(f)|², squared once
+    spectrum = np.fft.rfft(e, 2 * n)
+    if n <= fast.KEEP_BASIS_SAMPLES:      # for the residual check (its periodogram: the even bins)
+        fit["spectrum_2n"] = spectrum
+    peak = float(np.abs(spectrum).max()) ** 2                      # the largest |E(f)|², squared once
     return 2.0 * peak / power < 2.0 * math.log(n / (2.0 * WHITENESS_ALPHA))
 
 
@@ -400,8 +406,8 @@ def _check_options(opts: Options, prior: np.ndarray) -> None:
                          f"whole search)")
     if not 1 <= opts.max_iterations <= MAX_ITERATIONS:
         raise ValueError(f"max_iterations = {opts.max_iterations} must be between 1 and {MAX_ITERATIONS}")
-    if not (opts.start_spread >= 0 and opts.tol_loss >= 0 and opts.tol_step >= 0):
-        raise ValueError("start_spread, tol_loss and tol_step must be non-negative")
+    if not (opts.start_spread >= 0 and opts.tol_loss >= 0 and opts.tol_step >= 0 and opts.tol_decrease >= 0):
+        raise ValueError("start_spread, tol_loss, tol_step and tol_decrease must be non-negative")
     if opts.drift_segments != 0 and opts.drift_segments < 2:
         raise ValueError(f"drift_segments = {opts.drift_segments} must be 0 (off) or at least 2")
     if not isinstance(opts.skip_clipped, bool):
@@ -465,7 +471,19 @@ def free_mask(m: int, opts: Options) -> tuple[bool, ...]:
 
 
 QUICK = "quick pencil"
-QUICK_PENCIL_COLUMNS = 32     # the quick start's pencil parameter L (the full start's is N/3, up to 120)
+QUICK_EXTRA_ORDER = 4         # the quick start's poles beyond 2m + 1 (the full start's: pencil_extra_order)
+
+
+def quick_pencil_columns(m: int, extra_order: int) -> int:
+    """The quick start's pencil parameter L from the model order M = 2m + 1 + extra: L = 2M + 2, so that V₁
+    (L rows, M columns) has more than twice as many rows as columns, where
+    :func:`methods.pem._pencil.matrix_pencil` solves V₁⁺V₂ in two products (with L < 2M it takes the
+    pseudo-inverse). The full start's L is N/3 (up to 120), the noise-optimal side of Hua & Sarkar's
+    N/3–N/2; the quick one is a cheap first guess that is kept only when its fit explains the record.
+    (4 modes: M = 13, L = 28; the fixed L = 32 with M = 15 it replaces cost 1.07× its fit at N = 256. With
+    2 extra poles, M = 11 and L = 24, a fit was 4 % faster still but accepted a local minimum on a record
+    where this one does not: docs/notes/pem-speed.md, eighth pass.)"""
+    return 2 * (2 * m + 1 + extra_order) + 2
 
 
 def _line_start(best: dict, free, prior: np.ndarray, opts: Options, n: int, dt: float):
@@ -505,22 +523,24 @@ def _line_start(best: dict, free, prior: np.ndarray, opts: Options, n: int, dt: 
 
 def starts(y, dt, prior, opts: Options):
     """(label, ω, ζ) of every start, made when asked for: with ``accept_white`` first a quick pencil start
-    (L = 32: a fifth of the full pencil's time at N = 256; kept only if its fit explains the record, see
-    :func:`_explains_record`), then the ``n_starts``: the pencil start (L = N/3 up to 120: the quick one's
-    L lost 4 % of the random structures of ``experiments.benchmarks.basin`` to local minima), the prior,
-    then seeded perturbations."""
+    (order 2m + 5, L from it, :func:`quick_pencil_columns`: 28 for 4 modes, a small fraction of the full
+    pencil's time at N = 256; kept only if its fit explains the record, see :func:`_explains_record`), then
+    the ``n_starts``: the pencil start (L = N/3 up to 120: a quick start alone lost 4 % of the random
+    structures of ``experiments.benchmarks.basin`` to local minima), the prior, then seeded perturbations."""
     z_prior = np.full(prior.size, opts.damping_ratio)
 
-    def pencil(label, max_columns):
+    def pencil(label, max_columns, extra_order=opts.pencil_extra_order):
         try:
-            w, z = pencil_start(y, dt, prior, extra_order=opts.pencil_extra_order,
+            w, z = pencil_start(y, dt, prior, extra_order=extra_order,
                                 default_zeta=opts.damping_ratio, max_columns=max_columns)
         except np.linalg.LinAlgError:
             return None
         return label, w, z if opts.estimate_damping else z_prior
 
-    if opts.data_driven_start and opts.accept_white and min(y.size, PENCIL_WINDOW) // 3 > QUICK_PENCIL_COLUMNS:
-        start = pencil(QUICK, QUICK_PENCIL_COLUMNS)
+    quick_extra = min(opts.pencil_extra_order, QUICK_EXTRA_ORDER)
+    quick_columns = quick_pencil_columns(prior.size, quick_extra)
+    if opts.data_driven_start and opts.accept_white and min(y.size, PENCIL_WINDOW) // 3 > quick_columns:
+        start = pencil(QUICK, quick_columns, quick_extra)
         if start is not None:
             yield start
     made = 0

@@ -136,7 +136,7 @@ def band_limited(x: np.ndarray, dt: float, band_rad_s: float | None) -> tuple[np
 
 
 def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: float | None = None,
-                   gram_inverse=None) -> dict:
+                   gram_inverse=None, spectrum=None) -> dict:
     """Whiteness of a residual: Ljung–Box, the periodogram's largest peak against the floor, the variance
     ratio and the verdict (see the module docstring for the equations).
 
@@ -157,6 +157,10 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: f
     gram_inverse : array_like, shape (p, p), optional
         (BᵀB)⁻¹ of ``basis`` when the caller has it (:func:`fitted_autocorrelation`); ignored with a band
         (the band-limited basis has another Gram).
+    spectrum : array_like, shape (N + 1,), optional
+        ``numpy.fft.rfft(e, 2N)`` when the caller has it (pem's acceptance test): its even bins are the
+        N-point DFT of ε, which the centring changes in bin 0 only, so the periodogram is read from it
+        without a transform of its own; ignored with a band.
 
     Returns
     -------
@@ -185,16 +189,21 @@ def residual_check(e, dt: float, alpha: float = ALPHA, basis=None, band_rad_s: f
                 basis = band_limited(np.asarray(basis, float), dt, band_rad_s)[0]
                 gram_inverse = None
         dt, n = dt_band, e.size
+    if spectrum is not None and (band is not None or len(spectrum) != n + 1):
+        spectrum = None                                # (another residual's, or the band-limited one's)
     h = max(1, min(MAX_LB_LAGS, n // 5))
-    # one FFT of the centred residual, zero-padded to 2N, serves both tests: its |X|² inverse-transformed is
-    # the autocovariance (as in :func:`autocorrelation`), and its even bins are the N-point DFT of the
-    # periodogram (bin 2j of the 2N-point transform is frequency 2πj/N)
     x = e - e.sum() / n                               # e.mean()'s value (the same sum and division)
-    spec = np.fft.rfft(x, 2 * n)
-    acov = np.fft.irfft(spec * spec.conj(), 2 * n)[:h + 1]
-    power = np.abs(spec[2:2 * ((n - 1) // 2) + 1:2]) ** 2 / n        # bins 1…⌊(N−1)/2⌋: no DC, no Nyquist
-    variance = float(x @ x / n)
-    del spec, x                                       # (3N values: not kept through the projection below)
+    # the autocovariance at lags 0…h (≤ 10) as h + 1 dot products, O(hN): cheaper than the zero-padded
+    # transforms at every N; the periodogram from the N-point DFT of the centred residual (bins 1…⌊(N−1)/2⌋:
+    # no DC, no Nyquist), or from the even bins of the caller's 2N-point transform of ε (bin 2j is frequency
+    # 2πj/N, and the centring changes bin 0 only)
+    acov = np.array([float(x[:n - k] @ x[k:]) for k in range(h + 1)])
+    if spectrum is None:
+        power = np.abs(np.fft.rfft(x)[1:(n - 1) // 2 + 1]) ** 2 / n
+    else:
+        power = np.abs(spectrum[2:2 * ((n - 1) // 2) + 1:2]) ** 2 / n
+    variance = float(acov[0] / n)
+    del x
     rho = acov[1:] / acov[0] if acov[0] > 0 else np.zeros(h)
     if basis is not None:
         rho = rho - fitted_autocorrelation(np.asarray(basis, float), h, gram_inverse)
@@ -295,7 +304,7 @@ def assess_fit(fit: dict, slot: np.ndarray, n_params: int, dt: float, alpha: flo
         inverse = tangent_gram_inverse(fit, m, interleaved)
     else:
         basis = J
-    check = residual_check(e, dt, alpha, basis, band_rad_s, inverse)
+    check = residual_check(e, dt, alpha, basis, band_rad_s, inverse, fit.get("spectrum_2n"))
     if check["white"]:          # the white-noise std is the honest one: the sandwich is not needed (cost)
         return check
     std, bandwidth = sandwich_std(J, e, n_params)

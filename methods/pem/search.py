@@ -331,12 +331,19 @@ class NormalEquations:
         self.well_conditioned = self._all_kept and low > 1e-10 * top
         inv = self._inv = 1.0 / lam2 if self._all_kept else np.where(keep, 1.0 / np.where(keep, lam2, 1.0), 0.0)
         var = (V * V) @ inv / scale.diagonal()                 # the diagonal is norms * norms
-        sigma2 = ee / max(n - H.shape[0], 1)
+        self.sigma2 = sigma2 = ee / max(n - H.shape[0], 1)
         if var.size and var.min() > 0:
             self.std = np.sqrt(sigma2 * var)
         else:
             self.std = np.where(var > 0, np.sqrt(sigma2 * var), np.inf)
         self._gauss_newton = None
+
+    def predicted_decrease(self) -> float:
+        """The decrease of Σε² that the Gauss–Newton step d = −(JᵀJ)⁻¹Jᵀε promises on the linearised model,
+        |ε|² − |ε + Jd|² = Jᵀε·(JᵀJ)⁻¹Jᵀε (the kept directions): over σ̂² it is the step's squared length in
+        the metric of the covariance σ̂²(JᵀJ)⁻¹."""
+        gv = self._gv
+        return float((gv * gv) @ self._inv)
 
     @property
     def size(self) -> int:

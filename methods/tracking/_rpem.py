@@ -36,6 +36,31 @@ peak, the frequency about the window's middle, is compared with ω̂ − ω̇ (W
 floor (the window's resolution), so that a drift the filter follows is no disagreement; a restart resets the
 mode's rate.
 
+Two memories (``memory="two"``, with the rate). A walk of ω over a horizon is a memory of that horizon: it lags
+a drift less than a window does, but it forgets; a constant rate (ω's walk over one sample, Δt, and no walk
+of ω̇) keeps the whole record, as the bound does, and cannot leave a step. So two recursions of the same model
+run side by side on the same samples: the window-memory one above (its walks and restarts) and the
+whole-record one, which is reported. Each keeps its one-step log-likelihood ℓ = ½(ln S + e²/S) per sample;
+over the last window (the periodogram's, five periods of the slowest prior mode) their ratio
+Λ_W = Σ (ℓ_whole − ℓ_window) is the log posterior odds of "the window recursion is right" at equal prior
+odds. Every look:
+
+* when Λ_W > ``restart_gate``²/2 (the signed root of the likelihood ratio, about N(0, 1) without a change,
+  beyond ``restart_gate`` σ), each mode whose two estimates differ by more than ``reset_gate`` σ of their
+  difference, |ω̂ᵢ − ω̂ᵢ'| > ``reset_gate`` √(Pᵢ + Pᵢ'), starts again in the whole-record recursion from the
+  window recursion's ω, rate and their covariance (the interaction step of an interacting multiple model, made
+  hard and per mode); its sensitivities to them start at 0;
+* the reported variance is the mean square error of reporting the whole-record ω̂ under the two models'
+  posterior, μ = 1/(1 + e^(−Λ_W)): (1 − μ) P + μ (P' + (ω̂ − ω̂')²) (the output step of an interacting multiple
+  model, its mean kept at the whole-record recursion's).
+
+A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
+but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
+16–155 nats over 10 s, on its drifts by at most 4.2 (design seeds 7 and 11, docs/measured/tracking.md). filterpy's
+``IMMEstimator`` mixes the states of Kalman filters of one state vector by a Markov chain of model switches; a
+recursion here is (θ, P, x̂, W, Λ) stepped by a CasADi function, and a soft mix of two θ would blur a step's
+before and after — so the interaction is a hard reset of the modes that disagree, and written here.
+
 Written by hand: no maintained Python library has a recursive prediction-error method for a state-space
 innovations model (filterpy has Kalman filters; padasip adaptive FIR/RLS filters). The per-sample step is one
 CasADi SX function (:func:`_step_function`, its derivatives algorithmic), repeated between two looks with
@@ -74,11 +99,23 @@ class Options(_ambient.SharedOptions):
     trend_horizon_s : float or None
         ``"trend"``: the rate may change by the stated rate over this horizon (as ``akf_ambient``'s); None: ten
         windows.
+    memory : str
+        ``"window"`` (default): the recursion above, its walks' memory a horizon; ``"two"``: beside it a
+        recursion of the same model whose frequencies have a constant rate (ω's walk over one sample, no walk
+        of the rate), a memory of the whole record since its last reset, which it reports; a mode of it starts
+        again from the window-memory recursion's ω and rate when the window's likelihood ratio favours that
+        one and the two disagree (module docstring). Needs ``frequency_model="trend"``.
+    reset_gate : float
+        ``memory="two"``: a mode is reset when the two recursions' ω̂ differ by more than this many σ of their
+        difference (√(P + P'), both recursions' own variances), once the likelihood ratio has said that the
+        window recursion predicts the last window better.
     """
 
     estimate_damping: bool = True
     frequency_model: str = "walk"
     trend_horizon_s: float | None = None
+    memory: str = "window"
+    reset_gate: float = 3.0
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -88,6 +125,13 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: estimate_damping = {opts.estimate_damping!r} must be true or false")
     if opts.frequency_model not in ("trend", "walk"):
         raise ValueError(f"{name}: frequency_model = {opts.frequency_model!r} must be 'trend' or 'walk'")
+    if opts.memory not in ("two", "window"):
+        raise ValueError(f"{name}: memory = {opts.memory!r} must be 'two' or 'window'")
+    if opts.memory == "two" and opts.frequency_model != "trend":
+        raise ValueError(f"{name}: memory = 'two' needs frequency_model = 'trend' (got {opts.frequency_model!r})")
+    g = opts.reset_gate
+    if isinstance(g, bool) or not (isinstance(g, (int, float)) and math.isfinite(g) and g > 0):
+        raise ValueError(f"{name}: reset_gate = {g!r} must be a positive number")
     h = opts.trend_horizon_s
     if h is not None and not (isinstance(h, (int, float)) and math.isfinite(h) and h >= dt):
         raise ValueError(f"{name}: trend_horizon_s = {h!r} must be None or at least one sample ({dt} s)")
@@ -140,7 +184,7 @@ def _sx_transition(w, z, dt):
 def _step_function(m: int, est_z: bool, trend: bool = False):
     """One sample of the recursion (module docstring) as a CasADi SX function, its derivatives algorithmic:
 
-        (state, y(k), const) ↦ (state', [ω̂; P_ωω; ζ̂; pulse]),   state = [θ, vec P, x̂, vec W, Λ],
+        (state, y(k), const) ↦ (state', [ω̂; P_ωω; ζ̂; ½(ln S + e²/S); pulse]),   state = [θ, vec P, x̂, vec W, Λ],
         const = [Δt, ν²·horizon, Δt/T, pulse_gate, ζ, k̃ scale (2m), Q_θ (ω entries 0), ω low (m), ω high (m)].
 
     ∂Φ/∂θ, ∂K/∂θ and ∂C/∂θ are ``casadi.jacobian`` of Φ(θ)x̂ + K(θ)ε and C(θ)x̂ with x̂ and ε held (the
@@ -201,7 +245,8 @@ def _step_function(m: int, est_z: bool, trend: bool = False):
     W_new = ca.mtimes(Phi, W) - ca.mtimes(K, psi.T) + M
     x_new = ca.substitute(nxt, es, e)
     state = ca.vertcat(th_new, ca.vec(P_new), x_new, ca.vec(W_new), lam_new)
-    out = ca.vertcat(th_new[:m], ca.diag(P_new)[:m], th_new[m:m + nz], pulse)
+    nll = 0.5 * (ca.log(ca.if_else(S > 0, S, 1)) + e * e / ca.if_else(S > 0, S, 1))
+    out = ca.vertcat(th_new[:m], ca.diag(P_new)[:m], th_new[m:m + nz], nll, pulse)
     return ca.Function("rpem_step", [st, yk, c], [state, out])
 
 
@@ -217,7 +262,59 @@ class _Run(_ambient._Run):
     """The ambient filter's run, and the damping ratios the recursion also estimates."""
 
     damping: np.ndarray = None
+    n_resets: int = 0
 
+
+def _advance(m: int, est_z: bool, trend: bool, filt, y_seg: np.ndarray, const: np.ndarray):
+    """One mapaccum call of the recursion over ``y_seg``: (θ, P, x̂, W, Λ) of ``filt`` after it, and the
+    per-sample outputs (ω̂; P_ωω; ζ̂; pulse) as rows."""
+    theta, P, x, Wm, lam = filt
+    p = theta.size
+    state = np.concatenate([theta, P.ravel(), x, Wm.ravel(order="F"), [lam]])
+    state, out = _run_function(m, est_z, trend, y_seg.size)(state, y_seg[None, :], const)
+    state = np.asarray(state)[:, -1]
+    return (state[:p].copy(), state[p:p + p * p].reshape(p, p).copy(), state[p + p * p:p + p * p + 2 * m].copy(),
+            state[p + p * p + 2 * m:-1].reshape((2 * m, p), order="F").copy(), float(state[-1]), np.asarray(out))
+
+
+def _unstable(wzk, dt: float) -> bool:
+    """The predictor Φ − K C at (ω, ζ, K) has an eigenvalue on or outside the unit circle."""
+    w, z, K = wzk
+    phi, _ = modal_transition(w, z, dt)
+    C = np.column_stack([-w * w, -2 * z * w]).ravel()
+    return bool(np.max(np.abs(np.linalg.eigvals(scipy.linalg.block_diag(*phi) - np.outer(K, C)))) >= 1)
+
+
+def _variance_two(w_long, v_long, w_win, v_win, odds):
+    """``memory="two"``: the reported variance of the whole-record recursion's ω̂ under the two recursions'
+    posterior, as an interacting multiple model weighs them: equal prior odds and the last window's likelihood
+    ratio ``odds`` = Σ (ℓ_long − ℓ_window) give the window recursion the probability μ = 1/(1 + e^(−odds)),
+    and the mean square error of reporting ω̂ is (1 − μ) P + μ (P' + (ω̂ − ω̂')²). Rows are samples (``odds``
+    one per row), or one sample."""
+    mu = 1.0 / (1.0 + np.exp(-np.clip(odds, -50.0, 50.0)))
+    mu = mu[:, None] if np.ndim(mu) else mu
+    return (1 - mu) * v_long + mu * (v_win + (w_long - w_win) ** 2)
+
+def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts) -> int:
+    """``memory="two"``: modes of the whole-record recursion ``long`` ([θ, P, x̂, W, Λ], changed in place)
+    start again from the window-memory recursion's (θ, P) when the window recursion predicts the last window
+    better, by a log-likelihood ratio ``gain`` = Σ (ℓ_long − ℓ_window) > ``restart_gate``²/2 (its signed root,
+    about N(0, 1) without a change, beyond ``restart_gate``), and only the modes where the two disagree,
+    |ω̂ᵢ − ω̂ᵢ'| > ``reset_gate`` √(Pᵢ + Pᵢ'): their ω and rate and their covariance become the window
+    recursion's, their sensitivities 0. Returns the number of modes reset."""
+    if not gain > 0.5 * opts.restart_gate ** 2:
+        return 0
+    th_l, P_l, W_l = long[0], long[1], long[3]
+    gap = np.abs(th_l[iw] - theta[iw])
+    modes = np.flatnonzero(gap > opts.reset_gate * np.sqrt(np.diag(P_l)[iw] + np.diag(P)[iw]))
+    for i in modes:
+        j = np.array([iw[i], ia[i]])
+        th_l[j] = theta[j]
+        P_l[j, :] = 0.0
+        P_l[:, j] = 0.0
+        P_l[np.ix_(j, j)] = P[np.ix_(j, j)]
+        W_l[:, j] = 0.0
+    return modes.size
 
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
     """The recursion of the module docstring over the record."""
@@ -243,7 +340,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     nyq = math.pi / dt
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
-    n_restarts = n_pulses = 0
+    n_restarts = n_pulses = n_resets = 0
     resolution = 2 * math.pi / (W_len * dt) if trend else 0.0
     gam = dt / (W_len * dt)                     # innovation variance memory: one window
     if n < W_len:
@@ -296,18 +393,29 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     q_fixed = np.where(np.arange(p) >= m, Qth, 0.0)     # Q_θ's diagonal; the ω entries follow ω per sample
     const = np.concatenate([[dt, nu2, gam, opts.pulse_gate, opts.damping_ratio], kscale, q_fixed, lo_w,
                             np.minimum(hi_w, nyq)])
+    two = opts.memory == "two"
+    cum = np.zeros(n + 1) if two else None   # Σ (ℓ_long − ℓ_window) up to each sample, ℓ = ½(ln S + e²/S)
+    if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
+        q_long = q_fixed.copy()
+        q_long[ia] = 0.0
+        const_long = const.copy()
+        const_long[1] = opts.rate_rel_per_s ** 2 * dt
+        const_long[5 + 2 * m:5 + 2 * m + p] = q_long
+        long = [theta.copy(), P.copy(), x.copy(), Wm.copy(), lam]
     k0 = W_len
     while k0 < n:
         # the samples up to the next look (k + 1 − W a multiple of the hop), one mapaccum call
         k1 = min(n, k0 + (W_len - 1 - k0) % hop + 1)
-        state = np.concatenate([theta, P.ravel(), x, Wm.ravel(order="F"), [lam]])
-        state, out = _run_function(m, est_z, trend, k1 - k0)(state, y[k0:k1][None, :], const)
-        state, out = np.asarray(state)[:, -1], np.asarray(out)
-        theta, P = state[:p].copy(), state[p:p + p * p].reshape(p, p).copy()
-        x = state[p + p * p:p + p * p + 2 * m].copy()
-        Wm = state[p + p * p + 2 * m:-1].reshape((2 * m, p), order="F").copy()
-        lam = float(state[-1])
+        theta, P, x, Wm, lam, out = _advance(m, est_z, trend, (theta, P, x, Wm, lam), y[k0:k1], const)
         freq[k0:k1], var[k0:k1] = out[iw].T, out[m + iw].T
+        if two:     # the whole-record recursion over the same samples; it is the one reported
+            ell_win = out[-2]
+            *long, out = _advance(m, est_z, trend, long, y[k0:k1], const_long)
+            cum[k0 + 1:k1 + 1] = cum[k0] + np.cumsum(out[-2] - ell_win)
+            ks = np.arange(k0 + 1, k1 + 1)
+            odds = cum[ks] - cum[np.maximum(ks - W_len, W_len)]          # over the last window
+            var[k0:k1] = _variance_two(out[iw].T, out[m + iw].T, freq[k0:k1], var[k0:k1], odds)
+            freq[k0:k1] = out[iw].T
         damp[k0:k1] = out[2 * m + iw].T if est_z else opts.damping_ratio
         n_pulses += int(np.sum(out[-1]))
         started[k0:k1] = True
@@ -317,10 +425,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         # every hop: the periodogram's peaks against ω̂ (restarts, as akf_ambient)
         if (k + 1 - W_len) % hop == 0:
             # the predictor at the look's θ (before restarts) must be stable, else K starts again
-            w_p, z_p, K_p = unpack(theta)
-            phi_p, _ = modal_transition(w_p, z_p, dt)
-            C_p = np.column_stack([-w_p * w_p, -2 * z_p * w_p]).ravel()
-            unstable = np.max(np.abs(np.linalg.eigvals(scipy.linalg.block_diag(*phi_p) - np.outer(K_p, C_p)))) >= 1
+            unstable = _unstable(unpack(theta), dt)
             ref = theta[iw].copy()
             peak, r_f, v_f, _ = _ambient.periodogram_look(y[k + 1 - W_len:k + 1], dt, ref, opts.band,
                                                           opts.damping_ratio)
@@ -345,11 +450,20 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             if unstable:
                 theta[ik] = K0 / kscale
                 Wm[:] = 0.0
+            if two:
+                gain = float(odds[-1])
+                n_resets += _reset_from_window(long, theta, P, iw, ia, gain, opts)
+                if _unstable(unpack(long[0]), dt):
+                    long[0][ik] = K0 / kscale
+                    long[3][:] = 0.0
             seen[k] = seen_now
-            freq[k] = theta[iw]
-            var[k] = np.diag(P)[iw]
-            damp[k] = theta[iz] if est_z else opts.damping_ratio
-    return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp)
+            freq[k], var[k] = theta[iw], np.diag(P)[iw]
+            if two:
+                var[k] = _variance_two(long[0][iw], np.diag(long[1])[iw], freq[k], var[k], gain)
+                freq[k] = long[0][iw]
+            th_out = long[0] if two else theta
+            damp[k] = th_out[iz] if est_z else opts.damping_ratio
+    return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets)
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
@@ -358,5 +472,6 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     k = np.flatnonzero(out.started)
     std = np.sqrt(np.clip(out.var[k], 0.0, None))
     return Track(k * dt, out.freq[k], std, out.seen[k] & (std <= _ambient.DETERMINED_REL_STD * out.freq[k]),
-                 message=f"{name}: {out.n_restarts} restarts, {out.n_pulses} pulse samples",
-                 extra={"n_restarts": out.n_restarts, "n_pulses": out.n_pulses, "damping": out.damping[k]})
+                 message=f"{name}: {out.n_restarts} restarts, {out.n_resets} resets, {out.n_pulses} pulse samples",
+                 extra={"n_restarts": out.n_restarts, "n_resets": out.n_resets, "n_pulses": out.n_pulses,
+                        "damping": out.damping[k]})

@@ -115,7 +115,7 @@ def test_the_fast_search_takes_the_steps_of_the_reference_search():
                              256, offset=0.01)
     y = clean + 0.05 * np.random.default_rng(3).standard_normal(256)
     for options in ({}, {"estimate_damping": False}, {"bias": "none"}):
-        opts = pem.Options(**options)
+        opts = pem.Options(**options, tol_decrease=0.0)        # both to the 1e-4 std step rule
         free = pem.free_mask(4, opts)
         bounds = search.search_bounds(TABLE4_PRIOR, DT, opts)
         w0, z0 = pencil_start(y, DT, TABLE4_PRIOR, extra_order=6, default_zeta=0.005)
@@ -128,6 +128,35 @@ def test_the_fast_search_takes_the_steps_of_the_reference_search():
         n_nl = 8 if opts.estimate_damping else 4
         std_b = search.lstsq_step(b["J"], b["e"])[1]
         np.testing.assert_allclose(a["std_free"][:n_nl], std_b[:n_nl], rtol=1e-6)
+
+
+@pytest.mark.parametrize("noise", [0.02, 0.2])
+def test_the_statistical_stop_ends_within_its_std_of_the_minimum(noise):
+    """tol_decrease: the fast search stops once the Gauss–Newton step would lower Σε² by less than
+    tol_decrease·σ̂², saving the iteration that takes and confirms that step; the point is then within
+    √tol_decrease std of the minimum the search reaches without the rule (here 0.1 std, every (ω, ζ)),
+    and the std it reports is the same to a few per mille."""
+    from methods.pem import search
+    from methods.pem._pencil import pencil_start
+
+    zeta = np.array([0.005, 0.004, 0.006, 0.005])
+    clean = damped_sinusoids(TRUE_W, zeta, np.array([1.0, -3.9, -5.1, 6.4]), np.array([0.2, 0.5, -0.3, 1.0]),
+                             256, offset=0.01)
+    for seed in range(4):
+        y = clean + noise * np.random.default_rng(seed).standard_normal(256)
+        fits = {}
+        for tol in (0.01, 0.0):
+            opts = pem.Options(tol_decrease=tol)
+            free = pem.free_mask(4, opts)
+            bounds = search.search_bounds(TABLE4_PRIOR, DT, opts)
+            w0, z0 = pencil_start(y, DT, TABLE4_PRIOR, extra_order=6, default_zeta=0.005)
+            fits[tol] = _pem_fast.fit_one_start(y, DT, w0, z0, free, opts, bounds)
+        quick, full = fits[0.01], fits[0.0]
+        assert quick["converged"] and full["converged"]
+        assert quick["iterations"] < full["iterations"] and "predicted loss decrease" in quick["message"]
+        std = full["std_free"][:8]
+        assert np.all(np.abs(quick["theta"][:8] - full["theta"][:8]) <= 0.1 * std)
+        np.testing.assert_allclose(quick["std_free"][:8], std, rtol=5e-3)
 
 
 @pytest.mark.slow

@@ -45,6 +45,28 @@ def test_whiteness_check_finds_a_line_and_its_frequency():
     assert check["peak_rad_s"] == pytest.approx(111.0, abs=2 * np.pi / (t.size * DT))
 
 
+@pytest.mark.parametrize("n", [255, 256])
+def test_residual_check_reads_the_callers_spectrum_and_its_own_alike(n):
+    """The periodogram from the caller's zero-padded 2N-point transform of ε (its even bins; pem's
+    acceptance test has it) equals the one from the centred residual's own N-point transform, and the
+    Ljung–Box autocorrelations taken as lagged dot products equal the FFT estimator's."""
+    rng = np.random.default_rng(5)
+    e = 0.3 + rng.standard_normal(n) + 0.5 * np.sin(0.9 * np.arange(n))
+    own = _residual.residual_check(e, DT)
+    given = _residual.residual_check(e, DT, spectrum=np.fft.rfft(e, 2 * n))
+    for key, value in own.items():
+        if isinstance(value, float):
+            assert given[key] == pytest.approx(value, rel=1e-10, abs=1e-12), key
+        else:
+            assert given[key] == value, key
+    rho = _residual.autocorrelation(e, own["ljung_box_lags"])
+    q = n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, rho.size + 1)))
+    assert own["ljung_box_q"] == pytest.approx(q, rel=1e-10)
+    # a spectrum of another length (e.g. a band-limited residual's) is not used
+    other = _residual.residual_check(e, DT, spectrum=np.zeros(n))
+    assert other["peak_over_floor"] == pytest.approx(own["peak_over_floor"], rel=1e-10)
+
+
 def test_robust_std_matches_monte_carlo_in_a_linear_toy_problem():
     """Least squares on narrow-band columns (a sinusoid's, like pem's Jacobian) in AR(1) noise: the
     sandwich std against the spread of 2000 simulated estimates; the white-noise std is far off there."""

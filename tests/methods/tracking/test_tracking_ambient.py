@@ -33,6 +33,9 @@ BAD = [
     ("rpem_ambient", {"colour": "red"}, "unknown option 'colour'"),
     ("rpem_ambient", {"frequency_model": "spline"}, "frequency_model = 'spline'"),
     ("rpem_ambient", {"trend_horizon_s": 0.0}, "trend_horizon_s = 0.0"),
+    ("rpem_ambient", {"memory": "three"}, "memory = 'three'"),
+    ("rpem_ambient", {"memory": "two"}, "needs frequency_model = 'trend'"),
+    ("rpem_ambient", {"frequency_model": "trend", "memory": "two", "reset_gate": 0.0}, "reset_gate = 0.0"),
 ]
 
 
@@ -88,8 +91,12 @@ def stationary():
     return driven_modes(w, force=1.0, noise_ug=300.0, seed=11), w[0]
 
 
-@pytest.mark.parametrize("name, options", [("akf_ambient", {}), ("rpem_ambient", {"frequency_model": "trend"})],
-                         ids=["akf_ambient", "rpem_ambient-trend"])
+TWO = {"frequency_model": "trend", "memory": "two"}
+
+
+@pytest.mark.parametrize("name, options", [("akf_ambient", {}), ("rpem_ambient", {"frequency_model": "trend"}),
+                                           ("rpem_ambient", TWO)],
+                         ids=["akf_ambient", "rpem_ambient-trend", "rpem_ambient-two"])
 def test_late_estimate_agrees_with_batch_innovation_form_pem(stationary, name, options):
     """On a stationary white-force record the tracker's mean estimate over its last 15 s and the batch
     innovation-form pem (``predictor="kalman"``, its own noise model) of the same 15 s agree within the scatter
@@ -224,3 +231,113 @@ def test_rpem_casadi_step_is_the_numpy_recursion(est_z, yk):
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
     assert bool(out[-1]) == ref[5] == (yk > 1)
     np.testing.assert_allclose(out[:m], ref[0][:m], rtol=1e-12)
+
+
+def _two_memories(gap_sigmas):
+    """A whole-record recursion [θ, P, x̂, W, Λ] and a window one (θ', P') of 3 modes, θ = [ω (3), ζ (3), K (6),
+    ω̇ (3)], P and P' diagonal with ω's variance 1e-4 and 3e-4 (σ of the difference 0.02), ω' − ω =
+    ``gap_sigmas`` × 0.02, and cross-covariances of ω with ω̇ in both."""
+    p = 15
+    iw, ia = np.arange(3), np.arange(12, 15)
+    th = np.arange(1.0, p + 1.0)
+    P = np.diag(np.full(p, 1e-4))
+    P[0, 12] = P[12, 0] = 1e-6
+    th_w = th.copy()
+    th_w[iw] += 0.02 * np.asarray(gap_sigmas)
+    th_w[ia] += 0.5
+    P_w = np.diag(np.full(p, 3e-4))
+    P_w[0, 12] = P_w[12, 0] = 2e-6
+    P_w[1, 2] = P_w[2, 1] = 5e-5
+    long = [th, P, np.zeros(6), np.ones((6, p)), 1.0]
+    return long, th_w, P_w, iw, ia
+
+
+def test_two_memories_reset_only_disagreeing_modes_after_the_likelihood_ratio():
+    """``memory="two"``'s interaction, by hand: below restart_gate²/2 (8 nats at 4σ) of likelihood ratio nothing
+    moves; above it the modes whose ω differ by more than reset_gate (3) σ of the difference — modes 0 and 2 of
+    gaps 10σ, 0.5σ, 3.5σ — take the window recursion's ω and rate and their covariance block (the cross terms to
+    the rest 0), their sensitivity columns 0; mode 1 and every other entry stay."""
+    from methods.estimate import make_options
+    from methods.tracking import _rpem
+
+    opts = make_options(_rpem.Options, TWO, "rpem_ambient")
+    long, th_w, P_w, iw, ia = _two_memories([10.0, 0.5, 3.5])
+    before = [np.copy(v) for v in long]
+    assert _rpem._reset_from_window(long, th_w, P_w, iw, ia, 7.9, opts) == 0
+    for a, b in zip(long, before, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert _rpem._reset_from_window(long, th_w, P_w, iw, ia, 8.1, opts) == 2
+    th, P, _, W, _ = long
+    reset = np.array([0, 2, 12, 14])
+    np.testing.assert_array_equal(th[reset], th_w[reset])
+    kept = np.setdiff1d(np.arange(15), reset)
+    np.testing.assert_array_equal(th[kept], before[0][kept])
+    np.testing.assert_array_equal(P[np.ix_(reset, reset)], [[3e-4, 0, 2e-6, 0], [0, 3e-4, 0, 0],
+                                                          [2e-6, 0, 3e-4, 0], [0, 0, 0, 3e-4]])
+    np.testing.assert_array_equal(P[np.ix_(kept, kept)], before[1][np.ix_(kept, kept)])
+    assert not P[np.ix_(reset, kept)].any()
+    assert not W[:, reset].any() and (W[:, kept] == 1).all()
+
+
+def test_two_memories_variance_is_the_mixture_error_of_the_whole_record_estimate():
+    """The reported variance against its formula evaluated by hand: odds 0 (μ = ½), ln 3 (μ = ¾), −50 (μ → 0)."""
+    from methods.tracking import _rpem
+
+    w, v, w2, v2 = np.array([10.0, 20.0]), np.array([0.01, 0.04]), np.array([10.2, 19.0]), np.array([0.02, 0.09])
+    np.testing.assert_allclose(_rpem._variance_two(w, v, w2, v2, 0.0), [0.5 * 0.01 + 0.5 * (0.02 + 0.04),
+                                                                        0.5 * 0.04 + 0.5 * (0.09 + 1.0)])
+    np.testing.assert_allclose(_rpem._variance_two(w, v, w2, v2, np.log(3.0)),
+                               [0.25 * 0.01 + 0.75 * 0.06, 0.25 * 0.04 + 0.75 * 1.09])
+    np.testing.assert_allclose(_rpem._variance_two(w[None], v[None], w2[None], v2[None], np.array([-50.0])),
+                               v[None], rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def grid_like():
+    """One replicate of the six white-force cells of ``experiments.benchmarks.tracking_ambient`` (the grid's
+    drift and step at 100 and 1000 µg, the issue's +12 % drift and −7 % step), seeds 3, 5 and 13 — never the
+    design (7, 11) nor the scoring (20261121) seeds — without their bounds."""
+    from experiments.benchmarks.tracking_ambient import CELLS, configs
+    from experiments.simulate.tracking_data import make_cell
+
+    labels = [label for label in CELLS if "white force" in label and "slosh" not in label]
+    return {(seed, label): make_cell(configs(seed, 1)[label], bounds=False) for seed in (3, 5, 13)
+            for label in labels}
+
+
+def _track_cell(cell, **options):
+    tr = methods.track("rpem_ambient", cell["accel_m_s2"][0], float(cell["dt_s"]), cell["prior_rad_s"][0],
+                       **options)
+    return tr, cell["truth_freq_rad_s"][np.round(tr.t_s / float(cell["dt_s"])).astype(int)]
+
+
+def test_two_memories_std_covers_its_error_60_to_75_percent_on_grid_like_records(grid_like):
+    """``memory="two"``'s 1σ covers |ω̂ − ω| in 60–75 % of (time, mode) after 30 s, pooled over the six
+    white-force cells × three seeds (a Gaussian error within its 1σ: 68 %; measured 0.67–0.75 per seed)."""
+    inside = []
+    for cell in grid_like.values():
+        tr, truth = _track_cell(cell, **TWO)
+        late = tr.t_s >= 30.0
+        inside.append(np.abs(tr.frequencies - truth)[late] <= tr.std[late])
+    share = float(np.mean(np.concatenate(inside)))
+    assert 0.60 <= share <= 0.75, share
+
+
+def test_two_memories_follow_a_step_the_whole_record_alone_does_not_leave(grid_like):
+    """The issue's −7 % step of modes 2–4 at 80 s (seed 3): with the resets every mode is within 1 % of the truth
+    over the last 20 s (median over time); the same whole-record recursion with the resets switched off
+    (``restart_gate`` 10⁶: no likelihood ratio reaches it) still has a mode beyond 1 %; on the three drift
+    records of the same seed no reset fires."""
+    cell = grid_like[(3, "issue: −7 % step of modes 2–4 at 80 s, white force, 100 µg")]
+    late = {}
+    for key, opts in (("two", TWO), ("alone", TWO | {"restart_gate": 1e6})):
+        tr, truth = _track_cell(cell, **opts)
+        end = tr.t_s >= tr.t_s[-1] - 20.0
+        late[key] = np.median(np.abs(tr.frequencies / truth - 1)[end], axis=0)
+        if key == "two":
+            assert tr.extra["n_resets"] >= 1
+    assert np.all(late["two"] < 0.01), late
+    assert np.any(late["alone"] > 0.01), late
+    for (seed, label), cell in grid_like.items():
+        if seed == 3 and "drift" in label:
+            assert _track_cell(cell, **TWO)[0].extra["n_resets"] == 0, label

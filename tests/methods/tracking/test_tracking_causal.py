@@ -25,10 +25,11 @@ TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every w
 # gated_pencil's kick test
 DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory", "gated_pencil+kicks"]
 # akf_ambient's rate state and its single-force fit with a memory of looks (the forgetting sum); rpem_ambient's
-# rate in θ (its per-hop CasADi runs hand the state over between looks)
+# rate in θ (its per-hop CasADi runs hand the state over between looks) and its two memories
 AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "akf_ambient+single": {"force_model": "single", "fit_memory_looks": 30},
-           "rpem_ambient+rate": {"frequency_model": "trend"}}
+           "rpem_ambient+rate": {"frequency_model": "trend"},
+           "rpem_ambient+two": {"frequency_model": "trend", "memory": "two"}}
 
 
 def _options(name):
@@ -68,5 +69,5 @@ def test_changing_later_samples_leaves_earlier_estimates_unchanged(name, records
     np.testing.assert_array_equal(a.converged[early], b.converged[early])
     later_a, later_b = a.frequencies[~early], b.frequencies[~early]
     assert not np.array_equal(later_a, later_b, equal_nan=True), f"{name}: later samples changed nothing"
-    if opts.get("memory"):                       # the change detector did restart the window in this record
+    if opts.get("memory") is True:               # the change detector did restart the window in this record
         assert a.extra["memory_restart_samples"].size > 0, a.message
