@@ -48,7 +48,10 @@ What. On each window of W samples (every H samples):
    the window's centre and carried to the present by a local-linear-trend Kalman filter per mode; with the
    segment fit, a window weighs by its own std: R = ``overlap_inflation``·(W/H)·std² + (``trend_meas_rel``·ω)²
    (consecutive windows share W − H samples; the floor is the model error of a constant-frequency fit), and
-   its gate tests the window against its own std, √(std² + (``trend_meas_rel``·ω)²) (``gate_std``).
+   its gate tests the window against its own std, √(std² + (``trend_meas_rel``·ω)²) (``gate_std``). What a
+   restart does with the rate is ``trend_restart_rate`` ("keep", as every trend stage; "freeze", an option:
+   after the first window the gate refuses, or a re-level after a gap, the windows that may straddle the change
+   update the level only and the rate goes back to the one before it — :mod:`methods.tracking._trend`).
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -106,6 +109,7 @@ class Options:
     trend_gate: float = _trend.DEFAULTS["trend_gate"]
     trend_restart_after: int = _trend.DEFAULTS["trend_restart_after"]
     trend_rate0: float | None = _trend.DEFAULTS["trend_rate0"]
+    trend_restart_rate: str = _trend.RESTART_RATE
     memory: bool = _memory.DEFAULTS["memory"]
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
@@ -162,6 +166,9 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: window_samples = {opts.window_samples} is too short for rows = {opts.rows} "
                          f"and ar_order = {opts.ar_order} (needs ≥ 3 (rows + 1) and > 2 ar_order)")
     _trend.check(opts, name)
+    if opts.trend_restart_rate not in _trend.RESTART_RATES:
+        raise ValueError(f"{name}: trend_restart_rate = {opts.trend_restart_rate!r} must be one of "
+                         f"{', '.join(_trend.RESTART_RATES)}")
     _memory.check(opts, name)
     return opts
 
@@ -301,7 +308,8 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
              "rows_free": given.rows is None,
              "seg_start": 0, "kicks": set(), "clean": []}
     limit = np.log1p(opts.band)
-    bank = _trend.TrendBank(m, **_trend.settings(opts, prior)) if (opts.trend or opts.memory) else None
+    bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
+            if (opts.trend or opts.memory) else None)
     cusum = _memory.Cusum(m, opts.change_threshold, opts.change_drift) if opts.memory else None
     out = np.full((ends.size, m), np.nan)
     out_std = np.full((ends.size, m), np.nan)

@@ -36,7 +36,7 @@ peak, the frequency about the window's middle, is compared with ω̂ − ω̇ (W
 floor (the window's resolution), so that a drift the filter follows is no disagreement; a restart resets the
 mode's rate.
 
-Two memories (``memory="two"``, with the rate). A walk of ω over a horizon is a memory of that horizon: it lags
+Two memories (``recursions="two"``, with the rate). A walk of ω over a horizon is a memory of that horizon: it lags
 a drift less than a window does, but it forgets; a constant rate (ω's walk over one sample, Δt, and no walk
 of ω̇) keeps the whole record, as the bound does, and cannot leave a step. So two recursions of the same model
 run side by side on the same samples: the window-memory one above (its walks and restarts) and the
@@ -99,14 +99,14 @@ class Options(_ambient.SharedOptions):
     trend_horizon_s : float or None
         ``"trend"``: the rate may change by the stated rate over this horizon (as ``akf_ambient``'s); None: ten
         windows.
-    memory : str
-        ``"window"`` (default): the recursion above, its walks' memory a horizon; ``"two"``: beside it a
+    recursions : str
+        ``"one"`` (default): the recursion above, its walks' memory a horizon; ``"two"``: beside it a
         recursion of the same model whose frequencies have a constant rate (ω's walk over one sample, no walk
         of the rate), a memory of the whole record since its last reset, which it reports; a mode of it starts
         again from the window-memory recursion's ω and rate when the window's likelihood ratio favours that
         one and the two disagree (module docstring). Needs ``frequency_model="trend"``.
     reset_gate : float
-        ``memory="two"``: a mode is reset when the two recursions' ω̂ differ by more than this many σ of their
+        ``recursions="two"``: a mode is reset when the two recursions' ω̂ differ by more than this many σ of their
         difference (√(P + P'), both recursions' own variances), once the likelihood ratio has said that the
         window recursion predicts the last window better.
     """
@@ -114,7 +114,7 @@ class Options(_ambient.SharedOptions):
     estimate_damping: bool = True
     frequency_model: str = "walk"
     trend_horizon_s: float | None = None
-    memory: str = "window"
+    recursions: str = "one"
     reset_gate: float = 3.0
 
 
@@ -125,10 +125,10 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: estimate_damping = {opts.estimate_damping!r} must be true or false")
     if opts.frequency_model not in ("trend", "walk"):
         raise ValueError(f"{name}: frequency_model = {opts.frequency_model!r} must be 'trend' or 'walk'")
-    if opts.memory not in ("two", "window"):
-        raise ValueError(f"{name}: memory = {opts.memory!r} must be 'two' or 'window'")
-    if opts.memory == "two" and opts.frequency_model != "trend":
-        raise ValueError(f"{name}: memory = 'two' needs frequency_model = 'trend' (got {opts.frequency_model!r})")
+    if opts.recursions not in ("one", "two"):
+        raise ValueError(f"{name}: recursions = {opts.recursions!r} must be 'one' or 'two'")
+    if opts.recursions == "two" and opts.frequency_model != "trend":
+        raise ValueError(f"{name}: recursions = 'two' needs frequency_model = 'trend' (got {opts.frequency_model!r})")
     g = opts.reset_gate
     if isinstance(g, bool) or not (isinstance(g, (int, float)) and math.isfinite(g) and g > 0):
         raise ValueError(f"{name}: reset_gate = {g!r} must be a positive number")
@@ -286,7 +286,7 @@ def _unstable(wzk, dt: float) -> bool:
 
 
 def _variance_two(w_long, v_long, w_win, v_win, odds):
-    """``memory="two"``: the reported variance of the whole-record recursion's ω̂ under the two recursions'
+    """``recursions="two"``: the reported variance of the whole-record recursion's ω̂ under the two recursions'
     posterior, as an interacting multiple model weighs them: equal prior odds and the last window's likelihood
     ratio ``odds`` = Σ (ℓ_long − ℓ_window) give the window recursion the probability μ = 1/(1 + e^(−odds)),
     and the mean square error of reporting ω̂ is (1 − μ) P + μ (P' + (ω̂ − ω̂')²). Rows are samples (``odds``
@@ -296,7 +296,7 @@ def _variance_two(w_long, v_long, w_win, v_win, odds):
     return (1 - mu) * v_long + mu * (v_win + (w_long - w_win) ** 2)
 
 def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts) -> int:
-    """``memory="two"``: modes of the whole-record recursion ``long`` ([θ, P, x̂, W, Λ], changed in place)
+    """``recursions="two"``: modes of the whole-record recursion ``long`` ([θ, P, x̂, W, Λ], changed in place)
     start again from the window-memory recursion's (θ, P) when the window recursion predicts the last window
     better, by a log-likelihood ratio ``gain`` = Σ (ℓ_long − ℓ_window) > ``restart_gate``²/2 (its signed root,
     about N(0, 1) without a change, beyond ``restart_gate``), and only the modes where the two disagree,
@@ -393,7 +393,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     q_fixed = np.where(np.arange(p) >= m, Qth, 0.0)     # Q_θ's diagonal; the ω entries follow ω per sample
     const = np.concatenate([[dt, nu2, gam, opts.pulse_gate, opts.damping_ratio], kscale, q_fixed, lo_w,
                             np.minimum(hi_w, nyq)])
-    two = opts.memory == "two"
+    two = opts.recursions == "two"
     cum = np.zeros(n + 1) if two else None   # Σ (ℓ_long − ℓ_window) up to each sample, ℓ = ½(ln S + e²/S)
     if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
         q_long = q_fixed.copy()

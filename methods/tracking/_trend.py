@@ -25,7 +25,17 @@ still holds a sample from before the end of the first gated window — one that 
 re-initialise the mode at its own estimate (level variance R, rate 0) instead of updating it, until the first
 window wholly after that point. The hold removes a ramp's overshoot but is not the default: it slowed the
 re-convergence on six-mode and short-dwell records (likely because its windows are not gated;
-docs/measured/tracking.md, "The trend stage after a step"). **The gate's std.** A tracker that weighs its
+docs/measured/tracking.md, "The trend stage after a step"). "freeze" (an option of ``gated_pencil``,
+``trend_restart_rate``; not its default, same page) keeps the gate: the first window the gate refuses, ending
+at t_f, holds the change somewhere in its span, so the windows that ended before its start are the last wholly
+before it; the rate (and its variance) goes back to the one after the last of them (what the ramp taught since
+is forgotten), and every window that starts before t_f — one that may straddle the change — is still gated but
+updates the level only (the rate's cross-covariance set to 0 before the update: a sample of the level, not of
+the rate); a gap re-level (below) starts the same hold at its window's end. The first window that starts after
+t_f closes the hold: a level-only update, or the level itself where the gate refuses it (its jump from the
+straddling windows' level is the rest of the step). A rate learnt before the change (a drift) is kept
+throughout.
+**The gate's std.** A tracker that weighs its
 windows by their own std inflated for their overlap (``gated_pencil``: R = (W/H)·std², consecutive windows
 sharing W − H samples) gives the window's own std too (``gate_std``): the gate tests ν against √(P₀₀ + std² +
 (``trend_meas_rel``·ω)²), the one window's error, while the update weighs it by the inflated R — tested against
@@ -56,8 +66,9 @@ from filterpy.kalman import KalmanFilter
 from methods.tracking import _defaults
 
 # what a gate restart does with the rate (module docstring): "keep" keeps the rate learnt before; "reset" sets
-# it to 0 ± trend_rate0; "hold" also re-initialises the mode from the windows that may straddle the change
-RESTART_RATES = ("hold", "reset", "keep")
+# it to 0 ± trend_rate0; "hold" also re-initialises the mode from the windows that may straddle the change;
+# "freeze" restores the rate from before the change and lets those windows (gated) update the level only
+RESTART_RATES = ("hold", "reset", "keep", "freeze")
 RESTART_RATE = "keep"
 TREND_FIELDS = ("trend", "trend_rate_noise", "trend_meas_rel", "trend_gate", "trend_restart_after", "trend_rate0")
 # trend_rate_noise (s^-1.5) and trend_rate0 (s^-1): None = from the prior's slowest period
@@ -125,6 +136,7 @@ class TrendBank:
         self.t_update = np.full(m, -np.inf)         # centre time of the mode's last used window
         self.p_update = np.zeros(m)                 # the level's variance after it
         self.relevels = np.zeros(m, dtype=int)
+        self.history: list[list] = [[] for _ in range(m)]   # "freeze": (window end, rate, its variance) per update
 
     def restart(self, i: int) -> None:
         self.kf[i] = None
@@ -136,6 +148,26 @@ class TrendBank:
         """Re-initialise a filter at the window estimate ``zi``: level variance R, rate 0 ± ``rate0``·ω."""
         kf.x = np.array([zi, 0.0])
         kf.P = np.diag([r_var, (self.rate0 * zi) ** 2])
+
+    def _remember(self, i: int, kf, t_end: float, span: float) -> None:
+        """Keep the rate after an update of the window ending at ``t_end`` (two spans back, and one older)."""
+        h = self.history[i]
+        h.append((t_end, float(kf.x[1]), float(kf.P[1, 1])))
+        old = [k for k, entry in enumerate(h) if entry[0] < t_end - 2 * span]
+        if len(old) > 1:
+            del h[:old[-1]]
+
+    def _freeze(self, i: int, kf, t_end: float, span: float) -> None:
+        """The first window the gate refuses (ending at ``t_end``) holds a change somewhere in its span: the
+        windows that ended before its start are the last wholly before the change, so the rate (and its
+        variance) goes back to the one after the last of them, and the windows that may straddle the change
+        (starting before ``t_end``) update the level only (``step``)."""
+        before = [entry for entry in self.history[i] if entry[0] <= t_end - span]
+        if before:
+            _, rate, var = before[-1]
+            kf.x = np.array([kf.x[0], rate])
+            kf.P = np.diag([kf.P[0, 0], var])
+        self.hold_until[i] = t_end
 
     def step(self, t_c: float, lead: float, z: np.ndarray, determined: np.ndarray, meas_std=None, gate_std=None):
         out = np.full(self.m, np.nan)
@@ -168,7 +200,15 @@ class TrendBank:
                 kf.F = np.array([[1.0, tau], [0.0, 1.0]])
                 kf.Q = Q_discrete_white_noise(dim=2, dt=tau, var=(self.rate_noise * self.w0[i]) ** 2)
                 kf.predict()
-                if good and t_c[i] - lead[i] <= self.hold_until[i]:
+                straddles = t_c[i] - lead[i] <= self.hold_until[i]
+                closing = (good and self.restart_rate == "freeze" and not straddles
+                           and np.isfinite(self.hold_until[i]))
+                if closing:
+                    # the first window wholly after the change closes the hold: a sample of the level only, and
+                    # the level itself where the gate refuses it (its jump from the straddling windows' level
+                    # is the rest of the step, not a rate)
+                    straddles, self.hold_until[i] = True, -np.inf
+                if good and straddles and self.restart_rate == "hold":
                     # after a restart, a window that still holds samples from before the first gated
                     # window's end mixes the old and the new frequency: its estimate is the level, no rate
                     self._level(kf, zi, r_std ** 2)
@@ -184,24 +224,40 @@ class TrendBank:
                     self.misses[i], self.ok[i] = 0, True
                     self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
                     self.relevels[i] += 1
+                    if self.restart_rate == "freeze" and not straddles:
+                        self.hold_until[i] = t_c[i] + lead[i]      # the change lies before this window's end
                 elif good:
                     kf.R = np.array([[r_std ** 2]])
                     nu = zi - kf.x[0]
                     s = kf.P[0, 0] + kf.R[0, 0]
                     nu_norm[i] = nu / np.sqrt(s)
                     if nu * nu / (kf.P[0, 0] + g_std ** 2) <= self.gate:
+                        if straddles and self.restart_rate == "freeze":
+                            # a window that may straddle the change: a sample of the level, not of the rate
+                            # (the ramp of such windows is the window sliding over a step, not a drift)
+                            kf.P[0, 1] = kf.P[1, 0] = 0.0
                         kf.update(np.array([zi]))
                         self.misses[i], self.ok[i] = 0, True
                         self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+                    elif closing:
+                        kf.x = np.array([zi, kf.x[1]])
+                        kf.P = np.diag([r_std ** 2, kf.P[1, 1]])
+                        self.misses[i], self.ok[i] = 0, True
+                        self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+                        self.relevels[i] += 1
                     else:
                         if self.misses[i] == 0:
                             self.first_miss_end[i] = t_c[i] + lead[i]
+                            if self.restart_rate == "freeze" and not straddles:
+                                self._freeze(i, kf, t_c[i] + lead[i], 2 * lead[i])
                         self.misses[i] += 1
                         self.ok[i] = False
                         if self.misses[i] >= self.restart_after:
-                            if self.restart_rate == "keep":
+                            if self.restart_rate in ("keep", "freeze"):
                                 kf.x = np.array([zi, kf.x[1]])
                                 kf.P = np.diag([kf.R[0, 0], kf.P[1, 1]])
+                                if self.restart_rate == "freeze" and not straddles:
+                                    self.hold_until[i] = self.first_miss_end[i]
                             else:
                                 self._level(kf, zi, kf.R[0, 0])
                                 if self.restart_rate == "hold":
@@ -209,6 +265,8 @@ class TrendBank:
                             self.misses[i], self.ok[i] = 0, True
                             self.restarts[i] += 1
                             self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+            if self.restart_rate == "freeze" and self.t_update[i] == t_c[i]:
+                self._remember(i, kf, t_c[i] + lead[i], 2 * lead[i])
             x = ahead @ kf.x
             P = ahead @ kf.P @ ahead.T
             out[i] = x[0]

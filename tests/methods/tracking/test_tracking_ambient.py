@@ -33,9 +33,9 @@ BAD = [
     ("rpem_ambient", {"colour": "red"}, "unknown option 'colour'"),
     ("rpem_ambient", {"frequency_model": "spline"}, "frequency_model = 'spline'"),
     ("rpem_ambient", {"trend_horizon_s": 0.0}, "trend_horizon_s = 0.0"),
-    ("rpem_ambient", {"memory": "three"}, "memory = 'three'"),
-    ("rpem_ambient", {"memory": "two"}, "needs frequency_model = 'trend'"),
-    ("rpem_ambient", {"frequency_model": "trend", "memory": "two", "reset_gate": 0.0}, "reset_gate = 0.0"),
+    ("rpem_ambient", {"recursions": "three"}, "recursions = 'three'"),
+    ("rpem_ambient", {"recursions": "two"}, "needs frequency_model = 'trend'"),
+    ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "reset_gate": 0.0}, "reset_gate = 0.0"),
 ]
 
 
@@ -91,7 +91,7 @@ def stationary():
     return driven_modes(w, force=1.0, noise_ug=300.0, seed=11), w[0]
 
 
-TWO = {"frequency_model": "trend", "memory": "two"}
+TWO = {"frequency_model": "trend", "recursions": "two"}
 
 
 @pytest.mark.parametrize("name, options", [("akf_ambient", {}), ("rpem_ambient", {"frequency_model": "trend"}),
@@ -253,7 +253,7 @@ def _two_memories(gap_sigmas):
 
 
 def test_two_memories_reset_only_disagreeing_modes_after_the_likelihood_ratio():
-    """``memory="two"``'s interaction, by hand: below restart_gate²/2 (8 nats at 4σ) of likelihood ratio nothing
+    """``recursions="two"``'s interaction, by hand: below restart_gate²/2 (8 nats at 4σ) of likelihood ratio nothing
     moves; above it the modes whose ω differ by more than reset_gate (3) σ of the difference — modes 0 and 2 of
     gaps 10σ, 0.5σ, 3.5σ — take the window recursion's ω and rate and their covariance block (the cross terms to
     the rest 0), their sensitivity columns 0; mode 1 and every other entry stay."""
@@ -312,7 +312,7 @@ def _track_cell(cell, **options):
 
 
 def test_two_memories_std_covers_its_error_60_to_75_percent_on_grid_like_records(grid_like):
-    """``memory="two"``'s 1σ covers |ω̂ − ω| in 60–75 % of (time, mode) after 30 s, pooled over the six
+    """``recursions="two"``'s 1σ covers |ω̂ − ω| in 60–75 % of (time, mode) after 30 s, pooled over the six
     white-force cells × three seeds (a Gaussian error within its 1σ: 68 %; measured 0.67–0.75 per seed)."""
     inside = []
     for cell in grid_like.values():

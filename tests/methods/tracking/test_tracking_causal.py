@@ -23,13 +23,14 @@ SLOW = {"bopdmd": {"window_samples": 100, "hop_samples": 250}}     # ~1 s per wi
 TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every windowed tracker's option
 # the defaults from Δt and the prior (window 413 samples here), the change detector's window restarts and
 # gated_pencil's kick test
-DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory", "gated_pencil+kicks"]
+DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory", "gated_pencil+kicks",
+            "gated_pencil+freeze"]
 # akf_ambient's rate state and its single-force fit with a memory of looks (the forgetting sum); rpem_ambient's
 # rate in θ (its per-hop CasADi runs hand the state over between looks) and its two memories
 AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "akf_ambient+single": {"force_model": "single", "fit_memory_looks": 30},
            "rpem_ambient+rate": {"frequency_model": "trend"},
-           "rpem_ambient+two": {"frequency_model": "trend", "memory": "two"}}
+           "rpem_ambient+two": {"frequency_model": "trend", "recursions": "two"}}
 
 
 def _options(name):
@@ -38,6 +39,8 @@ def _options(name):
     name, _, extra = name.partition("+")
     if extra == "kicks":                  # the kick test: its flags and clean runs carried from window to window
         return name, {"split_kicks": True}
+    if extra == "freeze":                 # the trend stage's rate restored from before a change, held over it
+        return name, {"trend_restart_rate": "freeze"}
     if extra in ("defaults", "memory"):
         return name, ({"memory": True, "change_threshold": 2.0} if extra == "memory" else {})
     fields = {f for f in methods.track_options_class(name).__dataclass_fields__}
@@ -69,5 +72,5 @@ def test_changing_later_samples_leaves_earlier_estimates_unchanged(name, records
     np.testing.assert_array_equal(a.converged[early], b.converged[early])
     later_a, later_b = a.frequencies[~early], b.frequencies[~early]
     assert not np.array_equal(later_a, later_b, equal_nan=True), f"{name}: later samples changed nothing"
-    if opts.get("memory") is True:               # the change detector did restart the window in this record
+    if opts.get("memory"):                       # the change detector did restart the window in this record
         assert a.extra["memory_restart_samples"].size > 0, a.message

@@ -203,3 +203,65 @@ def test_the_gate_tests_a_window_against_its_own_std(seed):
 def _bank_opts():
     return {"rate_noise": OPTS["rate_noise"], "meas_rel": OPTS["meas_rel"], "gate": OPTS["gate"],
             "restart_after": OPTS["restart_after"], "rate0": OPTS["rate0"]}
+
+
+def _ramp_then_gap(seed, n=160, t_step=60.0, rise=0.05, own_straddle=0.01, own_clean=5e-4, gap=(1.0, 1.6)):
+    """Windows sliding over a +``rise`` step on 20 rad/s (a ramp over one window span), their own std
+    ``own_straddle`` while they straddle it and ``own_clean`` after, and no window determining the mode from
+    ``gap[0]`` to ``gap[1]`` spans after the step (the windows over a step that rang the modes often fail the
+    fit's tests: the 0.1 s six-mode record). Returns (t_end, z, own, determined, the new level)."""
+    t_end = _ends(n)
+    share = np.clip((t_end - t_step) / (2 * LEAD), 0.0, 1.0)
+    own = np.where((share > 0) & (share < 1), own_straddle, own_clean)
+    z = 20.0 * (1 + rise * share) * (1 + own * np.random.default_rng(seed).standard_normal(n))
+    determined = ~((t_end > t_step + gap[0] * 2 * LEAD) & (t_end < t_step + gap[1] * 2 * LEAD))
+    return t_end, z, own, determined, 20.0 * (1 + rise)
+
+
+def _run_bank(restart_rate, t_end, z, own, determined):
+    """The bank fed as gated_pencil feeds it: R = 10·own² (W/H = 10), the gate against the window's own std."""
+    bank = _trend.TrendBank(1, **_bank_opts(), restart_rate=restart_rate)
+    out, rates = [], []
+    for j in range(t_end.size):
+        zj = z[j:j + 1]
+        out.append(bank.step(t_end[j] - LEAD, LEAD, zj, determined[j:j + 1], np.sqrt(10) * own[j] * zj,
+                             own[j] * zj)[0][0])
+        rates.append(bank.kf[0].x[1] if bank.kf[0] is not None else np.nan)
+    return np.array(out), np.array(rates), bank
+
+
+def test_freeze_after_a_step_the_level_is_back_within_two_clean_window_stds_after_the_gap():
+    # the independent number: once a clean window (own std 0.05 %) follows the gap, the output is a level
+    # sample of it, so within 2σ = 0.1 % of the new level from the first window after the gap on; with the rate
+    # the ramp taught kept ("keep", main's default before) the output carries it on
+    t_step, gap_end = 60.0, 1.6
+    worst = {"freeze": [], "keep": []}
+    for seed in range(1, 11):
+        t_end, z, own, det, level = _ramp_then_gap(seed, t_step=t_step, gap=(1.0, gap_end))
+        after = t_end >= t_step + gap_end * 2 * LEAD + H * DT
+        for rr in worst:
+            worst[rr].append(np.max(np.abs(_run_bank(rr, t_end, z, own, det)[0][after] / level - 1)))
+    assert max(worst["freeze"]) < 1e-3, worst
+    assert sum(w > 1e-3 for w in worst["keep"]) >= 4, worst
+
+
+def test_freeze_the_windows_that_may_straddle_a_change_do_not_teach_the_rate():
+    t_end, z, own, det, _ = _ramp_then_gap(3, gap=(5.0, 5.0))          # no gap
+    out, rates, bank = _run_bank("freeze", t_end, z, own, det)
+    keep_rates = _run_bank("keep", t_end, z, own, det)[1]
+    first = int(np.flatnonzero(np.isfinite(bank.first_miss_end) & (t_end >= bank.first_miss_end[0]))[0])
+    # until the first gated window the two variants are the same filter
+    np.testing.assert_array_equal(rates[:first], keep_rates[:first])
+    # at it the rate goes back to the one after the last window that ended before its start
+    before = np.flatnonzero(t_end <= t_end[first] - 2 * LEAD)[-1]
+    assert rates[first] == keep_rates[before]
+    # and the windows that start before its end leave the rate as it was
+    straddling = (t_end - 2 * LEAD <= t_end[first]) & (np.arange(t_end.size) >= first)
+    assert np.all(rates[straddling] == rates[first])
+    assert not np.all(rates[~straddling & (np.arange(t_end.size) > first)] == rates[first])
+
+
+def test_gated_pencil_refuses_an_unknown_trend_restart_rate():
+    with pytest.raises(ValueError) as err:
+        methods.check_track_options("gated_pencil", [3.8, 16.0, 26.0, 46.0], DT, {"trend_restart_rate": "drop"})
+    assert "trend_restart_rate = 'drop'" in str(err.value) and "\n" not in str(err.value)
