@@ -7,6 +7,10 @@ The workflow's ``yardstick`` rule runs it on a grid whose file names ``yardstick
 method config's ``prior_rad_s`` and ``options.prior_std_rad_s``); the aggregate step puts its columns into the
 comparison table. Cells with a scenario axis (their own priors or plant) are skipped. Bad input: one line
 ``error: ...``, exit status 2, nothing written.
+
+The rule starts it with glibc's malloc tunables, ``GLIBC_TUNABLES=glibc.malloc.mmap_threshold=33554432:
+glibc.malloc.trim_threshold=268435456`` (glibc then keeps the SMC's freed arrays instead of returning them to the
+kernel: ~15–20 % less CPU, the same bytes; docs/notes/sweep-cost.md, fifth pass); by hand, set them the same way.
 """
 
 from __future__ import annotations

@@ -47,8 +47,12 @@ rule yardstick:
         "results/{grid}/logs/yardstick.log",
     benchmark:
         "results/{grid}/benchmarks/yardstick.tsv"
+    # glibc's malloc keeps the memory it frees (its documented tunables; other C libraries ignore them): the
+    # SMC allocates and frees arrays of ~0.3 MB thousands of times a cell, each one fresh pages from the
+    # kernel with glibc's defaults (2.4 M page faults, ~20 % of the job's CPU: docs/notes/sweep-cost.md)
     shell:
-        "python -m experiments.jobs.yardstick {params.prior} --out {output} -- {input.data} > {log} 2>&1"
+        "GLIBC_TUNABLES=glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=268435456"
+        " python -m experiments.jobs.yardstick {params.prior} --out {output} -- {input.data} > {log} 2>&1"
 
 
 rule aggregate:

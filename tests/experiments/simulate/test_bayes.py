@@ -88,3 +88,30 @@ def test_importance_posterior_mean_agrees_with_a_grid_integral_in_one_mode():
     est, ess = bayes.importance_posterior_mean(y, t, mu, s, [0.005], sigma, rng, centres, draws=20000)
     assert ess > 500
     assert abs(est[0] - exact) < 0.05 * sd
+
+
+def test_projected_log_likelihoods_match_least_squares_per_draw_including_a_repeated_mode():
+    rng = np.random.default_rng(3)
+    t = np.arange(40) * 0.05
+    zeta = np.array([0.03, 0.03])
+    draws = np.array([[3.0, 11.0], [4.0, 4.0], [7.5, 9.0]])        # the middle draw: two pairs of equal columns
+    y = bayes.signal([3.2, 10.5], zeta, [1.0, 0.5], [0.3, -1.0], t) + 0.2 + 0.1 * rng.standard_normal(t.size)
+    got = bayes.projected_log_likelihoods(y, draws, zeta, t, True, 0.1)
+    for k, w in enumerate(draws):
+        B = bayes.basis(w, zeta, t, True)[0]
+        coef = np.linalg.lstsq(B, y, rcond=1e-10)[0]             # minimum-norm on the rank-deficient draw
+        rss = np.sum((y - B @ coef) ** 2)
+        assert got[k] == pytest.approx(-0.5 * rss / 0.1**2, rel=1e-8)
+
+
+def test_basis_on_a_uniform_grid_matches_the_direct_exponentials_to_rounding_at_256_samples():
+    rng = np.random.default_rng(4)
+    w = np.sort(rng.uniform(1.0, 150.0, (50, 4)), axis=1)
+    zeta = rng.uniform(0.0, 0.1, (50, 4))
+    for t in (1.5 + np.arange(256) * 0.02, np.sort(rng.uniform(0.0, 5.0, 256))):   # blocked, then direct path
+        got = bayes.basis(w, zeta, t, True)
+        tt = t[None, :, None]
+        decay, wd = np.exp(-(zeta * w)[:, None, :] * tt), (w * np.sqrt(1 - zeta**2))[:, None, :]
+        direct = np.concatenate([decay * np.cos(wd * tt), decay * np.sin(wd * tt), np.ones((50, t.size, 1))], axis=2)
+        # each entry's phase ωt is itself known to ~|ωt|·ε, the same for both ways of computing it
+        assert np.max(np.abs(got - direct)) < 1e-12
