@@ -295,6 +295,7 @@ def _variance_two(w_long, v_long, w_win, v_win, odds):
     mu = mu[:, None] if np.ndim(mu) else mu
     return (1 - mu) * v_long + mu * (v_win + (w_long - w_win) ** 2)
 
+
 def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts) -> int:
     """``recursions="two"``: modes of the whole-record recursion ``long`` ([θ, P, x̂, W, Λ], changed in place)
     start again from the window-memory recursion's (θ, P) when the window recursion predicts the last window
