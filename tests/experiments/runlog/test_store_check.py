@@ -68,6 +68,7 @@ def test_the_track_step_refuses_a_truncated_store_in_one_line(tmp_path):
     ("a,b\n1,2\n", "not an identify job's result table (no column method"),
     (None, "no such result table"),
     (b"\x8f\x00binary", "not a CSV result table"),
+    ("", "not a CSV result table (no header line)"),
 ])
 def test_the_track_step_refuses_a_file_that_is_no_job_table_in_one_line(tmp_path, content, words):
     table = tmp_path / "x.csv"
