@@ -185,17 +185,19 @@ def fit_one_start(y, dt, w0, z0, free, opts, bounds, join=None) -> dict | None:
         else:
             with np.errstate(divide="ignore", invalid="ignore"):
                 step_in_std = float(np.nanmax(np.abs(d) / std))
+        # a step below tol_step std, or the statistical stop: the step would lower Σε² by less than
+        # tol_decrease·σ̂², i.e. the point is within √tol_decrease std of the local minimum in the covariance's
+        # metric (so within that many std in every (ω, ζ)), far inside the estimate's own scatter; the
+        # iteration that would take the step and confirm it (a model evaluation, a reduced Jacobian, a
+        # normal-equation solve) is not made
         if step_in_std < opts.tol_step:
-            message, converged = f"step size below {opts.tol_step:g} std", True
-            if blocked is None and system.well_conditioned:
-                std_free, final = system.std, system
-            break
-        # the statistical stop: the step would lower Σε² by less than tol_decrease·σ̂², i.e. the point is
-        # within √tol_decrease std of the local minimum in the covariance's metric (so within that many std in
-        # every (ω, ζ)), far inside the estimate's own scatter; the iteration that would take the step and
-        # confirm it (a model evaluation, a reduced Jacobian, a normal-equation solve) is not made
-        if system.predicted_decrease() < opts.tol_decrease * system.sigma2:
-            message, converged = f"predicted loss decrease below {opts.tol_decrease:g} σ̂²", True
+            stop = f"step size below {opts.tol_step:g} std"
+        elif system.predicted_decrease() < opts.tol_decrease * system.sigma2:
+            stop = f"predicted loss decrease below {opts.tol_decrease:g} σ̂²"
+        else:
+            stop = None
+        if stop is not None:
+            message, converged = stop, True
             if blocked is None and system.well_conditioned:
                 std_free, final = system.std, system
             break
