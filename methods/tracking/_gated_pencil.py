@@ -32,8 +32,10 @@ What. On each window of W samples (every H samples):
    pencil missed: from its last refined value) — the maximum-likelihood fit of the piecewise free decay under
    white noise — with the std of ω from the reduced Jacobian. A refined mode counts when it is within ``band``
    of its last estimate, lightly damped, its std × the window span is under ``max_phase_std`` rad (an energy
-   test alike for every frequency: a mode that died away between sparse pulses fails it), and it is not another
-   mode's pole (:func:`_labelled`).
+   test alike for every frequency: a mode that died away between sparse pulses fails it) — or, within the
+   window's resolution 2π/span of another mode, its pole is distinct from every other at 3 combined std
+   (``close_pairs``, on by default: the pair's near-collinear basis inflates each member's std) — and it is
+   not another mode's pole (:func:`_labelled`).
    **Kicks the detector missed** (``split_kicks``, on by default): a pulse at the noise level (at
    Δt = 0.1 s a 100 N·m pulse is 2–3 × the AR residual's scale) leaves a run that straddles it, whose phase
    jump the shared poles read as frequency. With the poles of that fit fixed (and their first-order
@@ -81,7 +83,8 @@ class Options:
     H = W/10, spare poles ``extra_order`` clip(⌊W/4⌋ − 1 − 2m, 2, 8), L = W/8 (grown to W/3 where the pulses
     leave the columns), AR order W/20 within [2m + 2, 2m + 16], min segment max(2(2m + 1), W/25).
     ``split_kicks``: the kick test on the pulse-free runs (module docstring, step 4), at family-wise level
-    ``split_level`` per run, ``split_rounds`` rounds of binary segmentation."""
+    ``split_level`` per run, ``split_rounds`` rounds of binary segmentation. ``close_pairs``: a resolved pair
+    within the window's resolution passes without the phase-std test (step 4, :func:`_labelled`)."""
 
     window_samples: int | None = None
     hop_samples: int | None = None
@@ -99,6 +102,7 @@ class Options:
     refine_steps: int = 10
     min_segment: int | None = None
     max_phase_std: float = 0.5
+    close_pairs: bool = True
     split_kicks: bool = True
     split_level: float = 0.01
     split_rounds: int = 3
@@ -146,7 +150,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
-    for key in ("refine", "split_kicks"):
+    for key in ("refine", "split_kicks", "close_pairs"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -245,7 +249,7 @@ def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: in
 
 
 def _labelled(w: np.ndarray, zeta: np.ndarray, std: np.ndarray, ref: np.ndarray, limit: float, max_std_rad_s: float,
-              max_damping: float) -> np.ndarray:
+              max_damping: float, resolution_rad_s: float | None = None) -> np.ndarray:
     """Which refined modes count as determined, and as the mode their label says.
 
     A mode counts when it is within ``limit`` (log) of its last estimate ``ref``, lightly damped, and its std
@@ -253,11 +257,24 @@ def _labelled(w: np.ndarray, zeta: np.ndarray, std: np.ndarray, ref: np.ndarray,
     estimate than its own counts only if that other mode is itself determined at a distinct pole (more than
     3 combined std away): else it is that mode's pole picked up by a component whose own mode has died away.
     Of two modes on one pole (within 3 combined std) only the one nearer its own last estimate counts. When
-    every mode passes and no two share a pole, all count (their labels then follow their ranks)."""
+    every mode passes and no two share a pole, all count (their labels then follow their ranks).
+
+    ``resolution_rad_s`` (the window's Fourier resolution 2π/span; ``close_pairs``): a mode whose nearest
+    other mode lies within it may pass with a std over ``max_std_rad_s`` when the pair is resolved — its pole
+    distinct from every other mode's by more than 3 combined std. Within the resolution each member's std is
+    inflated by the pair's near-collinear basis (the pair's mean stays sharp), so the phase-std test refuses a
+    pair it has resolved; a mode that died away has no pole of its own to be distinct at."""
     dist = np.abs(np.log(w)[:, None] - np.log(ref)[None, :])
     own = np.diag(dist)
-    ok = (own <= limit) & np.isfinite(std) & (std <= max_std_rad_s) & (zeta <= max_damping)
     apart = np.abs(w[:, None] - w[None, :]) > 3 * np.hypot(std[:, None], std[None, :])
+    sharp = std <= max_std_rad_s
+    if resolution_rad_s is not None and w.size > 1:
+        gap = np.abs(w[:, None] - w[None, :])
+        np.fill_diagonal(gap, np.inf)
+        np.fill_diagonal(apart, True)
+        sharp |= (gap.min(axis=1) < resolution_rad_s) & apart.all(axis=1)
+        np.fill_diagonal(apart, False)
+    ok = (own <= limit) & np.isfinite(std) & sharp & (zeta <= max_damping)
     if ok.all() and apart[np.triu_indices(w.size, 1)].all():
         # every mode determined at a pole of its own: the m poles are the m modes, labelled by rank
         # (_in_order) — after a step larger than the gap between two modes a mode's new pole may lie nearer
@@ -463,7 +480,9 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         freq[:] = np.nan
         if refined is not None:
             wr, zr, sr = refined
-            good = _labelled(wr, zr, sr, ref, limit, opts.max_phase_std / ((seg.size - 1) * dt), opts.max_damping)
+            span_s = (seg.size - 1) * dt
+            good = _labelled(wr, zr, sr, ref, limit, opts.max_phase_std / span_s, opts.max_damping,
+                             2 * np.pi / span_s if opts.close_pairs else None)
             wr, zr, sr = _in_order(wr, zr, sr, good)
             freq[good], wstd[good], found[good] = wr[good], sr[good], True
             state["last_w"] = np.where(good, wr, last_w)
