@@ -52,9 +52,10 @@ What. On each window of W samples (every H samples):
    restart does with the rate is ``trend_restart_rate`` ("keep", as every trend stage; "freeze", an option:
    after the first window the gate refuses, or a re-level after a gap, the windows that may straddle the change
    update the level only and the rate goes back to the one before it — :mod:`methods.tracking._trend`).
-   ``trend_memory`` (an option, window spans k; a ``trend_rate_noise`` given wins): the rate noise that gives
-   the trend filter a time constant of k window spans, ``trend_meas_rel``/(k·(W − 1)Δt)²
-   (:func:`methods.tracking._defaults.trend_rate_noise_memory`), instead of the rule from the slowest period.
+   ``trend_memory`` (window spans k, 1 by default; a ``trend_rate_noise`` given wins, None: the other windowed
+   trackers' rule from the slowest period): the rate noise that gives the trend filter a time constant of k
+   window spans, ``trend_meas_rel``/(k·(W − 1)Δt)² (:func:`methods.tracking._defaults.trend_rate_noise_memory`)
+   — a filter that forgets faster than a window follows the overlapping windows' shared errors as a rate.
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -113,7 +114,7 @@ class Options:
     trend_restart_after: int = _trend.DEFAULTS["trend_restart_after"]
     trend_rate0: float | None = _trend.DEFAULTS["trend_rate0"]
     trend_restart_rate: str = _trend.RESTART_RATE
-    trend_memory: float | None = None
+    trend_memory: float | None = 1.0
     memory: bool = _memory.DEFAULTS["memory"]
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
