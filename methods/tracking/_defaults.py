@@ -194,7 +194,8 @@ def trend_rate_noise_memory(meas_rel: float, window_s: float, memory_windows: fl
         q = r / (``memory_windows`` · ``window_s``)².
 
     With 1/ω_n shorter than a window the filter follows the errors of overlapping windows (correlated over a
-    window's span) as a rate; the prior-based rule (:func:`trend_noises`) gives 1/ω_n of 0.6–1 window span.
-    Time-scaling by a multiplies q by a⁻², so the memory stays the same number of windows.
+    window's span) as a rate; the prior-based rule (:func:`trend_noises`, q ∝ T^−3/2) gives 1/ω_n ∝ T^3/4: 0.5–0.7
+    of a five-period window at slowest periods of 2–8 s, two windows at 25 ms. Time-scaling by a multiplies q by
+    a⁻², so the memory stays the same number of windows.
     """
     return float(meas_rel / (memory_windows * window_s) ** 2)
