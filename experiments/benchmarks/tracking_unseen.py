@@ -3,6 +3,7 @@
     python -m experiments.benchmarks.tracking_unseen [--seed 4711] [--replicates 2] [--trackers next_era,gated_pencil]
         [--records all|pulses|ambient]
     python -m experiments.benchmarks.tracking_unseen --set other-rates --trackers all   # every tracker as shipped
+    python -m experiments.benchmarks.tracking_unseen --trackers next_era,gated_pencil,gated_pencil:trend_memory=1
 
 Nine cells that no tracker option was chosen on: drifts of other sizes and signs and over other spans,
 steps on other modes and at other times, pulses of other torques and rates (at random times every 3.3–15 s
@@ -37,6 +38,7 @@ import pandas as pd
 
 import methods
 from experiments.benchmarks.tracking_beats import score_record, summary
+from experiments.benchmarks.tracking_cpu import parse_row
 from experiments.io import atomic_write_text
 from experiments.report import tracking_metrics
 from experiments.simulate.laboratory import LaboratoryCellConfig, check_laboratory, make_lab_cell
@@ -191,8 +193,9 @@ def run(trackers: list[str], seed: int, replicates: int, which: str = "grid-rate
         dt = float(cell["dt_s"])
         for r in range(replicates):
             for name in trackers:
+                tracker, options = parse_row(name)   # a row: a tracker, or name:key=value+... (its options)
                 try:
-                    tr = methods.track(name, cell["accel_m_s2"][r], dt, cell["prior_rad_s"][r])
+                    tr = methods.track(tracker, cell["accel_m_s2"][r], dt, cell["prior_rad_s"][r], **options)
                 except ValueError as exc:          # the tracker's defaults do not fit this record
                     refused[(label, name)] = " ".join(str(exc).split())
                     continue
@@ -225,7 +228,7 @@ def main(argv=None) -> None:
     parser.add_argument("--out", default=None, help="default results/bench/tracking_unseen[_<set>].md")
     args = parser.parse_args(argv)
     trackers = methods.track_names() if args.trackers == "all" else [t for t in args.trackers.split(",") if t]
-    unknown = [t for t in trackers if t not in methods.track_names()]
+    unknown = [t for t in trackers if parse_row(t)[0] not in methods.track_names()]
     if args.replicates < 1 or "next_era" not in trackers or unknown:
         parser.exit(2, f"error: --replicates = {args.replicates} must be at least 1 and --trackers = "
                        f"{args.trackers} must name known trackers, next_era among them\n")

@@ -46,6 +46,8 @@ Trend noises
     acceleration noise and the initial rate's std in units of the slowest period (time-scaling by a
     multiplies them by a^(−3/2) and a⁻¹, as their units ask); ``trend_meas_rel``, ``trend_gate`` and
     ``trend_restart_after`` are dimensionless and stay.
+    ``gated_pencil``'s ``trend_memory`` (window spans; :func:`trend_rate_noise_memory`) instead sets the rate
+    noise from the window: the filter's own time constant is ``trend_memory`` window spans.
 
 Options a user gives win: ``window_s``/``hop_s`` (s) or ``window_samples``/``hop_samples``, or the hop as a
 fraction of the window (``hop_fraction``, what a grid uses to thin the costliest trackers' windows on records
@@ -177,3 +179,23 @@ def trend_noises(prior) -> dict:
     """``trend_rate_noise`` (s^−3/2) and ``trend_rate0`` (s⁻¹) in units of the slowest period."""
     T = slowest_period_s(prior)
     return {"trend_rate_noise": RATE_NOISE_PER_PERIOD * T ** -1.5, "trend_rate0": RATE0_PER_PERIOD / T}
+
+
+def trend_rate_noise_memory(meas_rel: float, window_s: float, memory_windows: float) -> float:
+    """The trend stage's ``trend_rate_noise`` (relative to ω) that gives its filter a time constant of
+    ``memory_windows`` window spans.
+
+    The local-linear-trend filter of :mod:`methods.tracking._trend` (process noise filterpy's
+    ``Q_discrete_white_noise``: a piecewise-constant ω̈ of std q·ω over each step; measurement std r·ω,
+    r = ``meas_rel``, the floor of its R) is, in steady state and with steps short against its memory, a
+    second-order loop of damping 1/√2 and natural frequency ω_n = √(q/r), whatever the step. Setting
+    1/ω_n = ``memory_windows`` · ``window_s`` gives
+
+        q = r / (``memory_windows`` · ``window_s``)².
+
+    With 1/ω_n shorter than a window the filter follows the errors of overlapping windows (correlated over a
+    window's span) as a rate; the prior-based rule (:func:`trend_noises`, q ∝ T^−3/2) gives 1/ω_n ∝ T^3/4: 0.5–0.7
+    of a five-period window at slowest periods of 2–8 s, two windows at 25 ms. Time-scaling by a multiplies q by
+    a⁻², so the memory stays the same number of windows.
+    """
+    return float(meas_rel / (memory_windows * window_s) ** 2)

@@ -52,6 +52,10 @@ What. On each window of W samples (every H samples):
    restart does with the rate is ``trend_restart_rate`` ("keep", as every trend stage; "freeze", an option:
    after the first window the gate refuses, or a re-level after a gap, the windows that may straddle the change
    update the level only and the rate goes back to the one before it — :mod:`methods.tracking._trend`).
+   ``trend_memory`` (window spans k, 1 by default; a ``trend_rate_noise`` given wins, None: the other windowed
+   trackers' rule from the slowest period): the rate noise that gives the trend filter a time constant of k
+   window spans, ``trend_meas_rel``/(k·(W − 1)Δt)² (:func:`methods.tracking._defaults.trend_rate_noise_memory`)
+   — a filter that forgets faster than a window follows the overlapping windows' shared errors as a rate.
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -110,6 +114,7 @@ class Options:
     trend_restart_after: int = _trend.DEFAULTS["trend_restart_after"]
     trend_rate0: float | None = _trend.DEFAULTS["trend_rate0"]
     trend_restart_rate: str = _trend.RESTART_RATE
+    trend_memory: float | None = 1.0
     memory: bool = _memory.DEFAULTS["memory"]
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
@@ -139,8 +144,17 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
     extra = _defaults.pencil_extra_order(W, m) if opts.extra_order is None else opts.extra_order
     order = 2 * m + extra
     rows, ar_order, min_segment = _defaults.pencil_sizes(W, m, order, opts.rows, opts.ar_order, opts.min_segment)
+    memory = opts.trend_memory
+    if memory is not None and (isinstance(memory, bool) or not isinstance(memory, (int, float))
+                               or not (np.isfinite(memory) and memory > 0)):
+        raise ValueError(f"{name}: trend_memory = {memory!r} must be a finite number > 0 (window spans)")
+    rate_noise = opts.trend_rate_noise
+    if memory is not None and rate_noise is None and isinstance(opts.trend_meas_rel, (int, float)):
+        # the trend filter's time constant in window spans (_defaults.trend_rate_noise_memory); a rate noise
+        # the user gives wins
+        rate_noise = _defaults.trend_rate_noise_memory(opts.trend_meas_rel, (W - 1) * dt, memory)
     return dataclasses.replace(opts, extra_order=extra, window_samples=W, hop_samples=H, window_s=None, hop_s=None,
-                               hop_fraction=None, rows=rows,
+                               hop_fraction=None, rows=rows, trend_rate_noise=rate_noise,
                                ar_order=ar_order, min_segment=min_segment)
 
 

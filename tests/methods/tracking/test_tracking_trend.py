@@ -265,3 +265,35 @@ def test_gated_pencil_refuses_an_unknown_trend_restart_rate():
     with pytest.raises(ValueError) as err:
         methods.check_track_options("gated_pencil", [3.8, 16.0, 26.0, 46.0], DT, {"trend_restart_rate": "drop"})
     assert "trend_restart_rate = 'drop'" in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("window_s, hop_s, memory", [(10.2, 1.02, 1.0), (37.8, 3.8, 1.0), (0.126, 0.0126, 2.0)])
+def test_trend_memory_gives_the_filter_a_time_constant_of_that_many_windows(window_s, hop_s, memory):
+    # the bank's own filter, run to its steady state on a constant frequency (windows every hop_s), then its
+    # closed loop x ← (I − KH)F x: a second-order loop whose natural frequency, |log λ|/hop, must be
+    # 1/(memory · window_s) (methods/tracking/_defaults.py, trend_rate_noise_memory), damping 1/√2
+    from methods.tracking import _defaults
+    q = _defaults.trend_rate_noise_memory(0.005, window_s, memory)
+    bank = _trend.TrendBank(1, rate_noise=q, meas_rel=0.005, gate=9.0, restart_after=2, rate0=0.002)
+    for j in range(4000):
+        bank.step(j * hop_s, window_s / 2, np.array([2.0]), np.array([True]))
+    kf = bank.kf[0]
+    gain = kf.P_prior @ kf.H.T / (kf.H @ kf.P_prior @ kf.H.T + kf.R)   # the steady-state Kalman gain
+    loop = (np.eye(2) - gain @ kf.H) @ kf.F
+    s = np.log(np.linalg.eigvals(loop).astype(complex)) / hop_s
+    assert np.allclose(1 / np.abs(s), memory * window_s, rtol=0.03)
+    assert np.allclose(-s.real / np.abs(s), 1 / np.sqrt(2), atol=0.02)
+
+
+def test_gated_pencil_trend_memory_sets_the_rate_noise_from_the_window_and_scales_with_time():
+    from methods.tracking import _gated_pencil
+    prior = np.array([0.8, 1.3, 2.0, 2.9, 4.1, 5.5])
+    opts = [_gated_pencil.check_options("gated_pencil", prior / a, 0.1 * a, {"trend_memory": 1.0}) for a in (1, 5)]
+    span = [(o.window_samples - 1) * 0.1 * a for o, a in zip(opts, (1, 5), strict=True)]
+    assert opts[0].trend_rate_noise == pytest.approx(0.005 / span[0] ** 2, rel=1e-12)
+    assert opts[1].trend_rate_noise == pytest.approx(opts[0].trend_rate_noise / 25, rel=1e-12)   # q ∝ time⁻²
+    given = _gated_pencil.check_options("gated_pencil", prior, 0.1, {"trend_memory": 1.0, "trend_rate_noise": 1e-5})
+    assert given.trend_rate_noise == 1e-5                                                      # the user's wins
+    with pytest.raises(ValueError) as err:
+        methods.check_track_options("gated_pencil", prior, 0.1, {"trend_memory": 0})
+    assert "trend_memory = 0" in str(err.value) and "\n" not in str(err.value)
