@@ -35,10 +35,9 @@ import pandas as pd
 from experiments.cli import ArgumentParser
 from experiments.io import atomic_write_text, write_json
 from experiments.provenance import canonical_json, digest, git_state
-from experiments.report.summary import job_metrics, summarize
 from experiments.runlog.pending import log_all
 from experiments.runlog.records import IDENTIFY_SOURCE, config_yaml, job_params, run_key
-from experiments.runlog.store import check_store, dataset_entity, finished_runs, log_run, set_parent, source_tags
+from experiments.runlog.store import check_store, dataset_entity, finished_runs, log_run, set_parents, source_tags
 
 __all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job", "grid_run", "aggregate_files",
            "log_children", "main", "main_as_track"]
@@ -46,6 +45,10 @@ __all__ = ["IDENTIFY_SOURCE", "run_key", "job_params", "config_yaml", "log_job",
 def log_job(experiment: str, record: dict, table_path: Path, record_path: Path | None = None,
             parent_run_id: str | None = None) -> tuple[str, str, bool]:
     """Log one identify job on a dataset cell (from its table and its record). Returns (key, id, created)."""
+    # imported here: the summary imports scipy.stats (~0.8 s of CPU), and the grid's step, last in the
+    # workflow and alone on the machine, finds its jobs logged already and summarises none
+    from experiments.report.summary import job_metrics, summarize
+
     table = pd.read_csv(table_path)
     key = run_key(record)
     ds = record["dataset"]
@@ -77,16 +80,18 @@ def log_children(experiment: str, jobs: list, log_one, parent_run_id: str | None
     for all): those are only made children of ``parent_run_id`` where they are not yet. ``jobs`` are
     (run key, job) pairs. Returns ({key: run id}, how many were newly logged)."""
     known = finished_runs(experiment)
-    runs, created = {}, 0
+    runs, created, adopt = {}, 0, []
     for key, job in jobs:
         if key in known:
             rid, parent = known[key]
             if parent_run_id and parent != parent_run_id:
-                set_parent(rid, parent_run_id)
+                adopt.append(rid)
         else:
             key, rid, new = log_one(job, parent_run_id)
             created += new
         runs[key] = rid
+    if adopt:
+        set_parents(adopt, parent_run_id)
     return runs, created
 
 

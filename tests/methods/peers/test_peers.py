@@ -112,10 +112,34 @@ def test_hdmd_leading_subspace_leaves_a_square_rank_to_the_full_svd():
 
 
 @pytest.mark.parametrize("name, option, value", [("hdmd", "svd", "randomised"), ("bopdmd", "start", "prior"),
-                                                 ("bopdmd", "eps_stall", 1.0), ("bopdmd", "eps_stall", -1e-3)])
+                                                 ("bopdmd", "eps_stall", 1.0), ("bopdmd", "eps_stall", -1e-3),
+                                                 ("bopdmd", "full_jacobian", "yes")])
 def test_the_cost_options_are_checked_before_any_record(name, option, value):
     with pytest.raises(ValueError, match=f"{option} = "):
         methods.check_options(name, [5.0], DT, {option: value})
+
+
+@pytest.mark.parametrize("n_samples, noise_ug, seed", [(64, 100.0, 5), (256, 1000.0, 3)])
+def test_bopdmd_kaufman_jacobian_reaches_the_full_jacobian_s_optimum(noisy_record, n_samples, noise_ug, seed,
+                                                                      monkeypatch):
+    """Kaufman's Jacobian drops a term orthogonal to the residual, so the gradient and the stationary points
+    are the full Jacobian's: run to pydmd's own stall test (1e-12), both end at the same frequencies; and the
+    option reaches pydmd (its varpro_opts_dict)."""
+    import pydmd
+
+    y = noisy_record(n_samples, noise_ug, seed=seed)
+    full = methods.get("bopdmd")(y, DT, PRIOR, eps_stall=1e-12, full_jacobian=True)
+    seen = []
+    real = pydmd.BOPDMD
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs["varpro_opts_dict"]["use_fulljac"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(pydmd, "BOPDMD", spy)
+    kaufman = methods.get("bopdmd")(y, DT, PRIOR, eps_stall=1e-12)
+    assert seen == [False]
+    np.testing.assert_allclose(kaufman.frequencies, full.frequencies, rtol=1e-6)
 
 
 def test_bopdmd_dmd_start_reaches_pydmd_s_own_optimum(noisy_record):
