@@ -35,7 +35,7 @@ from filelock import FileLock
 from experiments.provenance import digest, git_state
 
 __all__ = ["DEFAULT_DB", "LOCK_TIMEOUT_S", "tracking_uri", "is_default_store", "lock_path", "store_lock", "client",
-           "experiment_id", "log_run", "finished_runs", "set_parent", "set_parents", "dataset_entity", "source_tags",
+           "experiment_id", "log_run", "finished_runs", "set_parents", "dataset_entity", "source_tags",
            "git_commit"]
 
 DEFAULT_DB = Path("results") / "mlflow.db"   # relative to the working directory, like all outputs
@@ -282,16 +282,10 @@ def finished_runs(experiment: str) -> dict[str, tuple[str, str | None]]:
 SEARCH_PAGE = 1000      # runs per page of finished_runs' search (MLflow's default page)
 
 
-def set_parent(run_id: str, parent_run_id: str) -> None:
-    """Make the logged run ``run_id`` a child of ``parent_run_id`` (MLflow's tag ``mlflow.parentRunId``, the
-    tag :func:`log_run` gives a child run): a grid's jobs are logged as they finish, its parent run after its
-    tables and figures."""
-    set_parents([run_id], parent_run_id)
-
-
 def set_parents(run_ids: list[str], parent_run_id: str) -> None:
-    """:func:`set_parent` for each of ``run_ids``, under one hold of the store lock (a grid's step adopts its
-    560 jobs at once: the lock taken once, not 560 times)."""
+    """Make each logged run of ``run_ids`` a child of ``parent_run_id`` (MLflow's tag ``mlflow.parentRunId``, the
+    tag :func:`log_run` gives a child run): a grid's jobs are logged as they finish, its parent run after its
+    tables and figures. One hold of the store lock for all (a grid's step adopts its 560 jobs at once)."""
     uri = tracking_uri()
     c = client(uri)
     with store_lock(uri):

@@ -283,11 +283,9 @@ def _labelled(w: np.ndarray, zeta: np.ndarray, std: np.ndarray, ref: np.ndarray,
     apart = np.abs(w[:, None] - w[None, :]) > 3 * np.hypot(std[:, None], std[None, :])
     sharp = std <= max_std_rad_s
     if resolution_rad_s is not None and w.size > 1:
-        gap = np.abs(w[:, None] - w[None, :])
-        np.fill_diagonal(gap, np.inf)
-        np.fill_diagonal(apart, True)
-        sharp |= (gap.min(axis=1) < resolution_rad_s) & apart.all(axis=1)
-        np.fill_diagonal(apart, False)
+        gap = np.abs(w[:, None] - w[None, :]) + np.diag(np.full(w.size, np.inf))   # to the nearest other mode
+        distinct = (apart | np.eye(w.size, dtype=bool)).all(axis=1)                # apart from every other mode
+        sharp |= (gap.min(axis=1) < resolution_rad_s) & distinct
     ok = (own <= limit) & np.isfinite(std) & sharp & (zeta <= max_damping)
     if ok.all() and apart[np.triu_indices(w.size, 1)].all():
         # every mode determined at a pole of its own: the m poles are the m modes, labelled by rank
