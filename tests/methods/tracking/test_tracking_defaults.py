@@ -26,6 +26,7 @@ ABSOLUTE_RATE = {"akf_ambient", "rpem_ambient"}
 DT = 0.02
 PRIOR = np.array([6.0, 15.0])                     # W = 5 periods of 6 rad/s = 262 samples at Δt = 0.02 s
 RTOL = {"pem": 3e-3}
+KNIFE_EDGE = {"pem"}                              # see the test below
 SLOW = {"bopdmd"}                                 # ~1 s per window: the shortest record that runs two windows
 
 
@@ -56,9 +57,16 @@ def test_a_time_scaled_record_gives_the_same_relative_track(name, scale, record)
         both = np.isfinite(a.frequencies) & np.isfinite(b.frequencies)
     assert both.any(), f"{name}: no estimate ({a.message})"
     # iterative fits stop at their own tolerances, not all of them scale-free (least_squares' step test on
-    # [ω, ζ]; pem's multi-start and stopping tests moved one window of eight by 0.11 %): far below any error
-    # of a track
-    np.testing.assert_allclose(b.frequencies[both] * scale, a.frequencies[both], rtol=RTOL.get(name, 1e-4))
+    # [ω, ζ]): far below any error of a track
+    rel = np.abs(b.frequencies[both] * scale / a.frequencies[both] - 1)
+    if name in KNIFE_EDGE:
+        # one window of this record sits on a knife edge for pem: whether its weak second mode is placed flips
+        # with a change of Δt by 1e-15 at the SAME scale (mode 1 then moves 0.4 %), so rounding alone decides
+        # it on some CPUs. Every other window must agree; that one within a track's own error.
+        assert np.sum(rel > RTOL[name]) <= 1, (name, rel)
+        assert rel.max() < 1e-2, (name, rel)
+    else:
+        np.testing.assert_allclose(b.frequencies[both] * scale, a.frequencies[both], rtol=RTOL.get(name, 1e-4))
 
 
 VARIANTS = sorted((Path(__file__).resolve().parents[3] / "configs" / "tracker").glob("*_tuned.yaml"))
