@@ -31,7 +31,7 @@ DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory",
 AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "akf_ambient+single": {"force_model": "single", "fit_memory_looks": 30},
            # the shared modulation, its band shortened so that its looks at the tracks' history run before K
-           "akf_ambient+slosh": {"frequency_model": "slosh", "slosh_periods": (1.0, 4.0)},
+           "akf_ambient+slosh": {"frequency_model": "slosh", "slosh_periods": (0.5, 3.0)},
            "rpem_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+two": {"frequency_model": "trend", "recursions": "two"}}
 
