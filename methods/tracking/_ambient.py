@@ -18,9 +18,24 @@ cross-covariance. ``force_model``: ``"diagonal"`` (default) one force per mode, 
 
     ωᵢ(k+1) = ωᵢ(k) + Δt ω̇ᵢ(k) + ηᵢ(k),   ω̇ᵢ(k+1) = ω̇ᵢ(k) + κᵢ(k),   κᵢ(k) ~ N(0, (rate ωᵢ)² Δt / horizon_trend),
 
-ω̇ᵢ's prior 0 ± rate·ωᵢ (the stated rate), reset with ωᵢ at a restart. The extended Kalman filter linearises
+ω̇ᵢ's prior 0 ± rate·ωᵢ (the stated rate), reset with ωᵢ at a restart. ``frequency_model="slosh"`` knows that a
+modulation may be present and that it is one wave for every mode (sloshing is one fluid mode): the walk ω̄ᵢ
+times a shared modulation,
+
+    ωᵢ(k) = ω̄ᵢ(k)(1 + s(k)),   s̈ + 2ζₛΩṡ + Ω²s = white of intensity qₛ  (exact transition over Δt),
+
+s starting off (qₛ = 0). Every hop, once the track has half the longest modulation period searched behind it,
+its history (at most two such periods) gives Ω and qₛ (:func:`slosh_look`: block means of ln ω̂ᵢ weighted
+by each mode's information ω̂ᵢ²/Var ω̂ᵢ, differenced, Hann periodogram; the largest line in the band of
+``slosh_periods`` (periods of the slowest prior mode) above ``slosh_gate`` × the median bin); the
+oscillator's stationary variance qₛ/(4ζₛΩ³) is set to the line's a²/2 (covariance matching), and to 0 while
+no line passes. The estimates read from the track follow it, so a modulation learnt late is under-stated at
+first and grows over a few tens of seconds. Under this model, modes that cross are swapped back to the
+prior's order (states, gains, restart records): a close pair moved by a modulation can otherwise trade
+labels. The extended Kalman filter linearises
 the transition in ω with the exact ∂Φ/∂ω (``methods.kalman.modal_transition``) and the measurement with
-∂h/∂ωᵢ = −2ωᵢξᵢ − 2ζξ̇ᵢ.
+∂h/∂ωᵢ = −2ωᵢξᵢ − 2ζξ̇ᵢ (``"slosh"``: through ωᵢ = ω̄ᵢ(1 + s), ∂/∂ω̄ᵢ = (1 + s)∂/∂ωᵢ, ∂/∂s = Σᵢ ω̄ᵢ ∂/∂ωᵢ; the
+reported variance is [1 + s, ω̄ᵢ] P [1 + s, ω̄ᵢ]ᵀ).
 
 What the paper's filter does not do, each an established technique:
 
@@ -117,12 +132,14 @@ class Options(SharedOptions):
         prior mode).
     slosh_periods : tuple of float
         ``"slosh"``: the band of modulation periods searched, in periods of the slowest prior mode (3–20:
-        5.8–39 s, 0.026–0.17 Hz for 3.2 rad/s; the issue's 0.05–0.1 Hz is 5–10).
+        5.8–39 s, 0.026–0.17 Hz for 3.2 rad/s; the issue's 0.05–0.1 Hz is 5–10). A modulation faster than a
+        few periods of the slowest mode is no frequency of it; a slower one the walk follows.
     slosh_damping : float
         ``"slosh"``: ζ of the modulation's oscillator (its band ±ζΩ around the detected peak).
     slosh_gate : float
-        ``"slosh"``: the peak of the tracks' common differenced spectrum must exceed this × its median in the
-        band for a modulation to be modelled (a white spectrum's largest of ~40 bins is about 5×).
+        ``"slosh"``: the line of the tracks' common differenced spectrum must exceed this × its median bin
+        for a modulation to be modelled (the largest of ~10 independent bins of a white spectrum is about
+        3–4× the median).
     refit_looks : int
         ``"single"``: the Whittle fit of signs and direct term every this many looks (magnitudes every look).
     fit_memory_looks : int
@@ -287,9 +304,10 @@ def slosh_look(logw: np.ndarray, weights: np.ndarray, dt_block: float, f_band: t
     ``logw`` (n, m) block means of ln ω̂ᵢ every ``dt_block`` s; c = Σᵢ wᵢ ln ω̂ᵢ / Σ wᵢ (``weights`` wᵢ, the
     modes' information), differenced: a drift becomes a constant, a step one sample, a walk white, and a
     modulation a sin(2πft) stays a line of variance (a²/2)·(2 sin(πfΔ) sinc(fΔ))² (Δ = ``dt_block``, block
-    means). The Hann periodogram's largest interior maximum in ``f_band`` (Hz, parabolic on log p) is the
-    modulation when it exceeds ``gate`` × the band's median; its power over the window's main lobe (±2 bins)
-    above that median, divided by the line's factor, is a²/2.
+    means). The Hann periodogram's largest maximum in ``f_band`` (Hz, parabolic on log p) is the modulation
+    when it is interior and exceeds ``gate`` × the median bin outside its main lobe (±2 bins, up to the
+    blocks' Nyquist: the differenced walk is white there); its power over the lobe above that median,
+    divided by the line's factor, is a²/2.
 
     Returns
     -------
