@@ -18,9 +18,24 @@ cross-covariance. ``force_model``: ``"diagonal"`` (default) one force per mode, 
 
     ωᵢ(k+1) = ωᵢ(k) + Δt ω̇ᵢ(k) + ηᵢ(k),   ω̇ᵢ(k+1) = ω̇ᵢ(k) + κᵢ(k),   κᵢ(k) ~ N(0, (rate ωᵢ)² Δt / horizon_trend),
 
-ω̇ᵢ's prior 0 ± rate·ωᵢ (the stated rate), reset with ωᵢ at a restart. The extended Kalman filter linearises
+ω̇ᵢ's prior 0 ± rate·ωᵢ (the stated rate), reset with ωᵢ at a restart. ``frequency_model="slosh"`` knows that a
+modulation may be present and that it is one wave for every mode (sloshing is one fluid mode): the walk ω̄ᵢ
+times a shared modulation,
+
+    ωᵢ(k) = ω̄ᵢ(k)(1 + s(k)),   s̈ + 2ζₛΩṡ + Ω²s = white of intensity qₛ  (exact transition over Δt),
+
+s starting off (qₛ = 0). Every hop, once the track has half the longest modulation period searched behind it,
+its history (at most two such periods) gives Ω and qₛ (:func:`slosh_look`: block means of ln ω̂ᵢ weighted
+by each mode's information ω̂ᵢ²/Var ω̂ᵢ, differenced, Hann periodogram; the largest line in the band of
+``slosh_periods`` (periods of the slowest prior mode) above ``slosh_gate`` × the median bin); the
+oscillator's stationary variance qₛ/(4ζₛΩ³) is set to the line's a²/2 (covariance matching), and to 0 while
+no line passes. The estimates read from the track follow it, so a modulation learnt late is under-stated at
+first and grows over a few tens of seconds. Under this model, modes that cross are swapped back to the
+prior's order (states, gains, restart records): a close pair moved by a modulation can otherwise trade
+labels. The extended Kalman filter linearises
 the transition in ω with the exact ∂Φ/∂ω (``methods.kalman.modal_transition``) and the measurement with
-∂h/∂ωᵢ = −2ωᵢξᵢ − 2ζξ̇ᵢ.
+∂h/∂ωᵢ = −2ωᵢξᵢ − 2ζξ̇ᵢ (``"slosh"``: through ωᵢ = ω̄ᵢ(1 + s), ∂/∂ω̄ᵢ = (1 + s)∂/∂ωᵢ, ∂/∂s = Σᵢ ω̄ᵢ ∂/∂ωᵢ; the
+reported variance is [1 + s, ω̄ᵢ] P [1 + s, ω̄ᵢ]ᵀ).
 
 What the paper's filter does not do, each an established technique:
 
@@ -108,11 +123,23 @@ class Options(SharedOptions):
         term; module docstring).
     frequency_model : str
         ``"walk"`` (default): ωᵢ a random walk alone; ``"trend"``: each frequency also carries its rate ω̇ᵢ
-        (a local linear trend, module docstring).
+        (a local linear trend, module docstring); ``"slosh"``: the walk times one shared modulation
+        (1 + s(t)), s a damped oscillator whose frequency and intensity come from the tracks' own history
+        (module docstring).
     trend_horizon_s : float or None
         ``"trend"``: the rate may change by the stated rate (``rate_rel_per_s``·ω) over this horizon, a
         random walk of ω̇ of variance (rate·ω)²/horizon per s; None: ten windows (50 periods of the slowest
         prior mode).
+    slosh_periods : tuple of float
+        ``"slosh"``: the band of modulation periods searched, in periods of the slowest prior mode (3–20:
+        5.8–39 s, 0.026–0.17 Hz for 3.2 rad/s; the issue's 0.05–0.1 Hz is 5–10). A modulation faster than a
+        few periods of the slowest mode is no frequency of it; a slower one the walk follows.
+    slosh_damping : float
+        ``"slosh"``: ζ of the modulation's oscillator (its band ±ζΩ around the detected peak).
+    slosh_gate : float
+        ``"slosh"``: the line of the tracks' common differenced spectrum must exceed this × its median bin
+        for a modulation to be modelled (the largest of ~10 independent bins of a white spectrum is about
+        3–4× the median).
     refit_looks : int
         ``"single"``: the Whittle fit of signs and direct term every this many looks (magnitudes every look).
     fit_memory_looks : int
@@ -127,6 +154,9 @@ class Options(SharedOptions):
     fit_memory_looks: int = 1
     frequency_model: str = "walk"
     trend_horizon_s: float | None = None
+    slosh_periods: tuple[float, float] = (3.0, 20.0)
+    slosh_damping: float = 0.1
+    slosh_gate: float = 10.0
 
 
 def _window_samples(opts: SharedOptions, dt: float, prior: np.ndarray) -> tuple[int, int]:
@@ -167,8 +197,16 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     if isinstance(opts.fit_memory_looks, bool) or not isinstance(opts.fit_memory_looks, int) \
             or opts.fit_memory_looks < 1:
         raise ValueError(f"{name}: fit_memory_looks = {opts.fit_memory_looks!r} must be an integer ≥ 1")
-    if opts.frequency_model not in ("trend", "walk"):
-        raise ValueError(f"{name}: frequency_model = {opts.frequency_model!r} must be 'trend' or 'walk'")
+    if opts.frequency_model not in ("slosh", "trend", "walk"):
+        raise ValueError(f"{name}: frequency_model = {opts.frequency_model!r} must be 'slosh', 'trend' or 'walk'")
+    sp = opts.slosh_periods
+    if not (isinstance(sp, (tuple, list)) and len(sp) == 2
+            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in sp) and 0 < sp[0] < sp[1]):
+        raise ValueError(f"{name}: slosh_periods = {sp!r} must be two increasing positive numbers")
+    if not (isinstance(opts.slosh_damping, (int, float)) and 0 < opts.slosh_damping < 1):
+        raise ValueError(f"{name}: slosh_damping = {opts.slosh_damping!r} must be in (0, 1)")
+    if not (isinstance(opts.slosh_gate, (int, float)) and math.isfinite(opts.slosh_gate) and opts.slosh_gate > 0):
+        raise ValueError(f"{name}: slosh_gate = {opts.slosh_gate!r} must be a positive number")
     h = opts.trend_horizon_s
     if h is not None and not (isinstance(h, (int, float)) and math.isfinite(h) and h >= dt):
         raise ValueError(f"{name}: trend_horizon_s = {h!r} must be None or at least one sample ({dt} s)")
@@ -257,6 +295,47 @@ def modes_to_restart(modes, deviation: np.ndarray, scale, floor: float, d_log: n
             strikes[i] = 0
             restarts.append((i, s_i))
     return restarts
+
+
+def slosh_look(logw: np.ndarray, weights: np.ndarray, dt_block: float, f_band: tuple[float, float],
+               gate: float) -> tuple[float, float]:
+    """The common modulation of tracked log-frequencies from their differenced spectrum.
+
+    ``logw`` (n, m) block means of ln ω̂ᵢ every ``dt_block`` s; c = Σᵢ wᵢ ln ω̂ᵢ / Σ wᵢ (``weights`` wᵢ, the
+    modes' information), differenced: a drift becomes a constant, a step one sample, a walk white, and a
+    modulation a sin(2πft) stays a line of variance (a²/2)·(2 sin(πfΔ) sinc(fΔ))² (Δ = ``dt_block``, block
+    means). The Hann periodogram's largest maximum in ``f_band`` (Hz, parabolic on log p) is the modulation
+    when it is interior and exceeds ``gate`` × the median bin outside its main lobe (±2 bins, up to the
+    blocks' Nyquist: the differenced walk is white there); its power over the lobe above that median,
+    divided by the line's factor, is a²/2.
+
+    Returns
+    -------
+    (f Hz, a²/2)
+        NaN and 0 when no maximum passes the gate.
+    """
+    c = logw @ (weights / weights.sum())
+    d = np.diff(c)
+    n = d.size
+    if n < 8:
+        return math.nan, 0.0
+    nfft = 8 * int(2 ** math.ceil(math.log2(n)))
+    f, p = scipy.signal.periodogram(d, fs=1.0 / dt_block, window="hann", nfft=nfft, detrend="constant")
+    sel = np.flatnonzero((f >= f_band[0]) & (f <= f_band[1]))
+    if sel.size < 3:
+        return math.nan, 0.0
+    j = sel[np.argmax(p[sel])]
+    lp = np.log(np.maximum(p, 1e-300))
+    den = lp[j - 1] - 2 * lp[j] + lp[j + 1]
+    fp = f[j] + (0.5 * (lp[j - 1] - lp[j + 1]) / den if den < 0 else 0.0) * (f[1] - f[0])
+    lobe = np.abs(f - fp) <= 2.0 / (n * dt_block)
+    floor = float(np.median(p[(f > 0) & ~lobe]))
+    if j in (sel[0], sel[-1]) or not p[j] > gate * floor:
+        return math.nan, 0.0
+    power = float(np.sum(np.maximum(p[lobe] - floor, 0.0)) * (f[1] - f[0]))
+    x = math.pi * fp * dt_block
+    line = (2 * math.sin(x) * (math.sin(x) / x if x > 0 else 1.0)) ** 2
+    return float(fp), power / line
 
 
 def _gamma(phi: np.ndarray, w: np.ndarray, zeta: float) -> np.ndarray:
@@ -348,6 +427,7 @@ class _Run:
     n_restarts: int
     n_pulses: int
     seen: np.ndarray
+    n_swaps: int = 0
 
 
 def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
@@ -366,12 +446,24 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
     resolution = 2 * math.pi / (W * dt)       # the window's Fourier resolution, rad/s
     single = opts.force_model == "single"
     trend = opts.frequency_model == "trend"
+    slosh = opts.frequency_model == "slosh"
     nf = 1 if single else m
     na = m if trend else 0
     iq, iv, iw = 2 * np.arange(m), 2 * np.arange(m) + 1, 2 * m + np.arange(m)
     ia = 3 * m + np.arange(na)
     iu = 3 * m + na + np.arange(nf)
-    ns = 3 * m + na + nf
+    ns = 3 * m + na + nf + (2 if slosh else 0)
+    i_s, i_sd = ns - 2, ns - 1               # "slosh": the shared modulation s and its rate (the last two)
+    if slosh:
+        period = 2 * math.pi / float(np.min(prior))
+        f_band = (1.0 / (opts.slosh_periods[1] * period), 1.0 / (opts.slosh_periods[0] * period))
+        block = max(1, int(round(opts.slosh_periods[0] * period / 8 / dt)))   # 8 blocks per shortest period
+        first_look = int(round(opts.slosh_periods[1] * period / 2 / dt))      # history before the first look
+        memory = int(round(2 * opts.slosh_periods[1] * period / dt))          # two of the longest periods
+        zeta_s = float(opts.slosh_damping)
+        omega_s = q_s = 0.0
+        phi_s = np.eye(2)
+        k_on = 0
     # the rate's prior spread is the stated rate; its walk lets it change by that much over the trend horizon
     rate_var = opts.rate_rel_per_s ** 2
     trend_h = opts.trend_horizon_s if opts.trend_horizon_s is not None else 10 * W * dt
@@ -402,32 +494,45 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
     seen_now = np.zeros(m, dtype=bool)
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
-    n_restarts = n_pulses = looks = 0
+    n_restarts = n_pulses = looks = n_swaps = 0
     acc = None                           # single force: the forgetting sum of Whittle's losses
     on = False
     for k in range(n):
+        g1 = 1.0 + x[i_s] if slosh else 1.0
         if k > 0:
-            w = x[iw]
+            wb = x[iw]
+            w = wb * g1
             phi, dphi = modal_transition(w, zeta, dt)
             g = _gamma(phi, w, zeta)
             xi = x[:2 * m].reshape(m, 2)
             F[iq, iq], F[iq, iv], F[iv, iq], F[iv, iv] = phi[:, 0, 0], phi[:, 0, 1], phi[:, 1, 0], phi[:, 1, 1]
             dx = np.einsum("mab,mb->ma", dphi, xi)
-            F[iq, iw], F[iv, iw] = dx[:, 0], dx[:, 1]
+            F[iq, iw], F[iv, iw] = dx[:, 0] * g1, dx[:, 1] * g1
+            if slosh:
+                F[iq, i_s], F[iv, i_s] = dx[:, 0] * wb, dx[:, 1] * wb
+                F[i_s:, i_s:] = phi_s
             drive = gains @ x[iu]
             F[iq[:, None], iu] = g[:, :1] * gains
             F[iv[:, None], iu] = g[:, 1:] * gains
             x[:2 * m] = (np.einsum("mab,mb->ma", phi, xi) + g * drive[:, None]).ravel()
             if trend:
                 x[iw] += dt * x[ia]
+            if slosh:
+                x[i_s:] = phi_s @ x[i_s:]
+                Q[i_sd, i_sd] = q_s * dt
             x[iu] = 0.0
-            Q[iw, iw] = nu2 * dt * w * w
+            Q[iw, iw] = nu2 * dt * wb * wb
             Q[ia, ia] = (rate_var / trend_h * dt * w * w)[:na]
             P = F @ P @ F.T + Q
-        w = x[iw]
+        g1 = 1.0 + x[i_s] if slosh else 1.0
+        wb = x[iw]
+        w = wb * g1
         Hrow[iq] = -w * w
         Hrow[iv] = -2 * zeta * w
-        Hrow[iw] = -2 * w * x[iq] - 2 * zeta * x[iv]
+        dh = -2 * w * x[iq] - 2 * zeta * x[iv]            # ∂h/∂ωᵢ of the effective frequencies
+        Hrow[iw] = dh * g1
+        if slosh:
+            Hrow[i_s] = dh @ wb
         Hrow[iu] = direct
         h = float(Hrow[iq] @ x[iq] + Hrow[iv] @ x[iv] + direct @ x[iu])
         PH = P @ Hrow
@@ -444,11 +549,12 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
             P = P - np.outer(K, PH)
             P = 0.5 * (P + P.T)
         if k + 1 >= W and (k + 1 - W) % hop == 0:
-            ref = x[iw] if on else prior
+            g1 = 1.0 + x[i_s] if slosh else 1.0
+            ref = x[iw] * g1 if on else prior
             peak, r_floor, var_i, spec = periodogram_look(y[k + 1 - W:k + 1], dt, ref, opts.band, zeta)
             ok = np.isfinite(peak)
             seen_now = ok & visible(var_i, r_floor, ref, opts.band, dt)
-            w_now = np.where(ok, peak, ref) if not on else x[iw]
+            w_now = np.where(ok, peak, ref) if not on else ref
             mag = np.sqrt(np.maximum(4 * zeta * var_i / (w_now * dt), 0.0))
             if single:
                 if opts.fit_memory_looks > 1 or looks % opts.refit_looks == 0:
@@ -471,17 +577,55 @@ def ambient_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -
                 for i in range(m):
                     _restart(x, P, iw[i], ia[i] if trend else None, w_now[i], resolution, rate_var)
                 on = True
+                k_on = k
             else:
-                d_log = np.log(peak / x[iw])
-                for i, _ in modes_to_restart(np.flatnonzero(ok), peak - x[iw], x[iw], resolution, d_log, strikes,
+                d_log = np.log(peak / ref)
+                for i, _ in modes_to_restart(np.flatnonzero(ok), peak - ref, ref, resolution, d_log, strikes,
                                              hist_d, opts):
-                    _restart(x, P, iw[i], ia[i] if trend else None, peak[i], resolution, rate_var)
+                    _restart(x, P, iw[i], ia[i] if trend else None, peak[i] / g1, resolution / g1, rate_var)
                     n_restarts += 1
+                order = np.argsort(x[iw], kind="stable")
+                if slosh and np.any(order != np.arange(m)):
+                    # two modes crossed (a close pair moved by the modulation): the labels follow the prior's
+                    # order, so the crossed modes' states, gains and restart records swap back
+                    idx = np.arange(ns)
+                    for block_i in (iq, iv, iw) + ((iu,) if not single else ()):
+                        idx[block_i] = block_i[order]
+                    x, P = x[idx], P[np.ix_(idx, idx)]
+                    if single:
+                        gains[:, 0] = gains[order, 0]
+                    else:
+                        gains[np.arange(m), np.arange(m)] = np.diag(gains)[order]
+                    strikes = strikes[order]
+                    hist_d = [hist_d[i] for i in order]
+                    n_swaps += 1
+                if slosh and k - k_on >= first_look:
+                    # the modulation from the tracks' own history: its frequency and intensity (covariance
+                    # matching), the oscillator's stationary variance q/(4ζΩ³) set to the detected a²/2
+                    hist = freq[max(k_on, k - memory):k]
+                    nb = hist.shape[0] // block
+                    logw = np.log(hist[hist.shape[0] - nb * block:]).reshape(nb, block, m).mean(axis=1)
+                    f_pk, v_s = slosh_look(logw, 1.0 / np.maximum(var[k - 1] / freq[k - 1] ** 2, 1e-30),
+                                           block * dt, f_band, opts.slosh_gate)
+                    if np.isfinite(f_pk):
+                        if 2 * math.pi * f_pk != omega_s:
+                            omega_s = 2 * math.pi * f_pk
+                            phi_s = modal_transition(np.array([omega_s]), zeta_s, dt)[0][0]
+                        q_s = 4 * zeta_s * omega_s ** 3 * v_s
+                        if P[i_s, i_s] == 0.0:
+                            P[i_s, i_s], P[i_sd, i_sd] = v_s, omega_s ** 2 * v_s
+                    else:
+                        q_s = 0.0
         started[k] = on
         seen[k] = seen_now
-        freq[k] = x[iw]
-        var[k] = np.diag(P)[iw]
-    return _Run(freq, var, started, n_restarts, n_pulses, seen)
+        if slosh:                           # ωᵢ = ω̄ᵢ(1 + s): its variance through the Jacobian [1 + s, ω̄ᵢ]
+            g1, wb = 1.0 + x[i_s], x[iw]
+            freq[k] = wb * g1
+            var[k] = g1 * g1 * np.diag(P)[iw] + 2 * g1 * wb * P[iw, i_s] + wb * wb * P[i_s, i_s]
+        else:
+            freq[k] = x[iw]
+            var[k] = np.diag(P)[iw]
+    return _Run(freq, var, started, n_restarts, n_pulses, seen, n_swaps)
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
@@ -490,5 +634,6 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     k = np.flatnonzero(out.started)
     std = np.sqrt(np.clip(out.var[k], 0.0, None))
     return Track(k * dt, out.freq[k], std, out.seen[k] & (std <= DETERMINED_REL_STD * out.freq[k]),
-                 message=f"{name}: {out.n_restarts} restarts, {out.n_pulses} pulse samples",
-                 extra={"n_restarts": out.n_restarts, "n_pulses": out.n_pulses})
+                 message=f"{name}: {out.n_restarts} restarts, {out.n_pulses} pulse samples"
+                         + (f", {out.n_swaps} swaps" if out.n_swaps else ""),
+                 extra={"n_restarts": out.n_restarts, "n_pulses": out.n_pulses, "n_swaps": out.n_swaps})

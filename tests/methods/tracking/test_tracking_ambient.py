@@ -28,6 +28,9 @@ BAD = [
     ("akf_ambient", {"frequency_model": "spline"}, "frequency_model = 'spline'"),
     ("akf_ambient", {"trend_horizon_s": 0.0}, "trend_horizon_s = 0.0"),
     ("akf_ambient", {"fit_memory_looks": 0}, "fit_memory_looks = 0"),
+    ("akf_ambient", {"slosh_periods": (20.0, 3.0)}, "slosh_periods = (20.0, 3.0)"),
+    ("akf_ambient", {"slosh_damping": 0.0}, "slosh_damping = 0.0"),
+    ("akf_ambient", {"slosh_gate": -1.0}, "slosh_gate = -1.0"),
     ("rpem_ambient", {"estimate_damping": "yes"}, "estimate_damping = 'yes'"),
     ("rpem_ambient", {"pulse_gate": -1.0}, "pulse_gate = -1.0"),
     ("rpem_ambient", {"colour": "red"}, "unknown option 'colour'"),
@@ -341,3 +344,48 @@ def test_two_memories_follow_a_step_the_whole_record_alone_does_not_leave(grid_l
     for (seed, label), cell in grid_like.items():
         if seed == 3 and "drift" in label:
             assert _track_cell(cell, **TWO)[0].extra["n_resets"] == 0, label
+
+
+def test_slosh_look_finds_a_known_modulation_and_none_in_a_walk():
+    """Block means of two log-tracks carrying the same a = 3 % sin(2π·0.07 t) on a drift and a step, with a walk
+    of their own: the differenced spectrum's line is at 0.07 Hz (± a tenth of the 80 s record's resolution
+    1/80 Hz) and a²/2 within 25 % (the Hann main lobe and the median floor); the walks and the step alone,
+    no modulation, pass no gate."""
+    rng = np.random.default_rng(2)
+    dt_block = 0.5
+    t = dt_block * np.arange(160)[:, None]
+    walk = np.cumsum(0.001 * rng.standard_normal((t.size, 2)), axis=0)
+    base = np.log([3.2, 22.0]) + 0.0005 * t + 0.05 * (t > 40) + walk
+    f, v = _ambient.slosh_look(base + 0.03 * np.sin(2 * np.pi * 0.07 * t), np.array([1.0, 3.0]), dt_block,
+                               (0.026, 0.17), 10.0)
+    assert abs(f - 0.07) < 0.1 / 80 and abs(v / (0.03**2 / 2) - 1) < 0.25, (f, v)
+    f, v = _ambient.slosh_look(base, np.array([1.0, 3.0]), dt_block, (0.026, 0.17), 10.0)
+    assert np.isnan(f) and v == 0.0
+
+
+def test_slosh_model_follows_a_modulation_the_walk_lags():
+    """Three modes (3.23, 20.24, 56.67 rad/s) modulated by one wave, ωᵢ(t) = ωᵢ(1 + a sin 2π·0.07 t), a = 3 %
+    (the grid's slosh amplitude at the issue's rate), white force, 100 µg, 100 s; (time, mode) after 60 s of
+    seeds 1–3 pooled. The walk does not follow the wave: its median error is the wave's own rms a/√2 = 2.1 %
+    (measured 2.2 %). The shared modulation's is below 0.8 × a/√2 (an independent number: the error of a
+    tracker that does not follow the wave) and below 0.8 × the walk's (measured 1.4 %: 0.65 × and 0.64 ×; per
+    seed 0.86 × the walk where restarts misfire and the line found is false). On the same records without a
+    modulation the shared model costs at most 20 % over the walk (measured 0.628 % against 0.629 %)."""
+    n, a = 5000, 0.03
+    t = DT * np.arange(n)[:, None]
+    flat = schedule(n, freq=[3.23, 20.24, 56.67])
+    prior = flat[0] * np.array([1.03, 0.97, 1.04])
+    err = {}
+    for label, w in (("slosh", flat * (1 + a * np.sin(2 * np.pi * 0.07 * t))), ("flat", flat)):
+        for model in ("walk", "slosh"):
+            e = []
+            for seed in (1, 2, 3):
+                y = driven_modes(w, force=1.0, noise_ug=100.0, seed=seed, gain=[4.0, 1.0, 1.0])
+                tr = methods.track("akf_ambient", y, DT, prior, frequency_model=model)
+                k = np.round(tr.t_s / DT).astype(int)
+                late = tr.t_s >= 60.0
+                e.append(np.abs(tr.frequencies[late] / w[k[late]] - 1).ravel())
+            err[label, model] = float(np.median(np.concatenate(e)))
+    assert err["slosh", "slosh"] < 0.8 * a / np.sqrt(2), err
+    assert err["slosh", "slosh"] < 0.8 * err["slosh", "walk"], err
+    assert err["flat", "slosh"] <= 1.2 * err["flat", "walk"], err

@@ -25,10 +25,13 @@ TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every w
 # gated_pencil's kick test
 DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory", "gated_pencil+kicks",
             "gated_pencil+freeze"]
-# akf_ambient's rate state and its single-force fit with a memory of looks (the forgetting sum); rpem_ambient's
-# rate in θ (its per-hop CasADi runs hand the state over between looks) and its two memories
+# akf_ambient's rate state, its shared modulation and its single-force fit with a memory of looks (the
+# forgetting sum); rpem_ambient's rate in θ (its per-hop CasADi runs hand the state over between looks) and its
+# two memories
 AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "akf_ambient+single": {"force_model": "single", "fit_memory_looks": 30},
+           # the shared modulation, its band shortened so that its looks at the tracks' history run before K
+           "akf_ambient+slosh": {"frequency_model": "slosh", "slosh_periods": (0.5, 3.0)},
            "rpem_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+two": {"frequency_model": "trend", "recursions": "two"}}
 
