@@ -158,6 +158,13 @@ def test_window_from_estimates_follows_the_resolved_modes_not_a_near_double_prio
     np.testing.assert_allclose(tr.extra["window_span_s"][late], 5 * 2 * np.pi / FREQ[0], rtol=0.02)
     err = np.abs(tr.frequencies[late] / FREQ - 1)
     assert np.all(err < 0.005) and tr.converged[late].mean() > 0.9, (err.max(), tr.converged[late].mean())
+    # causal: a window's length follows the windows before it only
+    changed = y.copy()
+    changed[4000:] = pulsed_decays(n - 4000, np.arange(100, n - 4000, 300), seed=7)
+    other = methods.track("gated_pencil", changed, DT, prior, window_from_estimates=True)
+    early = tr.t_s <= 3999 * DT
+    np.testing.assert_array_equal(other.frequencies[early], tr.frequencies[early])
+    np.testing.assert_array_equal(other.extra["window_span_s"][early], tr.extra["window_span_s"][early])
     # a window the user gives is kept
     given = methods.track("gated_pencil", y, DT, prior, window_from_estimates=True, window_samples=600)
     np.testing.assert_allclose(given.extra["window_span_s"], 599 * DT)
