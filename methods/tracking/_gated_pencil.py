@@ -59,6 +59,15 @@ What. On each window of W samples (every H samples):
    window spans, ``trend_meas_rel``/(k·(W − 1)Δt)² (:func:`methods.tracking._defaults.trend_rate_noise_memory`)
    — a filter that forgets faster than a window follows the overlapping windows' shared errors as a rate.
 
+**The window from the estimates** (``window_from_estimates``, an option): the window rule
+(:func:`methods.tracking._defaults.window_s`: five periods of the slowest mode, two beats of the closest pair,
+capped at 20 periods) evaluated at each mode's last estimate (the assignment reference: the prior until the
+mode is determined) instead of at the prior, never longer than the prior's window; the trend filter's memory
+(``trend_memory`` window spans) follows it. Why: the prior is a guess (±5 % on the benchmarks' records), and two
+prior frequencies that happen to lie close ask for two beats of a pair that the record does not have — up to 20
+periods of the slowest mode — and a window that long straddles a step for most of its span. Causal: window j's
+length depends on windows 0 … j − 1 only.
+
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
 own samples; the trend stage uses earlier windows only.
@@ -88,7 +97,12 @@ class Options:
     leave the columns), AR order W/20 within [2m + 2, 2m + 16], min segment max(2(2m + 1), W/25).
     ``split_kicks``: the kick test on the pulse-free runs (module docstring, step 4), at family-wise level
     ``split_level`` per run, ``split_rounds`` rounds of binary segmentation. ``close_pairs``: a resolved pair
-    within the window's resolution passes without the phase-std test (step 4, :func:`_labelled`)."""
+    within the window's resolution passes without the phase-std test (step 4, :func:`_labelled`).
+    ``window_from_estimates`` (off by default): each window's length is the window rule at the modes' last
+    estimates (the prior until a mode is determined), never longer than at the prior — a prior whose two
+    modes are nearly equal asks for up to 20 periods of the slowest mode (two beats of a pair that is not
+    there), and a window that long needs most of its span to forget a step; the hop, rows, AR order and min
+    segment stay the prior's, scaled down with the window (a window the user gives is kept)."""
 
     window_samples: int | None = None
     hop_samples: int | None = None
@@ -120,6 +134,7 @@ class Options:
     trend_restart_rate: str = _trend.RESTART_RATE
     trend_memory: float | None = 1.0
     memory: bool = _memory.DEFAULTS["memory"]
+    window_from_estimates: bool = False
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
 
@@ -164,7 +179,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
-    for key in ("refine", "split_kicks", "close_pairs"):
+    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -327,6 +342,12 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     order = 2 * m + opts.extra_order
     # after a restart: the model's minimum window, at least two periods of the slowest mode
     w_restart = min(W, _defaults.restart_samples(prior, dt, _defaults.min_window_samples(m, order)))
+    # window_from_estimates: the window rule at the last estimates, never longer than at the prior (a window
+    # the user gives is kept)
+    adapt = opts.window_from_estimates and given.window_samples is None and given.window_s is None
+    w_low = _defaults.min_window_samples(m, order)
+    memory_rate = (opts.trend_memory is not None and given.trend_rate_noise is None
+                   and isinstance(opts.trend_meas_rel, (int, float)))
     nyquist = np.pi / dt
     freq = np.full((ends.size, m), np.nan)
     found = np.zeros((ends.size, m), dtype=bool)
@@ -348,21 +369,27 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     fresh = np.zeros(m, dtype=bool)           # modes restarted by the change detector, until the window is full
     last_pulse = -1                           # the last sample the pulse detector flagged
     for j, e in enumerate(ends.tolist()):
-        a = max(e - W + 1, start)
+        Wj = W
+        if adapt:
+            Wj = min(W, max(w_low, int(round(_defaults.window_s(state["ref"]) / dt))))
+            if bank is not None and memory_rate:
+                bank.rate_noise = _defaults.trend_rate_noise_memory(opts.trend_meas_rel, (Wj - 1) * dt,
+                                                                    opts.trend_memory)
+        a = max(e - Wj + 1, start)
         n_j = e - a + 1
         span[j] = (n_j - 1) * dt
-        full = (opts.rows, opts.ar_order, opts.min_segment)
-        if n_j == W:
+        full = (opts.rows, opts.ar_order, opts.min_segment) if Wj == W else _shorter(Wj, m, order, opts)
+        if n_j == Wj:
             fresh[:] = False
-        if n_j == W or (n_j >= w_restart and not fresh.any()):
+        if n_j == Wj or (n_j >= w_restart and not fresh.any()):
             state["seg_start"] = a
-            kept[j] = _window(y[a: e + 1], dt, full if n_j == W else _shorter(n_j, m, order, opts), order, opts,
+            kept[j] = _window(y[a: e + 1], dt, full if n_j == Wj else _shorter(n_j, m, order, opts), order, opts,
                               nyquist, limit, prior, state, freq[j], found[j], wstd[j])
-        elif e + 1 >= W:
-            state["seg_start"] = e - W + 1
+        elif e + 1 >= Wj:
+            state["seg_start"] = e - Wj + 1
             # after a restart: the restarted modes from the samples since the change, the others from the
             # full window as before (their frequency did not jump; a short window would only add noise)
-            kept[j] = _window(y[e - W + 1: e + 1], dt, full, order, opts, nyquist, limit, prior, state, freq[j],
+            kept[j] = _window(y[e - Wj + 1: e + 1], dt, full, order, opts, nyquist, limit, prior, state, freq[j],
                               found[j], wstd[j])
             if n_j >= w_restart:
                 f2, d2, s2 = np.full(m, np.nan), np.zeros(m, dtype=bool), np.full(m, np.nan)
@@ -374,7 +401,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
                 wstd[j] = np.where(fresh, s2, wstd[j])
             else:
                 freq[j, fresh], found[j, fresh], wstd[j, fresh] = np.nan, False, np.nan
-        span_j = np.where(fresh, span[j], (W - 1) * dt)
+        span_j = np.where(fresh, span[j], (Wj - 1) * dt)
         if bank is None:
             continue
         meas = np.sqrt(opts.overlap_inflation * np.maximum(1.0, (span_j / dt + 1) / H)) * wstd[j] if opts.refine \

@@ -140,3 +140,37 @@ def test_close_pairs_counts_a_resolved_pair_and_never_a_dead_mode():
                              trend=False, close_pairs=True)
         assert not dead.converged[:, 2].any(), seed
         assert dead.converged[:, 1].mean() > 0.4, seed
+
+
+def test_window_from_estimates_follows_the_resolved_modes_not_a_near_double_prior():
+    # a prior whose modes 2 and 3 are 0.1 rad/s apart asks for the window's cap, 20 periods of its slowest mode
+    # (39 s); the record's modes are 1.76 rad/s apart, so once they are determined the rule at the estimates
+    # is five periods of the true slowest mode, 5 · 2π/3.23 = 9.73 s (pulses every 10 s: the long window's
+    # Hankel rows, an eighth of it, leave ≥ 2L pulse-free columns)
+    n = 6000
+    y = pulsed_decays(n, np.arange(150, n, 500), seed=6)
+    prior = np.array([3.3, 20.9, 21.0, 55.0])
+    base = methods.track("gated_pencil", y, DT, prior)
+    tr = methods.track("gated_pencil", y, DT, prior, window_from_estimates=True)
+    cap = 20 * 2 * np.pi / prior[0]
+    np.testing.assert_allclose(base.extra["window_span_s"], cap, rtol=0.01)
+    late = tr.t_s > 60.0
+    np.testing.assert_allclose(tr.extra["window_span_s"][late], 5 * 2 * np.pi / FREQ[0], rtol=0.02)
+    err = np.abs(tr.frequencies[late] / FREQ - 1)
+    assert np.all(err < 0.005) and tr.converged[late].mean() > 0.9, (err.max(), tr.converged[late].mean())
+    # causal: a window's length follows the windows before it only
+    changed = y.copy()
+    changed[4000:] = pulsed_decays(n - 4000, np.arange(100, n - 4000, 300), seed=7)
+    other = methods.track("gated_pencil", changed, DT, prior, window_from_estimates=True)
+    early = tr.t_s <= 3999 * DT
+    np.testing.assert_array_equal(other.frequencies[early], tr.frequencies[early])
+    np.testing.assert_array_equal(other.extra["window_span_s"][early], tr.extra["window_span_s"][early])
+    # a window the user gives is kept
+    given = methods.track("gated_pencil", y, DT, prior, window_from_estimates=True, window_samples=600)
+    np.testing.assert_allclose(given.extra["window_span_s"], 599 * DT)
+    try:
+        methods.check_track_options("gated_pencil", prior, DT, {"window_from_estimates": "yes"})
+    except ValueError as err:
+        assert "window_from_estimates = 'yes'" in str(err) and "\n" not in str(err)
+    else:
+        raise AssertionError("window_from_estimates = 'yes' accepted")
