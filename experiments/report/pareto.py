@@ -88,7 +88,8 @@ def figure(table: pd.DataFrame, stem: Path) -> list[Path]:
     for ax, cls in zip(axes.flat, classes, strict=False):
         g = table[(table["cell_class"] == cls)].dropna(subset=["median_rmse_over_crlb"])
         g = g[g["median_ms_per_fit"] > 0].sort_values("median_ms_per_fit")
-        for k, row in enumerate(g.itertuples()):
+        names = []
+        for row in g.itertuples():
             color, marker = plots._style(row.method)
             faint = row.mean_failure_rate > MAX_MEAN_FAILURE
             ax.scatter(row.median_ms_per_fit, row.median_rmse_over_crlb, color=color, marker=marker, s=48,
@@ -96,9 +97,8 @@ def figure(table: pd.DataFrame, stem: Path) -> list[Path]:
             if row.winner:
                 ax.scatter(row.median_ms_per_fit, row.median_rmse_over_crlb, s=160, facecolors="none",
                            edgecolors="k", zorder=2)
-            ax.annotate(row.method + (f" ({row.mean_failure_rate:.0%} fail)" if faint else ""),
-                        (row.median_ms_per_fit, row.median_rmse_over_crlb), textcoords="offset points",
-                        xytext=(5, 4 if k % 2 == 0 else -10), fontsize=7, alpha=0.5 if faint else 1.0)
+            name = row.method + (f" ({row.mean_failure_rate:.0%} fail)" if faint else "")
+            names.append((row.median_ms_per_fit, row.median_rmse_over_crlb, name, 0.5 if faint else 1.0))
         front = pareto_front(g[g["mean_failure_rate"] <= MAX_MEAN_FAILURE])
         if len(front) > 1:
             ax.step(front["median_ms_per_fit"], front["median_rmse_over_crlb"], where="post", color="k",
@@ -109,6 +109,7 @@ def figure(table: pd.DataFrame, stem: Path) -> list[Path]:
         ax.set_xlabel("median time per fit (ms)")
         ax.set_title(cls)
         ax.grid(True, which="both", alpha=0.3)
+        plots.label_points(ax, names)
     for ax in axes[:, 0]:
         ax.set_ylabel("median RMSE/CRLB, identifiable pairs")
     fig.suptitle(f"Accuracy against cost per cell class (short < {SHORT_BELOW_SAMPLES} samples, low noise "

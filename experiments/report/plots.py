@@ -17,8 +17,8 @@ from matplotlib.layout_engine import ConstrainedLayoutEngine  # noqa: E402
 from experiments.io import save_figure  # noqa: E402
 from experiments.report.coverage import IDEAL_1STD, IDEAL_2STD, IDEAL_MEDIAN_Z  # noqa: E402
 
-__all__ = ["METHOD_STYLE", "EXTRA_COLOURS", "MAX_FAILURE_RATE", "VARIANT_SHADES", "rmse_against", "winner_map",
-           "failure_map", "coverage"]
+__all__ = ["METHOD_STYLE", "EXTRA_COLOURS", "MAX_FAILURE_RATE", "VARIANT_SHADES", "label_points", "rmse_against",
+           "winner_map", "failure_map", "coverage"]
 
 METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab:cyan", "D"),
                 "pem": ("tab:red", "^"), "pll": ("tab:green", "v"),
@@ -63,6 +63,49 @@ def _style(method):
     # below 1 darken towards black, else lighten halfway towards white
     rgb = rgb * shade if shade < 1 else rgb + 0.45 * (1 - rgb)
     return matplotlib.colors.to_hex(rgb), marker
+
+
+# where a name may go, in points from its marker: right/left × just above/below, then a line further out each time
+PLACES = [(dx, dy) for k in range(4) for dy in (3 + 9 * k, -11 - 9 * k) for dx in (5, -5)]
+
+
+def label_points(ax, points, fontsize: float = 7.0) -> None:
+    """Name each point ``(x, y, text[, alpha])`` of ``ax`` beside it where the name overlaps no name placed
+    before it nor another point: of sixteen places around the marker (right/left × above/below, a line further
+    out each time) the first free one, else the least crowded. The names' sizes are the renderer's own text
+    extents. Call it once the axes' scales and data are set; a layout engine that moves the axes afterwards
+    moves every name with its point. Greedy, left to right (no layout library is kept for a dozen names)."""
+    if not points:
+        return
+    ax.autoscale_view()
+    renderer = ax.figure.canvas.get_renderer()
+    px = ax.figure.dpi / 72.0                              # pixels per point
+    xy = ax.transData.transform([(p[0], p[1]) for p in points])
+    marks = [(u - 4 * px, v - 4 * px, u + 4 * px, v + 4 * px) for u, v in xy]
+    boxes: list[tuple[float, float, float, float]] = []
+
+    def hits(b, own):
+        return sum(b[0] < c[2] and c[0] < b[2] and b[1] < c[3] and c[1] < b[3]
+                   for k, c in enumerate(boxes + marks) if k != len(boxes) + own)
+
+    for i in np.argsort(xy[:, 0], kind="stable"):
+        x, y, text, *rest = points[i]
+        ann = ax.annotate(text, (x, y), textcoords="offset points", xytext=(5, 3), fontsize=fontsize,
+                          alpha=rest[0] if rest else 1.0)
+        best = None
+        for dx, dy in PLACES:
+            ann.set_position((dx, dy))
+            ann.set_horizontalalignment("right" if dx < 0 else "left")
+            e = ann.get_window_extent(renderer)
+            n = hits((e.x0, e.y0, e.x1, e.y1), i)
+            if best is None or n < best[0]:
+                best = (n, dx, dy, (e.x0, e.y0, e.x1, e.y1))
+            if n == 0:
+                break
+        _, dx, dy, box = best
+        ann.set_position((dx, dy))
+        ann.set_horizontalalignment("right" if dx < 0 else "left")
+        boxes.append(box)
 
 
 def _line(method) -> str:
