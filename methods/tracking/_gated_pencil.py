@@ -73,16 +73,17 @@ periods, ~90 periods of a mode 18 times faster), so after a step with no pulse a
 dies away (decay time 1/(ζω)) inside windows whose older part, before the step, dominates: they hold its old
 frequency, then determine nothing until the next pulse. Each mode i whose own window — the window rule for it
 alone, max(five of its periods, two beats of its nearest neighbour (capped at 20 of its periods)), never
-shorter than the model's minimum (:func:`own_window_samples`) — is at most half the window is also fitted on
-the most recent window of that length (the same pencil and segment fit, on a copy of the state). Where both
-determine the mode, the short window is one free decay (no pulse flagged in it, by its own detector or by the
-long windows': where a pulse follows the
-change the long window sees it, and a short run between pulses biases the short fit beyond its std) and its
-estimate lies more than ``OWN_CHANGE_STD`` (3) combined std from the long one (or, the long window silent,
-from the trend stage's last level), the mode has changed:
-its level in the trend stage is re-set there (its rate kept, as after a gap: a rate fitted to a few short
-windows would carry the level away once the ring has died), and it is fed from its own window until the long
-window's start has passed the change (W samples later). Causal: both windows end at the present sample.
+shorter than the model's minimum (:func:`own_window_samples`) — is at most half the window, and whose decay
+time 1/(ζω) at its last estimates is under half the window span, is also fitted on the most recent window of
+that length (:func:`_own_estimate`: the gated pencil for the start, the segment fit on the short window's
+pulse-free runs). Where the short window is one free decay (no pulse flagged in it, by its own detector or by
+the long windows': where a pulse follows the change the long window sees it, and a short run between pulses
+biases the short fit beyond its std) and its estimate lies more than ``OWN_CHANGE_STD`` (3) combined std from
+the trend stage's last output (carried by its rate: a drift is not read as a change; the long window's estimate
+before the trend has one), the mode has changed: its level in the trend stage is re-set there (its rate kept,
+as after a gap: a rate fitted to a few short windows would carry the level away once the ring has died), and
+it is fed from its own window until the long window's start has passed the change (W samples later). Causal:
+both windows end at the present sample.
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -103,7 +104,7 @@ from methods.tracking import _defaults, _memory, _segments, _trend
 from methods.tracking._track import Track, usable_prior, window_ends
 
 MIN_DAMPING = -0.02
-OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this many combined std from the long one
+OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this many combined std from the trend's
 
 
 def own_window_samples(ref: np.ndarray, dt: float, minimum: int) -> np.ndarray:
@@ -134,10 +135,11 @@ class Options:
     modes are nearly equal asks for up to 20 periods of the slowest mode (two beats of a pair that is not
     there), and a window that long needs most of its span to forget a step; the hop, rows, AR order and min
     segment stay the prior's, scaled down with the window (a window the user gives is kept).
-    ``own_windows`` (off by default): each mode whose own window (:func:`own_window_samples`) is at most half
-    the window is also fitted on that most recent short window; a short estimate beyond ``OWN_CHANGE_STD``
-    combined std of the long one is a change: the mode's level is re-set in the trend stage, fed from its own window
-    until the long window no longer holds the change (module docstring)."""
+    ``own_windows`` (off by default): each mode whose ring dies within half the window and whose own window
+    (:func:`own_window_samples`) is at most half the window is also fitted on that most recent short window; a
+    pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
+    the mode's level is re-set in the trend stage, then fed from its own window until the long window no
+    longer holds the change (module docstring)."""
 
     window_samples: int | None = None
     hop_samples: int | None = None
@@ -392,7 +394,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     span = np.full(ends.size, np.nan)
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
              "rows_free": given.rows is None,
-             "seg_start": 0, "kicks": set(), "clean": [], "pulses": set()}
+             "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": []}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
             if (opts.trend or opts.memory) else None)
@@ -469,6 +471,9 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
              "memory_restart_samples": np.asarray(restart_at, dtype=int)}
     if opts.memory:
         message += f"; {len(restart_at)} change-detector restarts of the window"
+    if opts.own_windows:
+        extra["own_window_changes"] = np.asarray(state["own_changes"], dtype=int).reshape(-1, 2)
+        message += f"; {len(state['own_changes'])} changes on the modes' own windows"
     if not opts.trend:
         return Track(ends * dt, freq, np.nan, found, message=message, extra=extra)
     extra |= {"window_frequencies": freq, "window_converged": found, "trend_restarts": bank.restarts}
@@ -495,10 +500,9 @@ def _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank
         f, s, free = est if est is not None else (np.nan, np.nan, False)
         free = free and not any(k > e - n for k in state["pulses"])
         if own_until[i] < e:
-            if found[i]:
-                ref, ref_std = freq[i], wstd[i]
-            else:
-                ref, ref_std = last[i], last_std[i]
+            # the trend stage's last output (carried by its rate to the previous window's end: a drift is not
+            # read as a change), the long window's estimate before the trend has one
+            ref, ref_std = (last[i], last_std[i]) if np.isfinite(last[i]) else (freq[i], wstd[i])
             if not (free and np.isfinite(ref)
                     and abs(f - ref) > OWN_CHANGE_STD * np.hypot(s, ref_std if np.isfinite(ref_std) else 0.0)):
                 continue
@@ -506,6 +510,7 @@ def _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank
             # from a few short windows would carry the level away once the ring has died), then fed from its
             # own window until the long window's start has passed the change
             bank.relevel(int(i), (e - (n - 1) / 2) * dt, f, s * s)
+            state["own_changes"].append((e, int(i)))
             own_until[i] = e + Wj - 1
             freq[i], found[i], wstd[i], span_j[i] = np.nan, False, np.nan, (n - 1) * dt
             continue
