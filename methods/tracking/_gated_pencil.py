@@ -489,7 +489,8 @@ def _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank
     stage's previous output."""
     # the modes whose ring dies away within half the window (decay time 1/(ζω) at the last estimates): a change
     # with no input after it is lost on the long window for them only
-    decay = 1.0 / (state["last_z"] * state["ref"])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        decay = 1.0 / (state["last_z"] * state["ref"])      # NaN before a mode is determined: not eligible
     W_own = np.minimum(own_window_samples(state["ref"], dt, w_low), Wj)
     for i in np.flatnonzero((2 * W_own <= Wj) & (decay <= (Wj - 1) * dt / 2) & ~fresh):
         n = int(W_own[i])
