@@ -68,6 +68,23 @@ prior frequencies that happen to lie close ask for two beats of a pair that the 
 periods of the slowest mode — and a window that long straddles a step for most of its span. Causal: window j's
 length depends on windows 0 … j − 1 only.
 
+**A mode's own window** (``own_windows``, an option): the window is sized for the slowest mode (five of its
+periods, ~90 periods of a mode 18 times faster), so after a step with no pulse after it a fast mode's ring
+dies away (decay time 1/(ζω)) inside windows whose older part, before the step, dominates: they hold its old
+frequency, then determine nothing until the next pulse. Each mode i whose own window — the window rule for it
+alone, max(five of its periods, two beats of its nearest neighbour (capped at 20 of its periods)), never
+shorter than the model's minimum (:func:`own_window_samples`) — is at most half the window, and whose decay
+time 1/(ζω) at its last estimates is under half the window span, is also fitted on the most recent window of
+that length (:func:`_own_estimate`: the gated pencil for the start, the segment fit on the short window's
+pulse-free runs). Where the short window is one free decay (no pulse flagged in it, by its own detector or by
+the long windows': where a pulse follows the change the long window sees it, and a short run between pulses
+biases the short fit beyond its std) and its estimate lies more than ``OWN_CHANGE_STD`` (3) combined std from
+the trend stage's last output (carried by its rate: a drift is not read as a change; the long window's estimate
+before the trend has one), the mode has changed: its level in the trend stage is re-set there (its rate kept,
+as after a gap: a rate fitted to a few short windows would carry the level away once the ring has died), and
+it is fed from its own window until the long window's start has passed the change (W samples later). Causal:
+both windows end at the present sample.
+
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
 own samples; the trend stage uses earlier windows only.
@@ -87,6 +104,21 @@ from methods.tracking import _defaults, _memory, _segments, _trend
 from methods.tracking._track import Track, usable_prior, window_ends
 
 MIN_DAMPING = -0.02
+OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this many combined std from the trend's
+
+
+def own_window_samples(ref: np.ndarray, dt: float, minimum: int) -> np.ndarray:
+    """Each mode's own window in samples: the window rule (:func:`methods.tracking._defaults.window_s`) for
+    that mode alone — max(``PERIODS`` of its periods, ``GAP_CYCLES`` beats of its nearest neighbour capped at
+    ``GAP_CAP_PERIODS`` of its periods) — never under ``minimum`` samples."""
+    ref = np.asarray(ref, dtype=float)
+    T = 2.0 * np.pi / ref
+    span = _defaults.PERIODS * T
+    if ref.size > 1:
+        gap = np.abs(ref[:, None] - ref[None, :]) + np.diag(np.full(ref.size, np.inf))
+        beats = _defaults.GAP_CYCLES * 2.0 * np.pi / np.maximum(gap.min(axis=1), 1e-300)
+        span = np.maximum(span, np.minimum(beats, _defaults.GAP_CAP_PERIODS * T))
+    return np.maximum(minimum, np.round(span / dt)).astype(int)
 
 
 @dataclass
@@ -102,7 +134,12 @@ class Options:
     estimates (the prior until a mode is determined), never longer than at the prior — a prior whose two
     modes are nearly equal asks for up to 20 periods of the slowest mode (two beats of a pair that is not
     there), and a window that long needs most of its span to forget a step; the hop, rows, AR order and min
-    segment stay the prior's, scaled down with the window (a window the user gives is kept)."""
+    segment stay the prior's, scaled down with the window (a window the user gives is kept).
+    ``own_windows`` (off by default): each mode whose ring dies within half the window and whose own window
+    (:func:`own_window_samples`) is at most half the window is also fitted on that most recent short window; a
+    pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
+    the mode's level is re-set in the trend stage, then fed from its own window until the long window no
+    longer holds the change (module docstring)."""
 
     window_samples: int | None = None
     hop_samples: int | None = None
@@ -135,6 +172,7 @@ class Options:
     trend_memory: float | None = 1.0
     memory: bool = _memory.DEFAULTS["memory"]
     window_from_estimates: bool = False
+    own_windows: bool = False
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
 
@@ -179,7 +217,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
-    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates"):
+    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -356,7 +394,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     span = np.full(ends.size, np.nan)
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
              "rows_free": given.rows is None,
-             "seg_start": 0, "kicks": set(), "clean": []}
+             "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": []}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
             if (opts.trend or opts.memory) else None)
@@ -367,6 +405,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     start = 0
     restart_at: list[int] = []
     fresh = np.zeros(m, dtype=bool)           # modes restarted by the change detector, until the window is full
+    own_until = np.full(m, -1)                # own_windows: a mode fed from its own window until this sample
     last_pulse = -1                           # the last sample the pulse detector flagged
     for j, e in enumerate(ends.tolist()):
         Wj = W
@@ -404,6 +443,10 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         span_j = np.where(fresh, span[j], (Wj - 1) * dt)
         if bank is None:
             continue
+        if opts.own_windows:
+            _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank, fresh, own_until,
+                 out[j - 1] if j else np.full(m, np.nan), out_std[j - 1] if j else np.full(m, np.nan),
+                 freq[j], found[j], wstd[j], span_j)
         meas = np.sqrt(opts.overlap_inflation * np.maximum(1.0, (span_j / dt + 1) / H)) * wstd[j] if opts.refine \
             else None
         out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas,
@@ -428,11 +471,102 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
              "memory_restart_samples": np.asarray(restart_at, dtype=int)}
     if opts.memory:
         message += f"; {len(restart_at)} change-detector restarts of the window"
+    if opts.own_windows:
+        extra["own_window_changes"] = np.asarray(state["own_changes"], dtype=int).reshape(-1, 2)
+        message += f"; {len(state['own_changes'])} changes on the modes' own windows"
     if not opts.trend:
         return Track(ends * dt, freq, np.nan, found, message=message, extra=extra)
     extra |= {"window_frequencies": freq, "window_converged": found, "trend_restarts": bank.restarts}
     message += f"; trend stage: {bank.restarts.tolist()} restarts"
     return Track(ends * dt, out, out_std, out_conv, message=message, extra=extra)
+
+
+def _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank, fresh, own_until, last, last_std,
+         freq, found, wstd, span_j) -> None:
+    """``own_windows`` (module docstring): window j's estimates (``freq``, ``found``, ``wstd``, ``span_j``,
+    written in place) of the modes whose own window is at most half the window ``Wj`` — from that short window
+    while the mode is fed from it (``own_until``), or after a change it shows; ``last``/``last_std``: the trend
+    stage's previous output."""
+    # the modes whose ring dies away within half the window (decay time 1/(ζω) at the last estimates): a change
+    # with no input after it is lost on the long window for them only
+    with np.errstate(divide="ignore", invalid="ignore"):
+        decay = 1.0 / (state["last_z"] * state["ref"])      # NaN before a mode is determined: not eligible
+    W_own = np.minimum(own_window_samples(state["ref"], dt, w_low), Wj)
+    for i in np.flatnonzero((2 * W_own <= Wj) & (decay <= (Wj - 1) * dt / 2) & ~fresh):
+        n = int(W_own[i])
+        if e + 1 < n:
+            continue
+        est = _own_estimate(y[e - n + 1: e + 1], dt, int(i), _shorter(n, m, order, opts), order, opts, nyquist,
+                            limit, state)
+        f, s, free = est if est is not None else (np.nan, np.nan, False)
+        free = free and not any(k > e - n for k in state["pulses"])
+        if own_until[i] < e:
+            # the trend stage's last output (carried by its rate to the previous window's end: a drift is not
+            # read as a change), the long window's estimate before the trend has one
+            ref, ref_std = (last[i], last_std[i]) if np.isfinite(last[i]) else (freq[i], wstd[i])
+            if not (free and np.isfinite(ref)
+                    and abs(f - ref) > OWN_CHANGE_STD * np.hypot(s, ref_std if np.isfinite(ref_std) else 0.0)):
+                continue
+            # a change within the mode's own window: the mode's level re-set there (its rate kept: a rate
+            # from a few short windows would carry the level away once the ring has died), then fed from its
+            # own window until the long window's start has passed the change
+            bank.relevel(int(i), (e - (n - 1) / 2) * dt, f, s * s)
+            state["own_changes"].append((e, int(i)))
+            own_until[i] = e + Wj - 1
+            freq[i], found[i], wstd[i], span_j[i] = np.nan, False, np.nan, (n - 1) * dt
+            continue
+        freq[i], found[i], wstd[i], span_j[i] = f, est is not None, s, (n - 1) * dt
+
+
+def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state):
+    """(ω, std, free) of mode ``i`` on its own (short) window ``seg``, or None; ``free``: no pulse flagged in it.
+
+    The modes the window cannot resolve (closer than its resolution 2π/span) are fitted as one component at
+    their mean last estimate; mode i starts at the gated pencil's pole nearest its last estimate (within
+    ``band``); the segment fit on the short window's own pulse-free runs (not the long windows' kicks: their
+    kick test reads a change of frequency as a kick) gives its ω and std, kept when within ``band`` of its last
+    estimate and nearer it than any other mode's (else it is a neighbour's pole), lightly damped and passing the
+    phase-std test (std × span ≤ ``max_phase_std``)."""
+    rows, ar_order, min_segment = sizes
+    if flat_record(seg):
+        return None
+    centred = seg - seg.mean()
+    flags = pulse_flags(centred, ar_order, opts.outlier_cut)
+    ref = state["ref"]
+    span_s = (seg.size - 1) * dt
+    # the components: runs of modes closer than the window's resolution merged (ref is increasing)
+    groups = [[0]]
+    for k in range(1, ref.size):
+        if ref[k] - ref[groups[-1][-1]] < 2 * np.pi / span_s:
+            groups[-1].append(k)
+        else:
+            groups.append([k])
+    gi = next(g for g, members in enumerate(groups) if i in members)
+    if len(groups[gi]) > 1:
+        return None
+    last_z = state["last_z"]
+    w0 = np.array([float(np.mean(ref[g])) for g in groups])
+    z0 = np.array([float(np.nanmean(last_z[g])) if np.isfinite(last_z[g]).any() else 0.005 for g in groups])
+    s, _ = window_poles(seg, dt, order, rows, ar_order, opts.outlier_cut, opts.detect_ratio, flags)
+    w = np.abs(s)
+    zeta = -s.real / np.maximum(w, 1e-300)
+    ok = (s.imag > 0) & (w < nyquist) & (zeta >= MIN_DAMPING) & (zeta <= opts.max_damping)
+    if ok.any():
+        dist = np.abs(np.log(w[ok]) - np.log(ref[i]))
+        k = int(np.argmin(dist))
+        if dist[k] <= limit:
+            w0[gi], z0[gi] = w[ok][k], np.clip(zeta[ok][k], 1e-4, opts.max_damping)
+    z0 = np.clip(z0, 1e-4, opts.max_damping)
+    runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w0, z0)
+    fit = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
+    if fit is None:
+        return None
+    wi, zi, si = fit[0][gi], fit[1][gi], fit[2][gi]
+    dist = np.abs(np.log(wi / ref))
+    if not (np.isfinite(si) and dist[i] <= limit and int(np.argmin(dist)) == i and zi <= opts.max_damping
+            and si * span_s <= opts.max_phase_std):
+        return None
+    return float(wi), float(si), not flags.any()
 
 
 def _fittable(y: np.ndarray, dt: float, runs: list, w0: np.ndarray, z0: np.ndarray) -> list:
@@ -464,6 +598,10 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     centred = seg - seg.mean()
     flags = pulse_flags(centred, ar_order, opts.outlier_cut)
     start = state["seg_start"]
+    if opts.own_windows:
+        # the pulses (the AR detector's, not the kick test's) of the windows so far: a mode's own window is a
+        # free decay when none lies in it (_own)
+        state["pulses"] = {k for k in state["pulses"] if k >= start} | set((start + np.flatnonzero(flags)).tolist())
     if opts.split_kicks:
         # the samples flagged in earlier windows (pulses and the kick test's kicks; earlier samples only:
         # causal) stay flagged: the AR predictor cannot flag the window's first ar_order samples, and a pulse

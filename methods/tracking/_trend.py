@@ -144,6 +144,18 @@ class TrendBank:
         self.ok[i] = False
         self.hold_until[i] = -np.inf
 
+    def relevel(self, i: int, t_c: float, zi: float, r_var: float) -> None:
+        """Mode i's level set to ``zi`` (variance ``r_var``) at time ``t_c``, its rate kept: a change another
+        test found (``gated_pencil``'s ``own_windows``); a mode not started starts at its next estimate."""
+        kf = self.kf[i]
+        if kf is None:
+            return
+        kf.x = np.array([zi, kf.x[1]])
+        kf.P = np.diag([r_var, kf.P[1, 1]])
+        self.t_last[i], self.t_update[i], self.p_update[i] = t_c, t_c, r_var
+        self.misses[i], self.ok[i], self.hold_until[i] = 0, True, -np.inf
+        self.relevels[i] += 1
+
     def _level(self, kf, zi: float, r_var: float) -> None:
         """Re-initialise a filter at the window estimate ``zi``: level variance R, rate 0 ± ``rate0``·ω."""
         kf.x = np.array([zi, 0.0])

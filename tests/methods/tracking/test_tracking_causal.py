@@ -24,7 +24,7 @@ TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every w
 # the defaults from Δt and the prior (window 413 samples here), the change detector's window restarts and
 # gated_pencil's kick test
 DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory", "gated_pencil+kicks",
-            "gated_pencil+freeze", "gated_pencil+window"]
+            "gated_pencil+freeze", "gated_pencil+window", "gated_pencil+own"]
 # akf_ambient's rate state, its shared modulation and its single-force fit with a memory of looks (the
 # forgetting sum); rpem_ambient's rate in θ (its per-hop CasADi runs hand the state over between looks) and its
 # two memories
@@ -46,6 +46,8 @@ def _options(name):
         return name, {"trend_restart_rate": "freeze"}
     if extra == "window":                 # each window's length from the estimates of the windows before it
         return name, {"window_from_estimates": True}
+    if extra == "own":                    # each fast mode also on its own short window ending at the present
+        return name, {"own_windows": True}
     if extra in ("defaults", "memory"):
         return name, ({"memory": True, "change_threshold": 2.0} if extra == "memory" else {})
     fields = {f for f in methods.track_options_class(name).__dataclass_fields__}

@@ -174,3 +174,59 @@ def test_window_from_estimates_follows_the_resolved_modes_not_a_near_double_prio
         assert "window_from_estimates = 'yes'" in str(err) and "\n" not in str(err)
     else:
         raise AssertionError("window_from_estimates = 'yes' accepted")
+
+
+TWO = np.array([3.0, 60.0])
+
+
+def stepped_two_modes(n, pulses, step_at, step, seed, zeta=0.005, noise=1e-4):
+    """A slow and a fast mode, free decays restarted at each pulse (random amplitude and phase); at sample
+    ``step_at`` the fast mode's frequency steps by ``step`` (relative) with its amplitude and phase continuous."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * DT
+    w = np.tile(TWO, (n, 1))
+    w[step_at:, 1] *= 1 + step
+    y = np.zeros(n)
+    starts = np.concatenate(([0], pulses))
+    stops = np.concatenate((pulses, [n]))
+    for i in range(2):
+        phase = np.concatenate(([0.0], np.cumsum(w[:-1, i]) * DT))        # ∫ω dt: continuous over the step
+        for a, b in zip(starts, stops, strict=True):
+            amp, phi = rng.uniform(0.02, 0.1), rng.uniform(0, 2 * np.pi)
+            y[a:b] += amp * np.exp(-zeta * w[a:b, i] * (t[a:b] - t[a])) * np.cos(phase[a:b] - phase[a] + phi)
+    return y + noise * rng.standard_normal(n), w
+
+
+def test_own_windows_follow_a_fast_mode_stepping_with_no_pulse_after_it():
+    # the window is five periods of the slow mode (10.5 s, 175 periods of the fast one); the fast mode's ring
+    # dies away in 1/(ζω) = 3.3 s, so after a step with no pulse after it the long windows hold its old frequency
+    # (the ring from the pulse before the step dominates them) and then determine nothing; its own window
+    # (five of its periods, at least the model's minimum) sees the ring after the step
+    n, step_at, step = 3500, 1850, 0.08                       # 70 s, the step at 37 s, 5 s after the last pulse
+    y, w = stepped_two_modes(n, np.array([100, 600, 1100, 1600]), step_at, step, seed=8)
+    prior = TWO * np.array([1.03, 0.97])
+    base = methods.track("gated_pencil", y, DT, prior)
+    tr = methods.track("gated_pencil", y, DT, prior, own_windows=True)
+    fast_period = 2 * np.pi / w[-1, 1]
+    k = np.round(tr.t_s / DT).astype(int)
+
+    def reconverged(track):
+        """Fast-mode periods after the step from which the track stays within 1 % (inf: never)."""
+        bad = (track.t_s >= step_at * DT) & ~(np.abs(track.frequencies[:, 1] / w[k, 1] - 1) < 0.01)
+        return np.inf if bad[-1] else (track.t_s[np.flatnonzero(bad)[-1] + 1] - step_at * DT) / fast_period
+
+    assert reconverged(tr) <= 50 < reconverged(base), (reconverged(tr), reconverged(base))
+    # each mode's own window: five of its periods, two beats of its neighbour, never under the minimum
+    np.testing.assert_array_equal(_gated_pencil.own_window_samples(np.array([3.0, 60.0]), DT, 39),
+                                  [round(5 * 2 * np.pi / 3.0 / DT), 39])
+    np.testing.assert_array_equal(_gated_pencil.own_window_samples(np.array([20.0, 24.0]), DT, 39),
+                                  [round(2 * 2 * np.pi / 4.0 / DT)] * 2)
+    # before the step the two agree within 1 % (no false change on the pulsed record)
+    early = tr.t_s < step_at * DT
+    assert np.all(np.abs(tr.frequencies[early] - base.frequencies[early]) <= 0.01 * TWO), "changed before the step"
+    try:
+        methods.check_track_options("gated_pencil", prior, DT, {"own_windows": "yes"})
+    except ValueError as err:
+        assert "own_windows = 'yes'" in str(err) and "\n" not in str(err)
+    else:
+        raise AssertionError("own_windows = 'yes' accepted")
