@@ -149,13 +149,18 @@ def other_configs(seed: int, replicates: int) -> dict:
     return out
 
 
+def _slowest_period_s(cell: dict) -> float:
+    """The period of the record's slowest mode (its slowest truth frequency over the record), s."""
+    return 2 * np.pi / float(cell["truth_freq_rad_s"].min())
+
+
 def _score_other(tr, cell: dict, r: int) -> dict:
     """An other-rate record's scores: held for SETTLE_PERIODS periods of its slowest mode; a laboratory
     record per dwell."""
     if "step_times_s" in cell:
         return tracking_metrics.score_record(tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, cell, r)
     truth = cell["truth_freq_rad_s"]
-    period = 2 * np.pi / float(truth.min())
+    period = _slowest_period_s(cell)
     st, span = float(cell["step_time_s"]), cell["drift_span_s"]
     out = tracking_metrics.score_track(
         tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, truth, float(cell["dt_s"]),
@@ -205,8 +210,7 @@ def run(trackers: list[str], seed: int, replicates: int, which: str = "grid-rate
                     score = _score_other(tr, cell, r)
                 else:       # held for 2 s, as the grid scores; the re-convergence also in periods of the slowest mode
                     score = score_record(tr.t_s, tr.frequencies, tr.converged, tr.runtime_s, cell, r)
-                    score["reconverge_periods"] = score["t_reconverge_s"] * float(cell["truth_freq_rad_s"].min()) \
-                        / (2 * np.pi)
+                    score["reconverge_periods"] = score["t_reconverge_s"] / _slowest_period_s(cell)
                 rows.append({"cell": label, "tracker": name, "r": r, **score})
         print(f"{label}: done", flush=True)
     s = summary(pd.DataFrame(rows)).rename(columns={"beats": "halves"})
