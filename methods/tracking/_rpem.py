@@ -54,6 +54,16 @@ odds. Every look:
   posterior, μ = 1/(1 + e^(−Λ_W)): (1 − μ) P + μ (P' + (ω̂ − ω̂')²) (the output step of an interacting multiple
   model, its mean kept at the whole-record recursion's).
 
+With ``score_reset`` the per-mode part also asks the whole-record recursion itself which of its modes the
+window contradicts: each ωᵢ's score over the last window (since that mode's last reset), zᵢ = Σ ψᵢe/S /
+√(Σ ψᵢ²/S), about N(0, 1) while its ω̂ᵢ is right (e is then white, the score a martingale of that variance);
+beyond ``reset_gate`` σ and pointing toward ω̂ᵢ', the mode is reset even when the two estimates are within
+``reset_gate`` σ of their difference — a stepped mode the window recursion follows by its walk, which the
+whole-record one would only creep after (the per-parameter score test of the local approach to change
+detection: Benveniste, Basseville & Moustakides, IEEE TAC 32(7), 1987). A reset mode then takes ω̂ᵢ' and its
+variance, and its rate starts again at 0 ± the stated rate, as a restart's does: after a step the window
+recursion's rate holds the step's climb, which the whole-record recursion (no walk of the rate) would keep.
+
 A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
 but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
 16–155 nats over 10 s, on its drifts by at most 4.2 (design seeds 7 and 11, docs/measured/tracking.md). filterpy's
@@ -109,6 +119,11 @@ class Options(_ambient.SharedOptions):
         ``recursions="two"``: a mode is reset when the two recursions' ω̂ differ by more than this many σ of their
         difference (√(P + P'), both recursions' own variances), once the likelihood ratio has said that the
         window recursion predicts the last window better.
+    score_reset : bool
+        ``recursions="two"``: once the likelihood ratio has opened the gate, a mode is also reset when the
+        whole-record recursion's score of its ω over the last window, Σψᵢe/S over √(Σψᵢ²/S), is beyond
+        ``reset_gate`` σ and points toward the window recursion's ω̂ᵢ' (a mode that creeps after a step), and a
+        reset mode's rate starts again at 0 ± the stated rate (module docstring).
     """
 
     estimate_damping: bool = True
@@ -116,6 +131,7 @@ class Options(_ambient.SharedOptions):
     trend_horizon_s: float | None = None
     recursions: str = "one"
     reset_gate: float = 3.0
+    score_reset: bool = False
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -127,6 +143,10 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: frequency_model = {opts.frequency_model!r} must be 'trend' or 'walk'")
     if opts.recursions not in ("one", "two"):
         raise ValueError(f"{name}: recursions = {opts.recursions!r} must be 'one' or 'two'")
+    if not isinstance(opts.score_reset, bool):
+        raise ValueError(f"{name}: score_reset = {opts.score_reset!r} must be true or false")
+    if opts.score_reset and opts.recursions != "two":
+        raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
         raise ValueError(f"{name}: recursions = 'two' needs frequency_model = 'trend' (got {opts.frequency_model!r})")
     g = opts.reset_gate
@@ -246,7 +266,11 @@ def _step_function(m: int, est_z: bool, trend: bool = False):
     x_new = ca.substitute(nxt, es, e)
     state = ca.vertcat(th_new, ca.vec(P_new), x_new, ca.vec(W_new), lam_new)
     nll = 0.5 * (ca.log(ca.if_else(S > 0, S, 1)) + e * e / ca.if_else(S > 0, S, 1))
-    out = ca.vertcat(th_new[:m], ca.diag(P_new)[:m], th_new[m:m + nz], nll, pulse)
+    # each frequency's score ψᵢe/S and Fisher information ψᵢ²/S of this sample (0 on a pulse)
+    s_safe = ca.if_else(S > 0, S, 1)
+    score = ca.if_else(ok, psi[:m] * e / s_safe, ca.SX.zeros(m))
+    info = ca.if_else(ok, psi[:m] * psi[:m] / s_safe, ca.SX.zeros(m))
+    out = ca.vertcat(th_new[:m], ca.diag(P_new)[:m], th_new[m:m + nz], score, info, nll, pulse)
     return ca.Function("rpem_step", [st, yk, c], [state, out])
 
 
@@ -296,26 +320,42 @@ def _variance_two(w_long, v_long, w_win, v_win, odds):
     return (1 - mu) * v_long + mu * (v_win + (w_long - w_win) ** 2)
 
 
-def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts) -> int:
+def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts,
+                       z_score: np.ndarray | None = None, rate_var: np.ndarray | None = None) -> np.ndarray:
     """``recursions="two"``: modes of the whole-record recursion ``long`` ([θ, P, x̂, W, Λ], changed in place)
     start again from the window-memory recursion's (θ, P) when the window recursion predicts the last window
     better, by a log-likelihood ratio ``gain`` = Σ (ℓ_long − ℓ_window) > ``restart_gate``²/2 (its signed root,
     about N(0, 1) without a change, beyond ``restart_gate``), and only the modes where the two disagree,
     |ω̂ᵢ − ω̂ᵢ'| > ``reset_gate`` √(Pᵢ + Pᵢ'): their ω and rate and their covariance become the window
-    recursion's, their sensitivities 0. Returns the number of modes reset."""
+    recursion's, their sensitivities 0.
+
+    ``score_reset`` (``z_score``, the whole-record recursion's score of each ωᵢ over the last window in σ, and
+    ``rate_var``, the rates' prior variance): a mode is also reset when its score is beyond ``reset_gate`` σ
+    and points toward the window recursion's ω̂ᵢ', and a reset mode takes only the window recursion's ω and
+    its variance; its rate starts again at 0 ± the stated rate, as a restart does (the window recursion's rate
+    after a step holds the step's climb). Returns the modes reset."""
     if not gain > 0.5 * opts.restart_gate ** 2:
-        return 0
+        return np.arange(0)
     th_l, P_l, W_l = long[0], long[1], long[3]
-    gap = np.abs(th_l[iw] - theta[iw])
-    modes = np.flatnonzero(gap > opts.reset_gate * np.sqrt(np.diag(P_l)[iw] + np.diag(P)[iw]))
+    gap = th_l[iw] - theta[iw]
+    far = np.abs(gap) > opts.reset_gate * np.sqrt(np.diag(P_l)[iw] + np.diag(P)[iw])
+    if z_score is not None:
+        far |= (np.abs(z_score) > opts.reset_gate) & (z_score * gap < 0)
+    modes = np.flatnonzero(far)
     for i in modes:
         j = np.array([iw[i], ia[i]])
         th_l[j] = theta[j]
         P_l[j, :] = 0.0
         P_l[:, j] = 0.0
-        P_l[np.ix_(j, j)] = P[np.ix_(j, j)]
         W_l[:, j] = 0.0
-    return modes.size
+        if z_score is None:
+            P_l[np.ix_(j, j)] = P[np.ix_(j, j)]
+        else:
+            th_l[ia[i]] = 0.0
+            P_l[iw[i], iw[i]] = P[iw[i], iw[i]]
+            P_l[ia[i], ia[i]] = rate_var[i]
+    return modes
+
 
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
     """The recursion of the module docstring over the record."""
@@ -396,6 +436,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                             np.minimum(hi_w, nyq)])
     two = opts.recursions == "two"
     cum = np.zeros(n + 1) if two else None   # Σ (ℓ_long − ℓ_window) up to each sample, ℓ = ½(ln S + e²/S)
+    cum_s = np.zeros((n + 1, m)) if two else None     # the whole-record recursion's Σ ψᵢe/S and Σ ψᵢ²/S
+    cum_i = np.zeros((n + 1, m)) if two else None
+    since = np.full(m, W_len)                         # its modes' last reset (sample)
     if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
         q_long = q_fixed.copy()
         q_long[ia] = 0.0
@@ -413,6 +456,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             ell_win = out[-2]
             *long, out = _advance(m, est_z, trend, long, y[k0:k1], const_long)
             cum[k0 + 1:k1 + 1] = cum[k0] + np.cumsum(out[-2] - ell_win)
+            j0 = 2 * m + iz.size
+            cum_s[k0 + 1:k1 + 1] = cum_s[k0] + np.cumsum(out[j0:j0 + m].T, axis=0)
+            cum_i[k0 + 1:k1 + 1] = cum_i[k0] + np.cumsum(out[j0 + m:j0 + 2 * m].T, axis=0)
             ks = np.arange(k0 + 1, k1 + 1)
             odds = cum[ks] - cum[np.maximum(ks - W_len, W_len)]          # over the last window
             var[k0:k1] = _variance_two(out[iw].T, out[m + iw].T, freq[k0:k1], var[k0:k1], odds)
@@ -453,7 +499,14 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 Wm[:] = 0.0
             if two:
                 gain = float(odds[-1])
-                n_resets += _reset_from_window(long, theta, P, iw, ia, gain, opts)
+                z_score = None
+                if opts.score_reset:    # each ω's score over the last window (since its last reset), in σ
+                    a = np.maximum(since, k + 1 - W_len)
+                    info = cum_i[k + 1] - cum_i[a, iw]
+                    z_score = (cum_s[k + 1] - cum_s[a, iw]) / np.sqrt(np.where(info > 0, info, np.inf))
+                nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var)
+                since[nr] = k + 1
+                n_resets += nr.size
                 if _unstable(unpack(long[0]), dt):
                     long[0][ik] = K0 / kscale
                     long[3][:] = 0.0
