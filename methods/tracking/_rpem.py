@@ -287,6 +287,7 @@ class _Run(_ambient._Run):
 
     damping: np.ndarray = None
     n_resets: int = 0
+    reset_times_s: tuple = ()
 
 
 def _advance(m: int, est_z: bool, trend: bool, filt, y_seg: np.ndarray, const: np.ndarray):
@@ -382,6 +383,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
     n_restarts = n_pulses = n_resets = 0
+    reset_times: list[tuple[float, int]] = []      # (s, mode) of each reset of the whole-record recursion
     resolution = 2 * math.pi / (W_len * dt) if trend else 0.0
     gam = dt / (W_len * dt)                     # innovation variance memory: one window
     if n < W_len:
@@ -507,6 +509,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var)
                 since[nr] = k + 1
                 n_resets += nr.size
+                reset_times += [(k * dt, int(i)) for i in nr]
                 if _unstable(unpack(long[0]), dt):
                     long[0][ik] = K0 / kscale
                     long[3][:] = 0.0
@@ -517,7 +520,8 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 freq[k] = long[0][iw]
             th_out = long[0] if two else theta
             damp[k] = th_out[iz] if est_z else opts.damping_ratio
-    return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets)
+    return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets,
+                reset_times_s=tuple(reset_times))
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
@@ -527,5 +531,5 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     std = np.sqrt(np.clip(out.var[k], 0.0, None))
     return Track(k * dt, out.freq[k], std, out.seen[k] & (std <= _ambient.DETERMINED_REL_STD * out.freq[k]),
                  message=f"{name}: {out.n_restarts} restarts, {out.n_resets} resets, {out.n_pulses} pulse samples",
-                 extra={"n_restarts": out.n_restarts, "n_resets": out.n_resets, "n_pulses": out.n_pulses,
-                        "damping": out.damping[k]})
+                 extra={"n_restarts": out.n_restarts, "n_resets": out.n_resets, "reset_times_s": out.reset_times_s,
+                        "n_pulses": out.n_pulses, "damping": out.damping[k]})

@@ -33,7 +33,8 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            # the shared modulation, its band shortened so that its looks at the tracks' history run before K
            "akf_ambient+slosh": {"frequency_model": "slosh", "slosh_periods": (0.5, 3.0)},
            "rpem_ambient+rate": {"frequency_model": "trend"},
-           "rpem_ambient+two": {"frequency_model": "trend", "recursions": "two"}}
+           "rpem_ambient+two": {"frequency_model": "trend", "recursions": "two"},
+           "rpem_ambient+score": {"frequency_model": "trend", "recursions": "two", "score_reset": True}}
 
 
 def _options(name):
