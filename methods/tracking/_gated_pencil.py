@@ -147,6 +147,7 @@ class Options:
     hop_s: float | None = None
     hop_fraction: float | None = None
     rows: int | None = None
+    shrink_rows: bool = False
     extra_order: int | None = None
     ar_order: int | None = None
     outlier_cut: float = 4.0
@@ -217,7 +218,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
-    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows"):
+    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows", "shrink_rows"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -263,25 +264,62 @@ def pulse_flags(seg: np.ndarray, ar_order: int, cut: float, iterations: int = 3)
     return flags
 
 
-def widest_rows(flags: np.ndarray, rows: int, candidates: int = 6) -> int:
+def _free_columns(cum: np.ndarray, n: int, L: int) -> int:
+    """Hankel columns of L + 1 samples with no flagged sample in k + 1 … k + L (``cum``: the flags' cumsum)."""
+    k = np.arange(n - L)
+    return int(np.count_nonzero(cum[k + L + 1] - cum[k + 1] == 0))
+
+
+def widest_rows(flags: np.ndarray, rows: int, candidates: int = 6, floor: int | None = None) -> int:
     """The most Hankel rows L, from ``rows`` (the rule's W/8) up to W/3 − 1 in ``candidates`` steps, that
-    leaves ≥ 2L pulse-free columns in a window with pulse ``flags``.
+    leaves ≥ 2L pulse-free columns in a window with pulse ``flags``; where ``rows`` leaves fewer, the most rows
+    down to ``floor`` (``shrink_rows``, :func:`rows_floor`) that leave 2L — none: ``rows`` (the window
+    determines nothing).
 
     A pencil resolves two modes about 2π/L rad per sample apart: the rule's W/8 rows (chosen so that a column
     seldom straddles a pulse) merge modes a few % apart when the window holds six modes over a decade, while a
     window with few pulses has the columns for W/3 (Hua & Sarkar's best noise performance lies at L between
-    N/3 and N/2). So the rows grow with the pulse-free columns there are; a window full of pulses keeps W/8."""
+    N/3 and N/2). So the rows grow with the pulse-free columns there are; a window full of pulses keeps W/8.
+
+    Shrinking (``floor`` < ``rows``): a window made long for a close pair of the prior (up to 20 periods of the
+    slowest mode, W/8 = 2.5 of them) under pulses a few periods apart keeps too few columns of W/8 for the
+    pencil; a column needs no more than the pulse-free runs hold. The floor, the rows of the five-period
+    window (5/8 of the slowest period), keeps the columns off the scraps between flags that lie everywhere
+    under a white force (runs of a fraction of the slowest period): there no L above it leaves 2L columns."""
     n = flags.size
+    cum = np.concatenate(([0], np.cumsum(flags)))
+    if floor is not None and floor < rows and _free_columns(cum, n, rows) < 2 * rows and _isolated(flags, floor):
+        # the columns fall and 2L rises with L: the largest L that leaves 2L, by bisection on [floor, rows)
+        if _free_columns(cum, n, floor) < 2 * floor:
+            return rows
+        lo, hi = floor, rows                        # lo leaves 2L, hi does not
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            lo, hi = (mid, hi) if _free_columns(cum, n, mid) >= 2 * mid else (lo, mid)
+        return lo
     top = n // 3 - 1
     if top <= rows:
         return rows
-    cum = np.concatenate(([0], np.cumsum(flags)))
     best = rows
     for L in np.unique(np.linspace(rows, top, candidates).round().astype(int)):
-        k = np.arange(n - L)
-        if int(np.count_nonzero(cum[k + L + 1] - cum[k + 1] == 0)) >= 2 * L:
+        if _free_columns(cum, n, int(L)) >= 2 * L:
             best = int(L)
     return best
+
+
+def _isolated(flags: np.ndarray, floor: int) -> bool:
+    """Whether the flags are isolated pulses: the mean pulse-free run between the flagged events (runs of
+    flags) holds a column of ``floor`` rows (under a white force the flags, where there are any, lie a fraction
+    of the slowest period apart)."""
+    events = int(np.count_nonzero(np.diff(flags.astype(np.int8), prepend=0) == 1))
+    return (flags.size - int(np.count_nonzero(flags))) / (events + 1) > floor + 1
+
+
+def rows_floor(prior, dt: float, order: int) -> int:
+    """The fewest Hankel rows ``shrink_rows`` goes down to: the rows of the five-period window
+    (``ROWS_FRACTION`` · ``PERIODS`` periods of the prior's slowest mode), at least the pencil's order."""
+    return max(order, int(round(_defaults.ROWS_FRACTION * _defaults.PERIODS * _defaults.slowest_period_s(prior)
+                                / dt)))
 
 
 def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: int, cut: float,
@@ -394,6 +432,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     span = np.full(ends.size, np.nan)
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
              "rows_free": given.rows is None,
+             "rows_floor": rows_floor(prior, dt, order) if opts.shrink_rows else None,
              "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": []}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
@@ -612,7 +651,7 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         state["kicks"].update((start + np.flatnonzero(flags)).tolist())
     state["flags"] = flags
     if state["rows_free"]:
-        rows = widest_rows(flags, rows)
+        rows = widest_rows(flags, rows, floor=state["rows_floor"])
     s, kept = window_poles(seg, dt, order, rows, ar_order, opts.outlier_cut, opts.detect_ratio, flags)
     w = np.abs(s)
     zeta = -s.real / np.maximum(w, 1e-300)
