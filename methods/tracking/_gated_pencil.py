@@ -218,7 +218,8 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
-    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows", "shrink_rows"):
+    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows",
+                "shrink_rows"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -264,62 +265,78 @@ def pulse_flags(seg: np.ndarray, ar_order: int, cut: float, iterations: int = 3)
     return flags
 
 
+def widest_rows(flags: np.ndarray, rows: int, candidates: int = 6) -> int:
+    """The most Hankel rows L, from ``rows`` (the rule's W/8) up to W/3 − 1 in ``candidates`` steps, that
+    leaves ≥ 2L pulse-free columns in a window with pulse ``flags``.
+
+    A pencil resolves two modes about 2π/L rad per sample apart: the rule's W/8 rows (chosen so that a column
+    seldom straddles a pulse) merge modes a few % apart when the window holds six modes over a decade, while a
+    window with few pulses has the columns for W/3 (Hua & Sarkar's best noise performance lies at L between
+    N/3 and N/2). So the rows grow with the pulse-free columns there are; a window full of pulses keeps W/8."""
+    n = flags.size
+    top = n // 3 - 1
+    if top <= rows:
+        return rows
+    cum = np.concatenate(([0], np.cumsum(flags)))
+    best = rows
+    for L in np.unique(np.linspace(rows, top, candidates).round().astype(int)):
+        k = np.arange(n - L)
+        if int(np.count_nonzero(cum[k + L + 1] - cum[k + 1] == 0)) >= 2 * L:
+            best = int(L)
+    return best
+
+
 def _free_columns(cum: np.ndarray, n: int, L: int) -> int:
     """Hankel columns of L + 1 samples with no flagged sample in k + 1 … k + L (``cum``: the flags' cumsum)."""
     k = np.arange(n - L)
     return int(np.count_nonzero(cum[k + L + 1] - cum[k + 1] == 0))
 
 
-def widest_rows(flags: np.ndarray, rows: int, candidates: int = 6, floor: int | None = None) -> int:
-    """The most Hankel rows L, from ``rows`` (the rule's W/8) up to W/3 − 1 in ``candidates`` steps, that
-    leaves ≥ 2L pulse-free columns in a window with pulse ``flags``; where ``rows`` leaves fewer, the most rows
-    down to ``floor`` (``shrink_rows``, :func:`rows_floor`) that leave 2L — none: ``rows`` (the window
-    determines nothing).
+def _events(flags: np.ndarray, merge: int) -> int:
+    """Flagged events: runs of flags, those less than ``merge`` samples apart one event (a pulse spoils the
+    AR(p) predictor's next p residuals, which may cross zero in between)."""
+    at = np.flatnonzero(flags)
+    return 0 if at.size == 0 else 1 + int(np.count_nonzero(np.diff(at) >= merge))
 
-    A pencil resolves two modes about 2π/L rad per sample apart: the rule's W/8 rows (chosen so that a column
-    seldom straddles a pulse) merge modes a few % apart when the window holds six modes over a decade, while a
-    window with few pulses has the columns for W/3 (Hua & Sarkar's best noise performance lies at L between
-    N/3 and N/2). So the rows grow with the pulse-free columns there are; a window full of pulses keeps W/8.
 
-    Shrinking (``floor`` < ``rows``): a window made long for a close pair of the prior (up to 20 periods of the
-    slowest mode, W/8 = 2.5 of them) under pulses a few periods apart keeps too few columns of W/8 for the
-    pencil; a column needs no more than the pulse-free runs hold. The floor, the rows of the five-period
-    window (5/8 of the slowest period), keeps the columns off the scraps between flags that lie everywhere
-    under a white force (runs of a fraction of the slowest period): there no L above it leaves 2L columns."""
+def shrunk_rows(flags: np.ndarray, pulses: np.ndarray, rows: int, floor: int, min_run: float, merge: int) -> int:
+    """``shrink_rows``: where ``rows`` leaves fewer than 2L Hankel columns free of ``flags`` because of the
+    pulse detector's own flags (``pulses``: they alone leave fewer than 2L), and those pulses are isolated —
+    their mean pulse-free run, the window's unflagged samples over the events (:func:`_events`, flags less than
+    ``merge`` samples apart one event) + 1, at least ``min_run`` samples — the most rows down to ``floor`` that
+    leave 2L columns free of ``flags``; otherwise (or when even ``floor`` leaves fewer) ``rows``.
+
+    Why: a window made long for a close pair of the prior (up to 20 periods of the slowest mode, so W/8 = 2.5
+    of them) under pulses a few periods apart keeps too few columns of W/8 rows for the pencil, and determines
+    nothing, though each pulse-free run is a free decay longer than a column needs. Under a white force the
+    pulse detector flags next to nothing and the kick test's splits (a continuing force read as kicks, about a
+    slowest period apart) are what leave too few columns: there short-row estimates from the scraps between
+    them pull the trend away (docs/measured/tracking.md), so the rule stays silent; so it does where the
+    pulses lie closer than ``min_run`` on average."""
     n = flags.size
     cum = np.concatenate(([0], np.cumsum(flags)))
-    if floor is not None and floor < rows and _free_columns(cum, n, rows) < 2 * rows and _isolated(flags, floor):
-        # the columns fall and 2L rises with L: the largest L that leaves 2L, by bisection on [floor, rows)
-        if _free_columns(cum, n, floor) < 2 * floor:
-            return rows
-        lo, hi = floor, rows                        # lo leaves 2L, hi does not
-        while hi - lo > 1:
-            mid = (lo + hi) // 2
-            lo, hi = (mid, hi) if _free_columns(cum, n, mid) >= 2 * mid else (lo, mid)
-        return lo
-    top = n // 3 - 1
-    if top <= rows:
+    if floor >= rows or _free_columns(cum, n, rows) >= 2 * rows:
         return rows
-    best = rows
-    for L in np.unique(np.linspace(rows, top, candidates).round().astype(int)):
-        if _free_columns(cum, n, int(L)) >= 2 * L:
-            best = int(L)
-    return best
+    if _free_columns(np.concatenate(([0], np.cumsum(pulses))), n, rows) >= 2 * rows:
+        return rows                                   # the kick test's flags, not pulses: silent
+    if (n - int(np.count_nonzero(pulses))) / (_events(pulses, merge) + 1) < min_run:
+        return rows                                   # pulses everywhere, not isolated: silent
+    if _free_columns(cum, n, floor) < 2 * floor:
+        return rows
+    # the columns fall and 2L rises with L: the largest L that leaves 2L, by bisection on [floor, rows)
+    lo, hi = floor, rows                              # lo leaves 2L, hi does not
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if _free_columns(cum, n, mid) >= 2 * mid else (lo, mid)
+    return lo
 
 
-def _isolated(flags: np.ndarray, floor: int) -> bool:
-    """Whether the flags are isolated pulses: the mean pulse-free run between the flagged events (runs of
-    flags) holds a column of ``floor`` rows (under a white force the flags, where there are any, lie a fraction
-    of the slowest period apart)."""
-    events = int(np.count_nonzero(np.diff(flags.astype(np.int8), prepend=0) == 1))
-    return (flags.size - int(np.count_nonzero(flags))) / (events + 1) > floor + 1
-
-
-def rows_floor(prior, dt: float, order: int) -> int:
-    """The fewest Hankel rows ``shrink_rows`` goes down to: the rows of the five-period window
-    (``ROWS_FRACTION`` · ``PERIODS`` periods of the prior's slowest mode), at least the pencil's order."""
-    return max(order, int(round(_defaults.ROWS_FRACTION * _defaults.PERIODS * _defaults.slowest_period_s(prior)
-                                / dt)))
+def shrink_sizes(prior, dt: float, order: int) -> tuple[int, float]:
+    """``shrink_rows``' (floor, min_run) in samples: the fewest rows, those of the five-period window
+    (``ROWS_FRACTION`` · ``PERIODS`` periods of the prior's slowest mode, at least the pencil's order), and the
+    mean pulse-free run that makes the pulses isolated, one period of the prior's slowest mode."""
+    period = _defaults.slowest_period_s(prior) / dt
+    return max(order, int(round(_defaults.ROWS_FRACTION * _defaults.PERIODS * period))), period
 
 
 def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: int, cut: float,
@@ -431,8 +448,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     wstd = np.full((ends.size, m), np.nan)
     span = np.full(ends.size, np.nan)
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
-             "rows_free": given.rows is None,
-             "rows_floor": rows_floor(prior, dt, order) if opts.shrink_rows else None,
+             "rows_free": given.rows is None, "shrink": shrink_sizes(prior, dt, order),
              "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": []}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
@@ -636,6 +652,7 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         return np.nan
     centred = seg - seg.mean()
     flags = pulse_flags(centred, ar_order, opts.outlier_cut)
+    pulses = flags.copy()                         # the detector's own flags (shrink_rows), before the kicks
     start = state["seg_start"]
     if opts.own_windows:
         # the pulses (the AR detector's, not the kick test's) of the windows so far: a mode's own window is a
@@ -651,7 +668,9 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         state["kicks"].update((start + np.flatnonzero(flags)).tolist())
     state["flags"] = flags
     if state["rows_free"]:
-        rows = widest_rows(flags, rows, floor=state["rows_floor"])
+        rows = widest_rows(flags, rows)
+        if opts.shrink_rows:
+            rows = shrunk_rows(flags, pulses, rows, *state["shrink"], ar_order)
     s, kept = window_poles(seg, dt, order, rows, ar_order, opts.outlier_cut, opts.detect_ratio, flags)
     w = np.abs(s)
     zeta = -s.real / np.maximum(w, 1e-300)
