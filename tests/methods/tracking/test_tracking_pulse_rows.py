@@ -57,6 +57,15 @@ def test_shrunk_rows_track_a_near_double_prior_under_pulses_the_default_leaves_u
         err = np.abs(tr.frequencies[late] / FREQ - 1)
         assert tr.converged[late].all(), (seed, tr.converged[late].mean(axis=0))
         assert np.all(err < 0.001), (seed, err.max(axis=0))
+    # causal: a window's rows follow its own flags; the record changed after sample 4000 leaves the earlier
+    # estimates as they were
+    changed = y.copy()
+    changed[4001:] = pulsed(n - 4001, 170, seed=9)
+    other = methods.track("gated_pencil", changed, DT, NEAR_DOUBLE, shrink_rows=True)
+    early = tr.t_s <= 4000 * DT
+    np.testing.assert_array_equal(other.frequencies[early], tr.frequencies[early])
+    np.testing.assert_array_equal(other.std[early], tr.std[early])
+    assert not np.array_equal(other.frequencies[~early], tr.frequencies[~early], equal_nan=True)
 
 
 def test_shrink_rows_does_not_fire_under_a_white_force():
@@ -70,40 +79,47 @@ def test_shrink_rows_does_not_fire_under_a_white_force():
 
 
 def test_the_rows_shrink_for_isolated_pulses_only_never_under_the_floor():
-    n, rows = 1904, 238
+    n, rows, p = 1904, 238, 16
     floor, period = _gated_pencil.shrink_sizes(NEAR_DOUBLE, DT, 12)
     # the floor: the five-period window's rows, 5/8 of the slowest period (at least the pencil's order); the
-    # run that makes the flags isolated pulses: one slowest period
+    # mean run that makes the pulses isolated: one slowest period
     assert floor == round(5 / 8 * 2 * np.pi / 3.3 / DT) and abs(period - 2 * np.pi / 3.3 / DT) < 1e-9
     assert _gated_pencil.shrink_sizes(NEAR_DOUBLE, 0.5, 12)[0] == 12
 
-    def cum(flags):
-        return np.concatenate(([0], np.cumsum(flags)))
+    def free(flags, L):
+        return _gated_pencil._free_columns(np.concatenate(([0], np.cumsum(flags))), n, L)
 
-    # isolated pulses every 250 samples (2.6 slowest periods): the most rows that leave 2L pulse-free columns
-    isolated = np.zeros(n, dtype=bool)
-    isolated[np.arange(100, n, 250)] = True
-    assert _gated_pencil.widest_rows(isolated, rows) == rows                  # not asked: the rule's rows
-    got = _gated_pencil.widest_rows(isolated, rows, floor=floor, min_run=period)
-    free = [_gated_pencil._free_columns(cum(isolated), n, L) for L in (got, got + 1)]
-    assert floor <= got < rows and free[0] >= 2 * got and free[1] < 2 * (got + 1), (got, free)
-    # the same pulses, each flagged as a cluster of three samples: still isolated
-    clusters = isolated | np.roll(isolated, 1) | np.roll(isolated, 2)
-    assert floor <= _gated_pencil.widest_rows(clusters, rows, floor=floor, min_run=period) < rows
-    # flags everywhere (an event every 20–60 samples, under half the slowest period, as the kick test leaves
-    # under a white force), with long clean stretches between their bursts: the rule's rows
+    def shrunk(flags, pulses=None):
+        return _gated_pencil.shrunk_rows(flags, flags if pulses is None else pulses, rows, floor, period, p)
+
+    # pulses every 250 samples (2.6 slowest periods), each flagged as three samples with a gap (the AR
+    # residual crossing zero): the most rows that leave 2L pulse-free columns
+    pulses = np.zeros(n, dtype=bool)
+    for gap in (0, 1, 4):
+        pulses[np.arange(100, n - 4, 250) + gap] = True
+    assert free(pulses, rows) < 2 * rows
+    got = shrunk(pulses)
+    assert floor <= got < rows and free(pulses, got) >= 2 * got and free(pulses, got + 1) < 2 * (got + 1), got
+    # the same shortage made by the kick test's splits (about a slowest period apart, as under a white force)
+    # while the detector flags nothing: the rule's rows
+    kicks = np.zeros(n, dtype=bool)
+    kicks[np.arange(60, n, 100)] = True
+    assert free(kicks, rows) < 2 * rows <= free(np.zeros(n, dtype=bool), rows)
+    assert shrunk(kicks, np.zeros(n, dtype=bool)) == rows
+    # pulses flagged everywhere, closer than a slowest period on average, with long clean stretches between
+    # their bursts where the floor would find columns: the rule's rows
     rng = np.random.default_rng(0)
     scattered = np.zeros(n, dtype=bool)
     at = np.cumsum(rng.integers(20, 60, size=n // 20))
     scattered[at[at < n]] = True
     scattered[600:1000] = False
     scattered[1300:1700] = False
-    assert _gated_pencil._free_columns(cum(scattered), n, floor) >= 2 * floor     # the floor would find columns
-    assert _gated_pencil.widest_rows(scattered, rows, floor=floor, min_run=period) == rows
-    # pulses so close that not even the floor leaves 2L columns: the rule's rows (the window determines nothing)
-    dense = np.zeros(n, dtype=bool)
-    dense[np.arange(30, n, 50)] = True
-    assert _gated_pencil.widest_rows(dense, rows, floor=floor, min_run=None) == rows
+    assert free(scattered, floor) >= 2 * floor
+    assert shrunk(scattered) == rows
+    # a window with enough columns: untouched
+    few = np.zeros(n, dtype=bool)
+    few[[500, 1500]] = True
+    assert shrunk(few) == rows
 
 
 def test_shrink_rows_is_refused_in_one_line_unless_a_boolean():
