@@ -20,7 +20,12 @@ What. On each window of W samples (every H samples):
    Â = U_rᵀ Y₁ V_r Σ_r⁻¹; its eigenvalues z give s = log z / Δt. When fewer than 2L columns survive, the
    window determines no mode (the trend stage only predicts); so does a window whose largest singular value
    is under ``detect_ratio`` (3) × their median — a flat spectrum, noise (white noise: 1.2–1.6; the
-   thruster records: 16–19 in the median window).
+   thruster records: 16–19 in the median window). L is W/8, grown up to W/3 − 1 while ≥ 2L columns survive
+   (:func:`widest_rows`); with ``shrink_rows`` (an option) it also shrinks, down to the five-period window's
+   rows, where the pulse detector's own flags leave fewer than 2L columns and they are isolated pulses (their
+   mean pulse-free run at least a slowest period): a window made long for a close pair of the prior under
+   pulses a few periods apart then determines its modes (:func:`shrunk_rows`; under a white force the kick
+   test's splits, not the detector, leave the columns short: the rule is silent).
 3. **Modes**: the poles with ω_d > 0 and damping in [−0.02, ``max_damping``] are assigned to the modes by
    ``linear_sum_assignment`` on |log ω − log ω_ref| within ``band``, ω_ref the last estimate of each mode
    (the prior at first); a mode without a pole in its band is not determined in that window.
@@ -135,6 +140,9 @@ class Options:
     modes are nearly equal asks for up to 20 periods of the slowest mode (two beats of a pair that is not
     there), and a window that long needs most of its span to forget a step; the hop, rows, AR order and min
     segment stay the prior's, scaled down with the window (a window the user gives is kept).
+    ``shrink_rows`` (off by default): L also shrinks, down to the five-period window's rows (5/8 of the
+    slowest period), to the most that leave 2L columns where the pulse detector's isolated pulses (mean run ≥ a
+    slowest period) leave fewer (:func:`shrunk_rows`).
     ``own_windows`` (off by default): each mode whose ring dies within half the window and whose own window
     (:func:`own_window_samples`) is at most half the window is also fitted on that most recent short window; a
     pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
