@@ -21,11 +21,12 @@ What. On each window of W samples (every H samples):
    window determines no mode (the trend stage only predicts); so does a window whose largest singular value
    is under ``detect_ratio`` (3) × their median — a flat spectrum, noise (white noise: 1.2–1.6; the
    thruster records: 16–19 in the median window). L is W/8, grown up to W/3 − 1 while ≥ 2L columns survive
-   (:func:`widest_rows`); with ``shrink_rows`` (an option) it also shrinks, down to the five-period window's
-   rows, where the pulse detector's own flags leave fewer than 2L columns and they are isolated pulses (their
-   mean pulse-free run at least a slowest period): a window made long for a close pair of the prior under
-   pulses a few periods apart then determines its modes (:func:`shrunk_rows`; under a white force the kick
-   test's splits, not the detector, leave the columns short: the rule is silent).
+   (:func:`widest_rows`); with ``shrink_rows`` (on by default) it also shrinks, down to the five-period
+   window's rows, where the pulse detector's own flags leave fewer than 2L columns and they are isolated pulses
+   (their mean pulse-free run at least two slowest periods, the shortest window trusted after a restart): a
+   window made long for a close pair of the prior under pulses a few periods apart then determines its modes
+   (:func:`shrunk_rows`; under a white force the kick test's splits, not the detector, leave the columns
+   short: the rule is silent).
 3. **Modes**: the poles with ω_d > 0 and damping in [−0.02, ``max_damping``] are assigned to the modes by
    ``linear_sum_assignment`` on |log ω − log ω_ref| within ``band``, ω_ref the last estimate of each mode
    (the prior at first); a mode without a pole in its band is not determined in that window.
@@ -131,7 +132,8 @@ class Options:
     """Options of ``gated_pencil`` (module docstring). None: from Δt and the prior, or scaled to the window
     (methods/tracking/_defaults.py): W = 5 periods of the slowest mode (≥ two beats of the closest pair),
     H = W/10, spare poles ``extra_order`` clip(⌊W/4⌋ − 1 − 2m, 2, 8), L = W/8 (grown to W/3 where the pulses
-    leave the columns), AR order W/20 within [2m + 2, 2m + 16], min segment max(2(2m + 1), W/25).
+    leave the columns, shrunk to 5/8 of the slowest period where isolated pulses leave too few), AR order
+    W/20 within [2m + 2, 2m + 16], min segment max(2(2m + 1), W/25).
     ``split_kicks``: the kick test on the pulse-free runs (module docstring, step 4), at family-wise level
     ``split_level`` per run, ``split_rounds`` rounds of binary segmentation. ``close_pairs``: a resolved pair
     within the window's resolution passes without the phase-std test (step 4, :func:`_labelled`).
@@ -140,9 +142,9 @@ class Options:
     modes are nearly equal asks for up to 20 periods of the slowest mode (two beats of a pair that is not
     there), and a window that long needs most of its span to forget a step; the hop, rows, AR order and min
     segment stay the prior's, scaled down with the window (a window the user gives is kept).
-    ``shrink_rows`` (off by default): L also shrinks, down to the five-period window's rows (5/8 of the
-    slowest period), to the most that leave 2L columns where the pulse detector's isolated pulses (mean run ≥ a
-    slowest period) leave fewer (:func:`shrunk_rows`).
+    ``shrink_rows`` (on by default): L also shrinks, down to the five-period window's rows (5/8 of the
+    slowest period), to the most that leave 2L columns where the pulse detector's isolated pulses (mean run ≥
+    two slowest periods) leave fewer (:func:`shrunk_rows`).
     ``own_windows`` (off by default): each mode whose ring dies within half the window and whose own window
     (:func:`own_window_samples`) is at most half the window is also fitted on that most recent short window; a
     pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
@@ -155,7 +157,7 @@ class Options:
     hop_s: float | None = None
     hop_fraction: float | None = None
     rows: int | None = None
-    shrink_rows: bool = False
+    shrink_rows: bool = True
     extra_order: int | None = None
     ar_order: int | None = None
     outlier_cut: float = 4.0
@@ -342,9 +344,12 @@ def shrunk_rows(flags: np.ndarray, pulses: np.ndarray, rows: int, floor: int, mi
 def shrink_sizes(prior, dt: float, order: int) -> tuple[int, float]:
     """``shrink_rows``' (floor, min_run) in samples: the fewest rows, those of the five-period window
     (``ROWS_FRACTION`` · ``PERIODS`` periods of the prior's slowest mode, at least the pencil's order), and the
-    mean pulse-free run that makes the pulses isolated, one period of the prior's slowest mode."""
+    mean pulse-free run that makes the pulses isolated: the shortest window the tracker trusts after a restart,
+    ``RESTART_PERIODS`` (2) periods of the prior's slowest mode — runs shorter than that give estimates worse
+    than the trend stage's prediction over a window that determines nothing."""
     period = _defaults.slowest_period_s(prior) / dt
-    return max(order, int(round(_defaults.ROWS_FRACTION * _defaults.PERIODS * period))), period
+    return (max(order, int(round(_defaults.ROWS_FRACTION * _defaults.PERIODS * period))),
+            _defaults.RESTART_PERIODS * period)
 
 
 def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: int, cut: float,

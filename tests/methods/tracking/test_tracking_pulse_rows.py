@@ -3,7 +3,8 @@ against records built independently: free decays restarted by pulses, and a whit
 
 A prior whose two modes lie 1.5 % apart asks for a window of 20 periods of the slowest mode, and the rows follow
 as W/8 = 2.5 periods; pulses 2.6 periods apart then leave too few Hankel columns of that length for the pencil,
-and the window determines no mode. With ``shrink_rows`` the rows shrink to the pulse-free runs. Under a white
+and the window determines no mode. With ``shrink_rows`` (on by default) the rows shrink to the pulse-free
+runs. Under a white
 force (no isolated pulses) the rule must not fire.
 """
 
@@ -50,8 +51,8 @@ def test_shrunk_rows_track_a_near_double_prior_under_pulses_the_default_leaves_u
     n = 6000
     for seed in (1, 2):
         y = pulsed(n, 250, seed)
-        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE)
-        tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=True)
+        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=False)
+        tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE)
         assert not base.extra["window_converged"].any() and not base.converged.any(), seed
         late = tr.t_s > 60.0
         err = np.abs(tr.frequencies[late] / FREQ - 1)
@@ -61,7 +62,7 @@ def test_shrunk_rows_track_a_near_double_prior_under_pulses_the_default_leaves_u
     # estimates as they were
     changed = y.copy()
     changed[4001:] = pulsed(n - 4001, 170, seed=9)
-    other = methods.track("gated_pencil", changed, DT, NEAR_DOUBLE, shrink_rows=True)
+    other = methods.track("gated_pencil", changed, DT, NEAR_DOUBLE)
     early = tr.t_s <= 4000 * DT
     np.testing.assert_array_equal(other.frequencies[early], tr.frequencies[early])
     np.testing.assert_array_equal(other.std[early], tr.std[early])
@@ -72,25 +73,25 @@ def test_shrink_rows_does_not_fire_under_a_white_force():
     n = 6000
     for seed in (1, 2):
         y = white_forced(n, seed)
-        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE)
-        tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=True)
+        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=False)
+        tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE)
         np.testing.assert_array_equal(tr.frequencies, base.frequencies)
         np.testing.assert_array_equal(tr.converged, base.converged)
 
 
 def test_the_rows_shrink_for_isolated_pulses_only_never_under_the_floor():
     n, rows, p = 1904, 238, 16
-    floor, period = _gated_pencil.shrink_sizes(NEAR_DOUBLE, DT, 12)
+    floor, min_run = _gated_pencil.shrink_sizes(NEAR_DOUBLE, DT, 12)
     # the floor: the five-period window's rows, 5/8 of the slowest period (at least the pencil's order); the
-    # mean run that makes the pulses isolated: one slowest period
-    assert floor == round(5 / 8 * 2 * np.pi / 3.3 / DT) and abs(period - 2 * np.pi / 3.3 / DT) < 1e-9
+    # mean run that makes the pulses isolated: two slowest periods (the shortest window after a restart)
+    assert floor == round(5 / 8 * 2 * np.pi / 3.3 / DT) and abs(min_run - 2 * 2 * np.pi / 3.3 / DT) < 1e-9
     assert _gated_pencil.shrink_sizes(NEAR_DOUBLE, 0.5, 12)[0] == 12
 
     def free(flags, L):
         return _gated_pencil._free_columns(np.concatenate(([0], np.cumsum(flags))), n, L)
 
     def shrunk(flags, pulses=None):
-        return _gated_pencil.shrunk_rows(flags, flags if pulses is None else pulses, rows, floor, period, p)
+        return _gated_pencil.shrunk_rows(flags, flags if pulses is None else pulses, rows, floor, min_run, p)
 
     # pulses every 250 samples (2.6 slowest periods), each flagged as three samples with a gap (the AR
     # residual crossing zero): the most rows that leave 2L pulse-free columns
@@ -100,14 +101,18 @@ def test_the_rows_shrink_for_isolated_pulses_only_never_under_the_floor():
     assert free(pulses, rows) < 2 * rows
     got = shrunk(pulses)
     assert floor <= got < rows and free(pulses, got) >= 2 * got and free(pulses, got + 1) < 2 * (got + 1), got
+    # pulses every 150 samples (1.6 slowest periods), runs too short to trust: the rule's rows
+    close = np.zeros(n, dtype=bool)
+    close[np.arange(100, n, 150)] = True
+    assert free(close, rows) < 2 * rows and free(close, floor) >= 2 * floor and shrunk(close) == rows
     # the same shortage made by the kick test's splits (about a slowest period apart, as under a white force)
     # while the detector flags nothing: the rule's rows
     kicks = np.zeros(n, dtype=bool)
     kicks[np.arange(60, n, 100)] = True
     assert free(kicks, rows) < 2 * rows <= free(np.zeros(n, dtype=bool), rows)
     assert shrunk(kicks, np.zeros(n, dtype=bool)) == rows
-    # pulses flagged everywhere, closer than a slowest period on average, with long clean stretches between
-    # their bursts where the floor would find columns: the rule's rows
+    # pulses flagged everywhere, a fraction of a slowest period apart on average, with long clean stretches
+    # between their bursts where the floor would find columns: the rule's rows
     rng = np.random.default_rng(0)
     scattered = np.zeros(n, dtype=bool)
     at = np.cumsum(rng.integers(20, 60, size=n // 20))
