@@ -20,7 +20,13 @@ What. On each window of W samples (every H samples):
    Â = U_rᵀ Y₁ V_r Σ_r⁻¹; its eigenvalues z give s = log z / Δt. When fewer than 2L columns survive, the
    window determines no mode (the trend stage only predicts); so does a window whose largest singular value
    is under ``detect_ratio`` (3) × their median — a flat spectrum, noise (white noise: 1.2–1.6; the
-   thruster records: 16–19 in the median window).
+   thruster records: 16–19 in the median window). L is W/8, grown up to W/3 − 1 while ≥ 2L columns survive
+   (:func:`widest_rows`); with ``shrink_rows`` (on by default) it also shrinks, down to the five-period
+   window's rows, where the pulse detector's own flags leave fewer than 2L columns and they are isolated pulses
+   (their mean pulse-free run at least two slowest periods, the shortest window trusted after a restart): a
+   window made long for a close pair of the prior under pulses a few periods apart then determines its modes
+   (:func:`shrunk_rows`; under a white force the kick test's splits, not the detector, leave the columns
+   short: the rule is silent).
 3. **Modes**: the poles with ω_d > 0 and damping in [−0.02, ``max_damping``] are assigned to the modes by
    ``linear_sum_assignment`` on |log ω − log ω_ref| within ``band``, ω_ref the last estimate of each mode
    (the prior at first); a mode without a pole in its band is not determined in that window.
@@ -126,7 +132,8 @@ class Options:
     """Options of ``gated_pencil`` (module docstring). None: from Δt and the prior, or scaled to the window
     (methods/tracking/_defaults.py): W = 5 periods of the slowest mode (≥ two beats of the closest pair),
     H = W/10, spare poles ``extra_order`` clip(⌊W/4⌋ − 1 − 2m, 2, 8), L = W/8 (grown to W/3 where the pulses
-    leave the columns), AR order W/20 within [2m + 2, 2m + 16], min segment max(2(2m + 1), W/25).
+    leave the columns, shrunk to 5/8 of the slowest period where isolated pulses leave too few), AR order
+    W/20 within [2m + 2, 2m + 16], min segment max(2(2m + 1), W/25).
     ``split_kicks``: the kick test on the pulse-free runs (module docstring, step 4), at family-wise level
     ``split_level`` per run, ``split_rounds`` rounds of binary segmentation. ``close_pairs``: a resolved pair
     within the window's resolution passes without the phase-std test (step 4, :func:`_labelled`).
@@ -135,6 +142,9 @@ class Options:
     modes are nearly equal asks for up to 20 periods of the slowest mode (two beats of a pair that is not
     there), and a window that long needs most of its span to forget a step; the hop, rows, AR order and min
     segment stay the prior's, scaled down with the window (a window the user gives is kept).
+    ``shrink_rows`` (on by default): L also shrinks, down to the five-period window's rows (5/8 of the
+    slowest period), to the most that leave 2L columns where the pulse detector's isolated pulses (mean run ≥
+    two slowest periods) leave fewer (:func:`shrunk_rows`).
     ``own_windows`` (off by default): each mode whose ring dies within half the window and whose own window
     (:func:`own_window_samples`) is at most half the window is also fitted on that most recent short window; a
     pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
@@ -147,6 +157,7 @@ class Options:
     hop_s: float | None = None
     hop_fraction: float | None = None
     rows: int | None = None
+    shrink_rows: bool = True
     extra_order: int | None = None
     ar_order: int | None = None
     outlier_cut: float = 4.0
@@ -217,7 +228,8 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
-    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows"):
+    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows",
+                "shrink_rows"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -282,6 +294,62 @@ def widest_rows(flags: np.ndarray, rows: int, candidates: int = 6) -> int:
         if int(np.count_nonzero(cum[k + L + 1] - cum[k + 1] == 0)) >= 2 * L:
             best = int(L)
     return best
+
+
+def _free_columns(cum: np.ndarray, n: int, L: int) -> int:
+    """Hankel columns of L + 1 samples with no flagged sample in k + 1 … k + L (``cum``: the flags' cumsum)."""
+    k = np.arange(n - L)
+    return int(np.count_nonzero(cum[k + L + 1] - cum[k + 1] == 0))
+
+
+def _events(flags: np.ndarray, merge: int) -> int:
+    """Flagged events: runs of flags, those less than ``merge`` samples apart one event (a pulse spoils the
+    AR(p) predictor's next p residuals, which may cross zero in between)."""
+    at = np.flatnonzero(flags)
+    return 0 if at.size == 0 else 1 + int(np.count_nonzero(np.diff(at) >= merge))
+
+
+def shrunk_rows(flags: np.ndarray, pulses: np.ndarray, rows: int, floor: int, min_run: float, merge: int) -> int:
+    """``shrink_rows``: where ``rows`` leaves fewer than 2L Hankel columns free of ``flags`` because of the
+    pulse detector's own flags (``pulses``: they alone leave fewer than 2L), and those pulses are isolated —
+    their mean pulse-free run, the window's unflagged samples over the events (:func:`_events`, flags less than
+    ``merge`` samples apart one event) + 1, at least ``min_run`` samples — the most rows down to ``floor`` that
+    leave 2L columns free of ``flags``; otherwise (or when even ``floor`` leaves fewer) ``rows``.
+
+    Why: a window made long for a close pair of the prior (up to 20 periods of the slowest mode, so W/8 = 2.5
+    of them) under pulses a few periods apart keeps too few columns of W/8 rows for the pencil, and determines
+    nothing, though each pulse-free run is a free decay longer than a column needs. Under a white force the
+    pulse detector flags next to nothing and the kick test's splits (a continuing force read as kicks, about a
+    slowest period apart) are what leave too few columns: there short-row estimates from the scraps between
+    them pull the trend away (docs/measured/tracking.md), so the rule stays silent; so it does where the
+    pulses lie closer than ``min_run`` on average."""
+    n = flags.size
+    cum = np.concatenate(([0], np.cumsum(flags)))
+    if floor >= rows or _free_columns(cum, n, rows) >= 2 * rows:
+        return rows
+    if _free_columns(np.concatenate(([0], np.cumsum(pulses))), n, rows) >= 2 * rows:
+        return rows                                   # the kick test's flags, not pulses: silent
+    if (n - int(np.count_nonzero(pulses))) / (_events(pulses, merge) + 1) < min_run:
+        return rows                                   # pulses everywhere, not isolated: silent
+    if _free_columns(cum, n, floor) < 2 * floor:
+        return rows
+    # the columns fall and 2L rises with L: the largest L that leaves 2L, by bisection on [floor, rows)
+    lo, hi = floor, rows                              # lo leaves 2L, hi does not
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if _free_columns(cum, n, mid) >= 2 * mid else (lo, mid)
+    return lo
+
+
+def shrink_sizes(prior, dt: float, order: int) -> tuple[int, float]:
+    """``shrink_rows``' (floor, min_run) in samples: the fewest rows, those of the five-period window
+    (``ROWS_FRACTION`` · ``PERIODS`` periods of the prior's slowest mode, at least the pencil's order), and the
+    mean pulse-free run that makes the pulses isolated: the shortest window the tracker trusts after a restart,
+    ``RESTART_PERIODS`` (2) periods of the prior's slowest mode — runs shorter than that give estimates worse
+    than the trend stage's prediction over a window that determines nothing."""
+    period = _defaults.slowest_period_s(prior) / dt
+    return (max(order, int(round(_defaults.ROWS_FRACTION * _defaults.PERIODS * period))),
+            _defaults.RESTART_PERIODS * period)
 
 
 def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: int, cut: float,
@@ -393,7 +461,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     wstd = np.full((ends.size, m), np.nan)
     span = np.full(ends.size, np.nan)
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
-             "rows_free": given.rows is None,
+             "rows_free": given.rows is None, "shrink": shrink_sizes(prior, dt, order),
              "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": []}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
@@ -597,6 +665,7 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         return np.nan
     centred = seg - seg.mean()
     flags = pulse_flags(centred, ar_order, opts.outlier_cut)
+    pulses = flags.copy()                         # the detector's own flags (shrink_rows), before the kicks
     start = state["seg_start"]
     if opts.own_windows:
         # the pulses (the AR detector's, not the kick test's) of the windows so far: a mode's own window is a
@@ -613,6 +682,8 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     state["flags"] = flags
     if state["rows_free"]:
         rows = widest_rows(flags, rows)
+        if opts.shrink_rows:
+            rows = shrunk_rows(flags, pulses, rows, *state["shrink"], ar_order)
     s, kept = window_poles(seg, dt, order, rows, ar_order, opts.outlier_cut, opts.detect_ratio, flags)
     w = np.abs(s)
     zeta = -s.real / np.maximum(w, 1e-300)

@@ -1,0 +1,134 @@
+"""``gated_pencil``'s Hankel rows under pulses (``shrink_rows``, :func:`methods.tracking._gated_pencil.widest_rows`)
+against records built independently: free decays restarted by pulses, and a white force.
+
+A prior whose two modes lie 1.5 % apart asks for a window of 20 periods of the slowest mode, and the rows follow
+as W/8 = 2.5 periods; pulses 2.6 periods apart then leave too few Hankel columns of that length for the pencil,
+and the window determines no mode. With ``shrink_rows`` (on by default) the rows shrink to the pulse-free
+runs. Under a white
+force (no isolated pulses) the rule must not fire.
+"""
+
+import numpy as np
+import scipy.signal
+
+import methods
+from methods.tracking import _gated_pencil
+
+DT = 0.02
+FREQ = np.array([3.23, 20.24, 22.0, 56.67])
+NEAR_DOUBLE = np.array([3.3, 20.7, 21.0, 55.0])            # modes 2 and 3 of the prior 1.5 % apart
+ZETA = 0.005
+
+
+def pulsed(n, every, seed, noise=1e-4):
+    """The four modes, each restarted at every pulse (every ``every`` samples) with a random amplitude and
+    phase, between pulses an exact free decay; + white noise."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * DT
+    y = np.zeros(n)
+    pulses = np.arange(150, n, every)
+    for a, b in zip(np.concatenate(([0], pulses)), np.concatenate((pulses, [n])), strict=True):
+        tau = t[a:b] - t[a]
+        for w in FREQ:
+            amp, phase = rng.uniform(0.02, 0.1), rng.uniform(0, 2 * np.pi)
+            y[a:b] += amp * np.exp(-ZETA * w * tau) * np.cos(w * np.sqrt(1 - ZETA ** 2) * tau + phase)
+    return y + noise * rng.standard_normal(n)
+
+
+def white_forced(n, seed):
+    """The four modes driven by a Gaussian white force (each an exact discrete resonator), + white noise."""
+    rng = np.random.default_rng(seed)
+    y = np.zeros(n)
+    for w in FREQ:
+        r = np.exp(-ZETA * w * DT)
+        y += scipy.signal.lfilter([1.0], [1.0, -2 * r * np.cos(w * DT), r * r], rng.standard_normal(n))
+    return y + 0.01 * np.std(y) * rng.standard_normal(n)
+
+
+def test_shrunk_rows_track_a_near_double_prior_under_pulses_the_default_leaves_undetermined():
+    # window 20 · 2π/3.3 = 38 s (1904 samples), rows 238; a pulse every 5 s (250 samples, 2.6 slowest periods)
+    # leaves 12 columns of 238 rows per run, ~90 in the window, under the 2L = 476 the pencil needs
+    n = 6000
+    for seed in (1, 2):
+        y = pulsed(n, 250, seed)
+        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=False)
+        tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE)
+        assert not base.extra["window_converged"].any() and not base.converged.any(), seed
+        late = tr.t_s > 60.0
+        err = np.abs(tr.frequencies[late] / FREQ - 1)
+        assert tr.converged[late].all(), (seed, tr.converged[late].mean(axis=0))
+        assert np.all(err < 0.001), (seed, err.max(axis=0))
+    # causal: a window's rows follow its own flags; the record changed after sample 4000 leaves the earlier
+    # estimates as they were
+    changed = y.copy()
+    changed[4001:] = pulsed(n - 4001, 170, seed=9)
+    other = methods.track("gated_pencil", changed, DT, NEAR_DOUBLE)
+    early = tr.t_s <= 4000 * DT
+    np.testing.assert_array_equal(other.frequencies[early], tr.frequencies[early])
+    np.testing.assert_array_equal(other.std[early], tr.std[early])
+    assert not np.array_equal(other.frequencies[~early], tr.frequencies[~early], equal_nan=True)
+
+
+def test_shrink_rows_does_not_fire_under_a_white_force():
+    n = 6000
+    for seed in (1, 2):
+        y = white_forced(n, seed)
+        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=False)
+        tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE)
+        np.testing.assert_array_equal(tr.frequencies, base.frequencies)
+        np.testing.assert_array_equal(tr.converged, base.converged)
+
+
+def test_the_rows_shrink_for_isolated_pulses_only_never_under_the_floor():
+    n, rows, p = 1904, 238, 16
+    floor, min_run = _gated_pencil.shrink_sizes(NEAR_DOUBLE, DT, 12)
+    # the floor: the five-period window's rows, 5/8 of the slowest period (at least the pencil's order); the
+    # mean run that makes the pulses isolated: two slowest periods (the shortest window after a restart)
+    assert floor == round(5 / 8 * 2 * np.pi / 3.3 / DT) and abs(min_run - 2 * 2 * np.pi / 3.3 / DT) < 1e-9
+    assert _gated_pencil.shrink_sizes(NEAR_DOUBLE, 0.5, 12)[0] == 12
+
+    def free(flags, L):
+        return _gated_pencil._free_columns(np.concatenate(([0], np.cumsum(flags))), n, L)
+
+    def shrunk(flags, pulses=None):
+        return _gated_pencil.shrunk_rows(flags, flags if pulses is None else pulses, rows, floor, min_run, p)
+
+    # pulses every 250 samples (2.6 slowest periods), each flagged as three samples with a gap (the AR
+    # residual crossing zero): the most rows that leave 2L pulse-free columns
+    pulses = np.zeros(n, dtype=bool)
+    for gap in (0, 1, 4):
+        pulses[np.arange(100, n - 4, 250) + gap] = True
+    assert free(pulses, rows) < 2 * rows
+    got = shrunk(pulses)
+    assert floor <= got < rows and free(pulses, got) >= 2 * got and free(pulses, got + 1) < 2 * (got + 1), got
+    # pulses every 150 samples (1.6 slowest periods), runs too short to trust: the rule's rows
+    close = np.zeros(n, dtype=bool)
+    close[np.arange(100, n, 150)] = True
+    assert free(close, rows) < 2 * rows and free(close, floor) >= 2 * floor and shrunk(close) == rows
+    # the same shortage made by the kick test's splits (about a slowest period apart, as under a white force)
+    # while the detector flags nothing: the rule's rows
+    kicks = np.zeros(n, dtype=bool)
+    kicks[np.arange(60, n, 100)] = True
+    assert free(kicks, rows) < 2 * rows <= free(np.zeros(n, dtype=bool), rows)
+    assert shrunk(kicks, np.zeros(n, dtype=bool)) == rows
+    # pulses flagged everywhere, a fraction of a slowest period apart on average, with long clean stretches
+    # between their bursts where the floor would find columns: the rule's rows
+    rng = np.random.default_rng(0)
+    scattered = np.zeros(n, dtype=bool)
+    at = np.cumsum(rng.integers(20, 60, size=n // 20))
+    scattered[at[at < n]] = True
+    scattered[600:1000] = False
+    scattered[1300:1700] = False
+    assert free(scattered, floor) >= 2 * floor
+    assert shrunk(scattered) == rows
+    # a window with enough columns: untouched
+    few = np.zeros(n, dtype=bool)
+    few[[500, 1500]] = True
+    assert shrunk(few) == rows
+
+
+def test_shrink_rows_is_refused_in_one_line_unless_a_boolean():
+    import pytest
+    with pytest.raises(ValueError, match="shrink_rows = 'yes'") as err:
+        methods.check_track_options("gated_pencil", NEAR_DOUBLE, DT, {"shrink_rows": "yes"})
+    assert "\n" not in str(err.value)
