@@ -105,6 +105,30 @@ from methods.tracking._track import Track, usable_prior, window_ends
 
 MIN_DAMPING = -0.02
 OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this many combined std from the trend's
+PAIR_RATIO = 2.0            # window_from_estimates: the estimates' closest pair this many times the prior's gap
+
+
+def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarray) -> float:
+    """``window_from_estimates``' window span in s: the window rule (:func:`methods.tracking._defaults.window_s`)
+    at the prior, unless that window is set by the prior's closest pair (two beats, over ``PERIODS`` periods of
+    its slowest mode), every mode has been ``determined`` once, and the estimates ``ref`` put their closest pair
+    at least ``PAIR_RATIO`` times farther apart than the prior's — the prior's pair is not the record's; then
+    two beats of the estimates' closest pair (capped at ``GAP_CAP_PERIODS`` periods), never under ``PERIODS``
+    periods of the prior's slowest mode. Where the window is set by the slowest period (one mode, or no close
+    pair in the prior) it is the prior's: the estimates' slowest period is not a better guess than the prior's
+    by more than the prior's error, and a shorter window only adds noise."""
+    prior = np.sort(np.asarray(prior, dtype=float))
+    span = _defaults.window_s(prior)
+    T = _defaults.slowest_period_s(prior)
+    base = _defaults.PERIODS * T
+    if prior.size < 2 or span <= base * (1 + 1e-9) or not np.all(determined):
+        return span
+    est = np.sort(np.asarray(ref, dtype=float))
+    gap_prior, gap_est = float(np.min(np.diff(prior))), float(np.min(np.diff(est)))
+    if not gap_est >= PAIR_RATIO * gap_prior:
+        return span
+    beats = min(_defaults.GAP_CYCLES * 2.0 * np.pi / gap_est, _defaults.GAP_CAP_PERIODS * T)
+    return min(span, max(base, beats))
 
 
 def own_window_samples(ref: np.ndarray, dt: float, minimum: int) -> np.ndarray:
@@ -407,13 +431,19 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     fresh = np.zeros(m, dtype=bool)           # modes restarted by the change detector, until the window is full
     own_until = np.full(m, -1)                # own_windows: a mode fed from its own window until this sample
     last_pulse = -1                           # the last sample the pulse detector flagged
+    windows_seen = windows_pulsed = 0         # window_from_estimates: windows with a pulse flagged, of those fitted
     for j, e in enumerate(ends.tolist()):
         Wj = W
-        if adapt:
-            Wj = min(W, max(w_low, int(round(_defaults.window_s(state["ref"]) / dt))))
-            if bank is not None and memory_rate:
-                bank.rate_noise = _defaults.trend_rate_noise_memory(opts.trend_meas_rel, (Wj - 1) * dt,
-                                                                    opts.trend_memory)
+        # both window options act only where the record is pulsed (a pulse flagged in at least half the windows
+        # so far: free decays between inputs); under a continuing force the window fits one forced response,
+        # which the prior's longer window averages, and no ring dies away
+        pulsed = windows_seen > 0 and 2 * windows_pulsed >= windows_seen
+        if adapt and pulsed:
+            Wj = min(W, max(w_low, int(round(estimates_window_s(prior, state["ref"],
+                                                                np.isfinite(state["last_w"])) / dt))))
+        if adapt and bank is not None and memory_rate:
+            bank.rate_noise = _defaults.trend_rate_noise_memory(opts.trend_meas_rel, (Wj - 1) * dt,
+                                                                opts.trend_memory)
         a = max(e - Wj + 1, start)
         n_j = e - a + 1
         span[j] = (n_j - 1) * dt
@@ -441,16 +471,20 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
             else:
                 freq[j, fresh], found[j, fresh], wstd[j, fresh] = np.nan, False, np.nan
         span_j = np.where(fresh, span[j], (Wj - 1) * dt)
+        if np.isfinite(kept[j]) and state.get("flags") is not None:
+            windows_seen += 1
+            windows_pulsed += bool(state["flags"].any())
         if bank is None:
             continue
-        if opts.own_windows:
+        if opts.own_windows and (pulsed or (own_until >= 0).any()):
             _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank, fresh, own_until,
                  out[j - 1] if j else np.full(m, np.nan), out_std[j - 1] if j else np.full(m, np.nan),
                  freq[j], found[j], wstd[j], span_j)
         meas = np.sqrt(opts.overlap_inflation * np.maximum(1.0, (span_j / dt + 1) / H)) * wstd[j] if opts.refine \
             else None
         out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas,
-                                                        wstd[j] if opts.refine else None)
+                                                        wstd[j] if opts.refine else None,
+                                                        own_until >= e)
         if state.get("flags") is not None and state["flags"].any():
             last_pulse = max(last_pulse, state["seg_start"] + int(np.flatnonzero(state["flags"])[-1]))
         if cusum is not None:
@@ -492,6 +526,12 @@ def _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank
     with np.errstate(divide="ignore", invalid="ignore"):
         decay = 1.0 / (state["last_z"] * state["ref"])      # NaN before a mode is determined: not eligible
     W_own = np.minimum(own_window_samples(state["ref"], dt, w_low), Wj)
+    # the feed over: the first long window that determines the mode again re-sets its level (the trend
+    # stage, fed short windows, would follow the long ones only over its memory and learn the lag as a rate)
+    for i in np.flatnonzero((own_until >= 0) & (own_until < e) & found & np.isfinite(wstd)):
+        bank.relevel(int(i), e * dt - span_j[i] / 2, freq[i], wstd[i] ** 2)
+        own_until[i] = -1
+        found[i] = False
     for i in np.flatnonzero((2 * W_own <= Wj) & (decay <= (Wj - 1) * dt / 2) & ~fresh):
         n = int(W_own[i])
         if e + 1 < n:
