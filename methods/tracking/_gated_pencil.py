@@ -59,16 +59,24 @@ What. On each window of W samples (every H samples):
    window spans, ``trend_meas_rel``/(k·(W − 1)Δt)² (:func:`methods.tracking._defaults.trend_rate_noise_memory`)
    — a filter that forgets faster than a window follows the overlapping windows' shared errors as a rate.
 
-**The window from the estimates** (``window_from_estimates``, an option): the window rule
+**The window from the estimates** (``window_from_estimates``, on by default): where the prior's window
 (:func:`methods.tracking._defaults.window_s`: five periods of the slowest mode, two beats of the closest pair,
-capped at 20 periods) evaluated at each mode's last estimate (the assignment reference: the prior until the
-mode is determined) instead of at the prior, never longer than the prior's window; the trend filter's memory
-(``trend_memory`` window spans) follows it. Why: the prior is a guess (±5 % on the benchmarks' records), and two
-prior frequencies that happen to lie close ask for two beats of a pair that the record does not have — up to 20
-periods of the slowest mode — and a window that long straddles a step for most of its span. Causal: window j's
-length depends on windows 0 … j − 1 only.
+capped at 20 periods) is set by its closest pair, every mode has been determined, and the modes' last estimates
+put their closest pair at least ``PAIR_RATIO`` (2) times farther apart than the prior's, the window is two beats
+of the estimates' pair, never under five periods of the prior's slowest mode (:func:`estimates_window_s`);
+else the prior's. The trend filter's memory (``trend_memory`` window spans) follows it. Why: the prior is a
+guess (±5 % on the benchmarks' records), and two prior frequencies that happen to lie close ask for two beats of
+a pair that the record does not have — up to 20 periods of the slowest mode — and a window that long straddles
+a step for most of its span. Not from the estimates' slowest period: a window shortened by a slowest mode
+estimated a few % high only adds noise (a 0.1 s one-mode record, six modes at 1 ms). Causal: window j's length
+depends on windows 0 … j − 1 only.
 
-**A mode's own window** (``own_windows``, an option): the window is sized for the slowest mode (five of its
+**Both window options act only on a pulsed record**: a pulse flagged in at least half the windows so far. Under a
+continuing force (a white body force: nothing flagged in 86–100 % of the windows) the window fits one forced
+response, which the prior's longer window averages, the estimates of a pair wander (a shorter window there
+never converged), and no ring dies away (a short window's "change" is the force).
+
+**A mode's own window** (``own_windows``, on by default): the window is sized for the slowest mode (five of its
 periods, ~90 periods of a mode 18 times faster), so after a step with no pulse after it a fast mode's ring
 dies away (decay time 1/(ζω)) inside windows whose older part, before the step, dominates: they hold its old
 frequency, then determine nothing until the next pulse. Each mode i whose own window — the window rule for it
@@ -82,8 +90,11 @@ biases the short fit beyond its std) and its estimate lies more than ``OWN_CHANG
 the trend stage's last output (carried by its rate: a drift is not read as a change; the long window's estimate
 before the trend has one), the mode has changed: its level in the trend stage is re-set there (its rate kept,
 as after a gap: a rate fitted to a few short windows would carry the level away once the ring has died), and
-it is fed from its own window until the long window's start has passed the change (W samples later). Causal:
-both windows end at the present sample.
+it is fed from its own window until the long window's start has passed the change (W samples later) — the level
+only, the rate kept (``TrendBank.step``'s ``level_only``) — and the first long window that determines the mode
+after that re-sets its level (fed short windows, the trend stage would follow the long ones only over its
+memory, learning the lag as a rate: 0.1 % off for tens of seconds). Causal: both windows end at the present
+sample.
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -154,16 +165,18 @@ class Options:
     ``split_kicks``: the kick test on the pulse-free runs (module docstring, step 4), at family-wise level
     ``split_level`` per run, ``split_rounds`` rounds of binary segmentation. ``close_pairs``: a resolved pair
     within the window's resolution passes without the phase-std test (step 4, :func:`_labelled`).
-    ``window_from_estimates`` (off by default): each window's length is the window rule at the modes' last
-    estimates (the prior until a mode is determined), never longer than at the prior — a prior whose two
+    ``window_from_estimates`` (on by default): where the prior's window is two beats of its closest pair and
+    the estimates put that pair at least twice as far apart, the window is two beats of the estimates' pair,
+    never under five periods of the prior's slowest mode (:func:`estimates_window_s`) — a prior whose two
     modes are nearly equal asks for up to 20 periods of the slowest mode (two beats of a pair that is not
     there), and a window that long needs most of its span to forget a step; the hop, rows, AR order and min
     segment stay the prior's, scaled down with the window (a window the user gives is kept).
-    ``own_windows`` (off by default): each mode whose ring dies within half the window and whose own window
+    ``own_windows`` (on by default): each mode whose ring dies within half the window and whose own window
     (:func:`own_window_samples`) is at most half the window is also fitted on that most recent short window; a
     pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
     the mode's level is re-set in the trend stage, then fed from its own window until the long window no
-    longer holds the change (module docstring)."""
+    longer holds the change (module docstring). Both act only on a pulsed record (a pulse flagged in at least
+    half the windows so far)."""
 
     window_samples: int | None = None
     hop_samples: int | None = None
@@ -195,8 +208,8 @@ class Options:
     trend_restart_rate: str = _trend.RESTART_RATE
     trend_memory: float | None = 1.0
     memory: bool = _memory.DEFAULTS["memory"]
-    window_from_estimates: bool = False
-    own_windows: bool = False
+    window_from_estimates: bool = True
+    own_windows: bool = True
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
 

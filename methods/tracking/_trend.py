@@ -114,7 +114,9 @@ class TrendBank:
     determined flags, (optional) stds that weigh the update and (optional) the windows' own stds that the
     gate tests against (module docstring); it returns the estimates carried to the window's end, their std,
     the converged flags and each mode's normalised innovation ν/√S (NaN where the mode was not updated or
-    not started), which a change detector reads. :meth:`restart` forgets a mode: it starts again at its
+    not started), which a change detector reads; ``level_only`` (per mode, optional): the mode's window, if the
+    gate takes it, updates the level only and leaves the rate (``gated_pencil``'s ``own_windows`` feed: a rate
+    from a few short windows would carry the level away). :meth:`restart` forgets a mode: it starts again at its
     next determined estimate.
     """
 
