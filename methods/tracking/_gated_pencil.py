@@ -549,10 +549,13 @@ def _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank
         n = int(W_own[i])
         if e + 1 < n:
             continue
+        pulse = any(k > e - n for k in state["pulses"])
+        if pulse and own_until[i] < e:
+            continue                          # a pulse in the short window: no change read there (below)
         est = _own_estimate(y[e - n + 1: e + 1], dt, int(i), _shorter(n, m, order, opts), order, opts, nyquist,
-                            limit, state)
+                            limit, state, free_only=own_until[i] < e)
         f, s, free = est if est is not None else (np.nan, np.nan, False)
-        free = free and not any(k > e - n for k in state["pulses"])
+        free = free and not pulse
         if own_until[i] < e:
             # the trend stage's last output (carried by its rate to the previous window's end: a drift is not
             # read as a change), the long window's estimate before the trend has one
@@ -571,8 +574,9 @@ def _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank
         freq[i], found[i], wstd[i], span_j[i] = f, est is not None, s, (n - 1) * dt
 
 
-def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state):
-    """(ω, std, free) of mode ``i`` on its own (short) window ``seg``, or None; ``free``: no pulse flagged in it.
+def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state, free_only=False):
+    """(ω, std, free) of mode ``i`` on its own (short) window ``seg``, or None; ``free``: no pulse flagged in it
+    (``free_only``: None where a pulse is flagged, before any fit — only a free window can show a change).
 
     The modes the window cannot resolve (closer than its resolution 2π/span) are fitted as one component at
     their mean last estimate; mode i starts at the gated pencil's pole nearest its last estimate (within
@@ -585,6 +589,8 @@ def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state):
         return None
     centred = seg - seg.mean()
     flags = pulse_flags(centred, ar_order, opts.outlier_cut)
+    if free_only and flags.any():
+        return None
     ref = state["ref"]
     span_s = (seg.size - 1) * dt
     # the components: runs of modes closer than the window's resolution merged (ref is increasing)
