@@ -209,8 +209,8 @@ def test_own_windows_follow_a_fast_mode_stepping_with_no_pulse_after_it():
     n, step_at, step = 3500, 1850, 0.08                       # 70 s, the step at 37 s, 5 s after the last pulse
     y, w = stepped_two_modes(n, np.array([100, 600, 1100, 1600]), step_at, step, seed=8)
     prior = TWO * np.array([1.03, 0.97])
-    base = methods.track("gated_pencil", y, DT, prior, own_windows=False)
-    tr = methods.track("gated_pencil", y, DT, prior)
+    base = methods.track("gated_pencil", y, DT, prior)
+    tr = methods.track("gated_pencil", y, DT, prior, own_windows=True)
     fast_period = 2 * np.pi / w[-1, 1]
     k = np.round(tr.t_s / DT).astype(int)
 
@@ -263,8 +263,8 @@ def test_the_window_options_keep_the_default_track_under_a_continuing_force():
         y += w * scipy.signal.lfilter([0.0, 1.0], np.real(np.poly([pole, np.conj(pole)])), rng.standard_normal(n))
     y += 0.01 * np.std(y) * rng.standard_normal(n)
     prior = np.array([3.3, 20.9, 21.0, 55.0])
-    base = methods.track("gated_pencil", y, DT, prior, window_from_estimates=False, own_windows=False)
-    tr = methods.track("gated_pencil", y, DT, prior)
+    base = methods.track("gated_pencil", y, DT, prior, window_from_estimates=False)
+    tr = methods.track("gated_pencil", y, DT, prior, own_windows=True)
     assert base.converged.all(axis=1).mean() > 0.5
     np.testing.assert_array_equal(tr.extra["window_span_s"], base.extra["window_span_s"])
     np.testing.assert_array_equal(tr.frequencies, base.frequencies)
