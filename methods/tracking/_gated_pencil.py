@@ -65,16 +65,25 @@ What. On each window of W samples (every H samples):
    window spans, ``trend_meas_rel``/(k·(W − 1)Δt)² (:func:`methods.tracking._defaults.trend_rate_noise_memory`)
    — a filter that forgets faster than a window follows the overlapping windows' shared errors as a rate.
 
-**The window from the estimates** (``window_from_estimates``, an option): the window rule
+**The window from the estimates** (``window_from_estimates``, on by default): where the prior's window
 (:func:`methods.tracking._defaults.window_s`: five periods of the slowest mode, two beats of the closest pair,
-capped at 20 periods) evaluated at each mode's last estimate (the assignment reference: the prior until the
-mode is determined) instead of at the prior, never longer than the prior's window; the trend filter's memory
-(``trend_memory`` window spans) follows it. Why: the prior is a guess (±5 % on the benchmarks' records), and two
-prior frequencies that happen to lie close ask for two beats of a pair that the record does not have — up to 20
-periods of the slowest mode — and a window that long straddles a step for most of its span. Causal: window j's
-length depends on windows 0 … j − 1 only.
+capped at 20 periods) is set by its closest pair, every mode has been determined, and the modes' last estimates
+put their closest pair at least ``PAIR_RATIO`` (2) times farther apart than the prior's, the window is two beats
+of the estimates' pair, never under five periods of the prior's slowest mode (:func:`estimates_window_s`);
+else the prior's. The trend filter's memory (``trend_memory`` window spans) follows it. Why: the prior is a
+guess (±5 % on the benchmarks' records), and two prior frequencies that happen to lie close ask for two beats of
+a pair that the record does not have — up to 20 periods of the slowest mode — and a window that long straddles
+a step for most of its span. Not from the estimates' slowest period: a window shortened by a slowest mode
+estimated a few % high only adds noise (a 0.1 s one-mode record, six modes at 1 ms). Causal: window j's length
+depends on windows 0 … j − 1 only.
 
-**A mode's own window** (``own_windows``, an option): the window is sized for the slowest mode (five of its
+**Both window options act only on a pulsed record**: a pulse flagged in at least half the windows so far. Under a
+continuing force (a white body force: nothing flagged in 86–100 % of the windows) the window fits one forced
+response, which the prior's longer window averages, the estimates of a pair wander (a shorter window there
+never converged), and no ring dies away (a short window's "change" is the force).
+
+**A mode's own window** (``own_windows``, an option, off by default: +30–45 % CPU per sample on the thruster
+cells): the window is sized for the slowest mode (five of its
 periods, ~90 periods of a mode 18 times faster), so after a step with no pulse after it a fast mode's ring
 dies away (decay time 1/(ζω)) inside windows whose older part, before the step, dominates: they hold its old
 frequency, then determine nothing until the next pulse. Each mode i whose own window — the window rule for it
@@ -88,8 +97,11 @@ biases the short fit beyond its std) and its estimate lies more than ``OWN_CHANG
 the trend stage's last output (carried by its rate: a drift is not read as a change; the long window's estimate
 before the trend has one), the mode has changed: its level in the trend stage is re-set there (its rate kept,
 as after a gap: a rate fitted to a few short windows would carry the level away once the ring has died), and
-it is fed from its own window until the long window's start has passed the change (W samples later). Causal:
-both windows end at the present sample.
+it is fed from its own window until the long window's start has passed the change (W samples later) — the level
+only, the rate kept (``TrendBank.step``'s ``level_only``) — and the first long window that determines the mode
+after that re-sets its level (fed short windows, the trend stage would follow the long ones only over its
+memory, learning the lag as a rate: 0.1 % off for tens of seconds). Causal: both windows end at the present
+sample.
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -111,6 +123,30 @@ from methods.tracking._track import Track, usable_prior, window_ends
 
 MIN_DAMPING = -0.02
 OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this many combined std from the trend's
+PAIR_RATIO = 2.0            # window_from_estimates: the estimates' closest pair this many times the prior's gap
+
+
+def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarray) -> float:
+    """``window_from_estimates``' window span in s: the window rule (:func:`methods.tracking._defaults.window_s`)
+    at the prior, unless that window is set by the prior's closest pair (two beats, over ``PERIODS`` periods of
+    its slowest mode), every mode has been ``determined`` once, and the estimates ``ref`` put their closest pair
+    at least ``PAIR_RATIO`` times farther apart than the prior's — the prior's pair is not the record's; then
+    two beats of the estimates' closest pair (capped at ``GAP_CAP_PERIODS`` periods), never under ``PERIODS``
+    periods of the prior's slowest mode. Where the window is set by the slowest period (one mode, or no close
+    pair in the prior) it is the prior's: the estimates' slowest period is not a better guess than the prior's
+    by more than the prior's error, and a shorter window only adds noise."""
+    prior = np.sort(np.asarray(prior, dtype=float))
+    span = _defaults.window_s(prior)
+    T = _defaults.slowest_period_s(prior)
+    base = _defaults.PERIODS * T
+    if prior.size < 2 or span <= base * (1 + 1e-9) or not np.all(determined):
+        return span
+    est = np.sort(np.asarray(ref, dtype=float))
+    gap_prior, gap_est = float(np.min(np.diff(prior))), float(np.min(np.diff(est)))
+    if not gap_est >= PAIR_RATIO * gap_prior:
+        return span
+    beats = min(_defaults.GAP_CYCLES * 2.0 * np.pi / gap_est, _defaults.GAP_CAP_PERIODS * T)
+    return min(span, max(base, beats))
 
 
 def own_window_samples(ref: np.ndarray, dt: float, minimum: int) -> np.ndarray:
@@ -137,19 +173,21 @@ class Options:
     ``split_kicks``: the kick test on the pulse-free runs (module docstring, step 4), at family-wise level
     ``split_level`` per run, ``split_rounds`` rounds of binary segmentation. ``close_pairs``: a resolved pair
     within the window's resolution passes without the phase-std test (step 4, :func:`_labelled`).
-    ``window_from_estimates`` (off by default): each window's length is the window rule at the modes' last
-    estimates (the prior until a mode is determined), never longer than at the prior — a prior whose two
+    ``window_from_estimates`` (on by default): where the prior's window is two beats of its closest pair and
+    the estimates put that pair at least twice as far apart, the window is two beats of the estimates' pair,
+    never under five periods of the prior's slowest mode (:func:`estimates_window_s`) — a prior whose two
     modes are nearly equal asks for up to 20 periods of the slowest mode (two beats of a pair that is not
     there), and a window that long needs most of its span to forget a step; the hop, rows, AR order and min
     segment stay the prior's, scaled down with the window (a window the user gives is kept).
     ``shrink_rows`` (on by default): L also shrinks, down to the five-period window's rows (5/8 of the
     slowest period), to the most that leave 2L columns where the pulse detector's isolated pulses (mean run ≥
     two slowest periods) leave fewer (:func:`shrunk_rows`).
-    ``own_windows`` (off by default): each mode whose ring dies within half the window and whose own window
+    ``own_windows`` (off by default: its CPU): each mode whose ring dies within half the window and whose own window
     (:func:`own_window_samples`) is at most half the window is also fitted on that most recent short window; a
     pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
     the mode's level is re-set in the trend stage, then fed from its own window until the long window no
-    longer holds the change (module docstring)."""
+    longer holds the change (module docstring). The two window options act only on a pulsed record (a pulse
+    flagged in at least half the windows so far)."""
 
     window_samples: int | None = None
     hop_samples: int | None = None
@@ -182,7 +220,7 @@ class Options:
     trend_restart_rate: str = _trend.RESTART_RATE
     trend_memory: float | None = 1.0
     memory: bool = _memory.DEFAULTS["memory"]
-    window_from_estimates: bool = False
+    window_from_estimates: bool = True
     own_windows: bool = False
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
@@ -475,13 +513,19 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     fresh = np.zeros(m, dtype=bool)           # modes restarted by the change detector, until the window is full
     own_until = np.full(m, -1)                # own_windows: a mode fed from its own window until this sample
     last_pulse = -1                           # the last sample the pulse detector flagged
+    windows_seen = windows_pulsed = 0         # window_from_estimates: windows with a pulse flagged, of those fitted
     for j, e in enumerate(ends.tolist()):
         Wj = W
-        if adapt:
-            Wj = min(W, max(w_low, int(round(_defaults.window_s(state["ref"]) / dt))))
-            if bank is not None and memory_rate:
-                bank.rate_noise = _defaults.trend_rate_noise_memory(opts.trend_meas_rel, (Wj - 1) * dt,
-                                                                    opts.trend_memory)
+        # both window options act only where the record is pulsed (a pulse flagged in at least half the windows
+        # so far: free decays between inputs); under a continuing force the window fits one forced response,
+        # which the prior's longer window averages, and no ring dies away
+        pulsed = windows_seen > 0 and 2 * windows_pulsed >= windows_seen
+        if adapt and pulsed:
+            Wj = min(W, max(w_low, int(round(estimates_window_s(prior, state["ref"],
+                                                                np.isfinite(state["last_w"])) / dt))))
+        if adapt and bank is not None and memory_rate:
+            bank.rate_noise = _defaults.trend_rate_noise_memory(opts.trend_meas_rel, (Wj - 1) * dt,
+                                                                opts.trend_memory)
         a = max(e - Wj + 1, start)
         n_j = e - a + 1
         span[j] = (n_j - 1) * dt
@@ -509,16 +553,20 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
             else:
                 freq[j, fresh], found[j, fresh], wstd[j, fresh] = np.nan, False, np.nan
         span_j = np.where(fresh, span[j], (Wj - 1) * dt)
+        if np.isfinite(kept[j]) and state.get("flags") is not None:
+            windows_seen += 1
+            windows_pulsed += bool(state["flags"].any())
         if bank is None:
             continue
-        if opts.own_windows:
+        if opts.own_windows and (pulsed or (own_until >= 0).any()):
             _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank, fresh, own_until,
                  out[j - 1] if j else np.full(m, np.nan), out_std[j - 1] if j else np.full(m, np.nan),
                  freq[j], found[j], wstd[j], span_j)
         meas = np.sqrt(opts.overlap_inflation * np.maximum(1.0, (span_j / dt + 1) / H)) * wstd[j] if opts.refine \
             else None
         out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas,
-                                                        wstd[j] if opts.refine else None)
+                                                        wstd[j] if opts.refine else None,
+                                                        own_until >= e)
         if state.get("flags") is not None and state["flags"].any():
             last_pulse = max(last_pulse, state["seg_start"] + int(np.flatnonzero(state["flags"])[-1]))
         if cusum is not None:
@@ -560,14 +608,23 @@ def _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank
     with np.errstate(divide="ignore", invalid="ignore"):
         decay = 1.0 / (state["last_z"] * state["ref"])      # NaN before a mode is determined: not eligible
     W_own = np.minimum(own_window_samples(state["ref"], dt, w_low), Wj)
+    # the feed over: the first long window that determines the mode again re-sets its level (the trend
+    # stage, fed short windows, would follow the long ones only over its memory and learn the lag as a rate)
+    for i in np.flatnonzero((own_until >= 0) & (own_until < e) & found & np.isfinite(wstd)):
+        bank.relevel(int(i), e * dt - span_j[i] / 2, freq[i], wstd[i] ** 2)
+        own_until[i] = -1
+        found[i] = False
     for i in np.flatnonzero((2 * W_own <= Wj) & (decay <= (Wj - 1) * dt / 2) & ~fresh):
         n = int(W_own[i])
         if e + 1 < n:
             continue
+        pulse = any(k > e - n for k in state["pulses"])
+        if pulse and own_until[i] < e:
+            continue                          # a pulse in the short window: no change read there (below)
         est = _own_estimate(y[e - n + 1: e + 1], dt, int(i), _shorter(n, m, order, opts), order, opts, nyquist,
-                            limit, state)
+                            limit, state, free_only=own_until[i] < e)
         f, s, free = est if est is not None else (np.nan, np.nan, False)
-        free = free and not any(k > e - n for k in state["pulses"])
+        free = free and not pulse
         if own_until[i] < e:
             # the trend stage's last output (carried by its rate to the previous window's end: a drift is not
             # read as a change), the long window's estimate before the trend has one
@@ -586,8 +643,9 @@ def _own(y, e, dt, Wj, w_low, m, order, opts, nyquist, limit, prior, state, bank
         freq[i], found[i], wstd[i], span_j[i] = f, est is not None, s, (n - 1) * dt
 
 
-def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state):
-    """(ω, std, free) of mode ``i`` on its own (short) window ``seg``, or None; ``free``: no pulse flagged in it.
+def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state, free_only=False):
+    """(ω, std, free) of mode ``i`` on its own (short) window ``seg``, or None; ``free``: no pulse flagged in it
+    (``free_only``: None where a pulse is flagged, before any fit — only a free window can show a change).
 
     The modes the window cannot resolve (closer than its resolution 2π/span) are fitted as one component at
     their mean last estimate; mode i starts at the gated pencil's pole nearest its last estimate (within
@@ -600,6 +658,8 @@ def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state):
         return None
     centred = seg - seg.mean()
     flags = pulse_flags(centred, ar_order, opts.outlier_cut)
+    if free_only and flags.any():
+        return None
     ref = state["ref"]
     span_s = (seg.size - 1) * dt
     # the components: runs of modes closer than the window's resolution merged (ref is increasing)

@@ -114,7 +114,9 @@ class TrendBank:
     determined flags, (optional) stds that weigh the update and (optional) the windows' own stds that the
     gate tests against (module docstring); it returns the estimates carried to the window's end, their std,
     the converged flags and each mode's normalised innovation ν/√S (NaN where the mode was not updated or
-    not started), which a change detector reads. :meth:`restart` forgets a mode: it starts again at its
+    not started), which a change detector reads; ``level_only`` (per mode, optional): the mode's window, if the
+    gate takes it, updates the level only and leaves the rate (``gated_pencil``'s ``own_windows`` feed: a rate
+    from a few short windows would carry the level away). :meth:`restart` forgets a mode: it starts again at its
     next determined estimate.
     """
 
@@ -181,7 +183,8 @@ class TrendBank:
             kf.P = np.diag([kf.P[0, 0], var])
         self.hold_until[i] = t_end
 
-    def step(self, t_c: float, lead: float, z: np.ndarray, determined: np.ndarray, meas_std=None, gate_std=None):
+    def step(self, t_c: float, lead: float, z: np.ndarray, determined: np.ndarray, meas_std=None, gate_std=None,
+             level_only=None):
         out = np.full(self.m, np.nan)
         std = np.full(self.m, np.nan)
         nu_norm = np.full(self.m, np.nan)
@@ -244,7 +247,8 @@ class TrendBank:
                     s = kf.P[0, 0] + kf.R[0, 0]
                     nu_norm[i] = nu / np.sqrt(s)
                     if nu * nu / (kf.P[0, 0] + g_std ** 2) <= self.gate:
-                        if straddles and self.restart_rate == "freeze":
+                        if (straddles and self.restart_rate == "freeze") or (level_only is not None
+                                                                             and level_only[i]):
                             # a window that may straddle the change: a sample of the level, not of the rate
                             # (the ramp of such windows is the window sliding over a step, not a drift)
                             kf.P[0, 1] = kf.P[1, 0] = 0.0

@@ -8,6 +8,7 @@ estimates must sit on the true frequencies; the same windows through NExT-ERA (t
 
 import numpy as np
 import pytest
+import scipy.signal
 
 import methods
 from methods import pem
@@ -145,18 +146,18 @@ def test_close_pairs_counts_a_resolved_pair_and_never_a_dead_mode():
 
 def test_window_from_estimates_follows_the_resolved_modes_not_a_near_double_prior():
     # a prior whose modes 2 and 3 are 0.1 rad/s apart asks for the window's cap, 20 periods of its slowest mode
-    # (39 s); the record's modes are 1.76 rad/s apart, so once they are determined the rule at the estimates
-    # is five periods of the true slowest mode, 5 · 2π/3.23 = 9.73 s (pulses every 10 s: the long window's
-    # Hankel rows, an eighth of it, leave ≥ 2L pulse-free columns)
+    # (39 s); the record's modes are 1.76 rad/s apart (over twice the prior's 0.1), so once they are determined
+    # the window is five periods of the prior's slowest mode, 5 · 2π/3.3 = 9.52 s (pulses every 10 s: the long
+    # window's Hankel rows, an eighth of it, leave ≥ 2L pulse-free columns)
     n = 6000
     y = pulsed_decays(n, np.arange(150, n, 500), seed=6)
     prior = np.array([3.3, 20.9, 21.0, 55.0])
-    base = methods.track("gated_pencil", y, DT, prior)
-    tr = methods.track("gated_pencil", y, DT, prior, window_from_estimates=True)
+    base = methods.track("gated_pencil", y, DT, prior, window_from_estimates=False)
+    tr = methods.track("gated_pencil", y, DT, prior)
     cap = 20 * 2 * np.pi / prior[0]
     np.testing.assert_allclose(base.extra["window_span_s"], cap, rtol=0.01)
     late = tr.t_s > 60.0
-    np.testing.assert_allclose(tr.extra["window_span_s"][late], 5 * 2 * np.pi / FREQ[0], rtol=0.02)
+    np.testing.assert_allclose(tr.extra["window_span_s"][late], 5 * 2 * np.pi / prior[0], rtol=0.01)
     err = np.abs(tr.frequencies[late] / FREQ - 1)
     assert np.all(err < 0.005) and tr.converged[late].mean() > 0.9, (err.max(), tr.converged[late].mean())
     # causal: a window's length follows the windows before it only
@@ -228,3 +229,42 @@ def test_own_windows_follow_a_fast_mode_stepping_with_no_pulse_after_it():
     early = tr.t_s < step_at * DT
     assert np.all(np.abs(tr.frequencies[early] - base.frequencies[early]) <= 0.01 * TWO), "changed before the step"
     refused_in_one_line(prior, "own_windows")
+
+
+def test_window_from_estimates_only_for_a_prior_pair_the_estimates_put_twice_as_far_apart():
+    # the prior's window: two beats of its closest pair, 2 · 2π/0.5 = 25.13 s, over five periods of 3 rad/s
+    # (10.47 s); estimates 3 rad/s apart (≥ 2 × 0.5): five periods of the prior's slowest mode; 1.1 rad/s
+    # apart: two beats of them, 4π/1.1 = 11.42 s; 0.9 apart (under 2 × 0.5), or a mode never determined: the
+    # prior's window
+    prior = np.array([3.0, 20.0, 20.5, 60.0])
+    rule = _gated_pencil.estimates_window_s
+    every = np.ones(4, dtype=bool)
+    assert rule(prior, prior, every) == pytest.approx(4 * np.pi / 0.5)
+    assert rule(prior, np.array([3.0, 19.0, 22.0, 60.0]), every) == pytest.approx(5 * 2 * np.pi / 3.0)
+    assert rule(prior, np.array([3.0, 20.0, 21.1, 60.0]), every) == pytest.approx(4 * np.pi / 1.1)
+    assert rule(prior, np.array([3.0, 20.0, 20.9, 60.0]), every) == pytest.approx(4 * np.pi / 0.5)
+    undetermined = np.array([1, 1, 0, 1], dtype=bool)
+    assert rule(prior, np.array([3.0, 19.0, 22.0, 60.0]), undetermined) == pytest.approx(4 * np.pi / 0.5)
+    # a prior whose window is five periods of its slowest mode (one mode, or no close pair) keeps it, whatever
+    # the estimates (a slowest mode estimated 5 % higher does not shorten the window)
+    assert rule(np.array([3.0]), np.array([3.15]), np.ones(1, bool)) == pytest.approx(5 * 2 * np.pi / 3.0)
+    assert rule(np.array([3.0, 30.0]), np.array([3.15, 31.0]), np.ones(2, bool)) == pytest.approx(5 * 2 * np.pi / 3.0)
+
+
+def test_the_window_options_keep_the_default_track_under_a_continuing_force():
+    # the same near-double prior as above, the four modes driven by white noise (no pulse: nothing flagged in
+    # most windows); the estimates put modes 2 and 3 1.76 rad/s apart, but a forced response is averaged by
+    # the longer window and no ring dies away: with both options the track is the default's
+    rng = np.random.default_rng(11)
+    n = 6000
+    y = np.zeros(n)
+    for w in FREQ:
+        pole = np.exp((-0.005 * w + 1j * w * np.sqrt(1 - 0.005 ** 2)) * DT)
+        y += w * scipy.signal.lfilter([0.0, 1.0], np.real(np.poly([pole, np.conj(pole)])), rng.standard_normal(n))
+    y += 0.01 * np.std(y) * rng.standard_normal(n)
+    prior = np.array([3.3, 20.9, 21.0, 55.0])
+    base = methods.track("gated_pencil", y, DT, prior, window_from_estimates=False)
+    tr = methods.track("gated_pencil", y, DT, prior, own_windows=True)
+    assert base.converged.all(axis=1).mean() > 0.5
+    np.testing.assert_array_equal(tr.extra["window_span_s"], base.extra["window_span_s"])
+    np.testing.assert_array_equal(tr.frequencies, base.frequencies)

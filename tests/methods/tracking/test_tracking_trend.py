@@ -297,3 +297,25 @@ def test_gated_pencil_trend_memory_sets_the_rate_noise_from_the_window_and_scale
     with pytest.raises(ValueError) as err:
         methods.check_track_options("gated_pencil", prior, 0.1, {"trend_memory": 0})
     assert "trend_memory = 0" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_level_only_windows_move_the_level_and_leave_the_rate():
+    # a drift of 0.1 %/s learnt over 60 windows, then windows 0.2 % above the line: marked level_only they
+    # move the level towards them and leave the rate exactly as learnt; unmarked they also teach a rate
+    n = 80
+    t_end = _ends(n)
+    t_c = t_end - LEAD
+    z = 20.0 * (1 + 0.001 * t_c)
+    z[60:] *= 1.002
+    out = {}
+    for level_only in (True, False):
+        bank = _trend.TrendBank(1, **_bank_opts())
+        rates = []
+        for j in range(n):
+            bank.step(t_c[j], LEAD, z[j:j + 1], np.ones(1, bool), level_only=np.array([level_only and j >= 60]))
+            rates.append(bank.kf[0].x[1])
+        out[level_only] = (np.asarray(rates), bank.kf[0].x[0])
+    rates, level = out[True]
+    assert np.all(rates[60:] == rates[59])
+    assert abs(level / (20.0 * (1 + 0.001 * t_c[-1]) * 1.002) - 1) < 5e-4
+    assert not np.all(out[False][0][60:] == rates[59])
