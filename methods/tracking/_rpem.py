@@ -27,7 +27,9 @@ over the window is a tenth of their start's scale. ``frequency_model="trend"`` a
 (ω̇ᵢ's prior 0 ± rate·ω̄ᵢ, its walk (rate·ω̄ᵢ)²/``trend_horizon_s`` per s, as ``akf_ambient``'s ``trend``);
 ψ's entries for ω̇ are 0 (x̂ does not depend on the rate within a step), so the rate learns through P.
 
-Start, restarts, pulses: as ``akf_ambient`` — the first window's periodogram gives the starting ω (its peaks),
+Start, restarts, pulses: as ``akf_ambient`` — the first window's periodogram gives the starting ω (its peaks,
+each with 1σ max(1 % ω, a quarter of the window's resolution 2π/T), as ``akf_ambient``'s start: five periods of
+the slowest mode resolve a fifth of its ω, and its first peak is 3–12 % off on the benchmark's records),
 q and r, from which K starts at the steady Kalman gain of the diagonal-force model
 (``scipy.linalg.solve_discrete_are``) and the predictor is run over that window to start x̂; every hop the
 periodogram's peaks are compared with ω̂ and a mode that disagrees ``restart_after`` times in a row restarts
@@ -157,6 +159,10 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: trend_horizon_s = {h!r} must be None or at least one sample ({dt} s)")
     return opts
 
+
+# The starting 1σ of each ω, as a share of the first window's Fourier resolution (``akf_ambient``'s start and
+# restarts, :func:`methods.tracking._ambient._restart`).
+START_RESOLUTION_SHARE = 0.25
 
 _H = 1e-20      # the complex step in ζ: f(ζ + ih) = f(ζ) + ih f'(ζ) + O(h²), exact to rounding at this h
 
@@ -409,7 +415,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         K0 = np.zeros(2 * m)
     theta = np.concatenate([w0, z0 if est_z else [], K0 / kscale, np.zeros(ia.size)])
     P = np.zeros((p, p))
-    P[iw, iw] = (0.01 * w0) ** 2
+    # the first window's peak is as uncertain as akf_ambient's start says: 1σ max(1 % ω, resolution/4), the
+    # window's Fourier resolution 2π/T (a fifth of the slowest mode's ω at five of its periods)
+    P[iw, iw] = np.maximum(0.01 * w0, START_RESOLUTION_SHARE * 2 * math.pi / (W_len * dt)) ** 2
     if est_z:
         P[iz, iz] = (0.5 * z0) ** 2
     P[ik, ik] = np.maximum(0.3 * np.abs(theta[ik]), 0.05) ** 2
