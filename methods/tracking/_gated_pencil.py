@@ -595,6 +595,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         message += f"; {len(restart_at)} change-detector restarts of the window"
     if opts.own_windows:
         extra["own_window_changes"] = np.asarray(state["own_changes"], dtype=int).reshape(-1, 2)
+        extra["own_fits_skipped"] = state["own_screened"]
         message += (f"; {len(state['own_changes'])} changes on the modes' own windows "
                     f"({state['own_screened']} short fits skipped at the pencil's pole)")
     if not opts.trend:
