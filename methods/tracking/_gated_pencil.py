@@ -82,30 +82,29 @@ continuing force (a white body force: nothing flagged in 86–100 % of the windo
 response, which the prior's longer window averages, the estimates of a pair wander (a shorter window there
 never converged), and no ring dies away (a short window's "change" is the force).
 
-**A mode's own window** (``own_windows``, an option, off by default: +30–45 % CPU per sample on the thruster
-cells): the window is sized for the slowest mode (five of its
-periods, ~90 periods of a mode 18 times faster), so after a step with no pulse after it a fast mode's ring
-dies away (decay time 1/(ζω)) inside windows whose older part, before the step, dominates: they hold its old
-frequency, then determine nothing until the next pulse. Each mode i whose own window — the window rule for it
-alone, max(five of its periods, two beats of its nearest neighbour (capped at 20 of its periods)), never
-shorter than the model's minimum (:func:`own_window_samples`) — is at most half the window, and whose decay
-time 1/(ζω) at its last estimates is under half the window span, is also fitted on the most recent window of
-that length (:func:`_own_estimate`: the gated pencil for the start, the segment fit on the short window's
-pulse-free runs). Where the short window is one free decay (no pulse flagged in it, by its own detector or by
-the long windows': where a pulse follows the change the long window sees it, and a short run between pulses
-biases the short fit beyond its std) and its estimate lies more than ``OWN_CHANGE_STD`` (3) combined std from
-the trend stage's last output (carried by its rate: a drift is not read as a change; the long window's estimate
-before the trend has one), the mode has changed: its level in the trend stage is re-set there (its rate kept,
-as after a gap: a rate fitted to a few short windows would carry the level away once the ring has died), and
-it is fed from its own window until the long window's start has passed the change (W samples later) — the level
-only, the rate kept (``TrendBank.step``'s ``level_only``) — and the first long window that determines the mode
-after that re-sets its level (fed short windows, the trend stage would follow the long ones only over its
-memory, learning the lag as a rate: 0.1 % off for tens of seconds). Where the mode is only watched for a
-change, the segment fit is skipped when the short window's gated-pencil pole (its start) lies within
-``OWN_SCREEN_STD`` (1) combined std of the trend's last output — the std of the mode's last short fit and the
-trend's: a change needs the fit ``OWN_CHANGE_STD`` (3) std away, and a fit moves its start by well under two
-(the tracks identical on every record measured; the option's extra CPU on the thruster benchmark about a
-third). Causal: both windows end at the present sample.
+**A mode's own window** (``own_windows``, an option, off by default: its error rises more than 10 % on 8 of 40
+design replicates of its own cell, a level offset after a change and false changes on weak rings): the window is
+sized for the slowest mode (five of its periods, ~90 periods of a mode 18 times faster), so after a step with no
+pulse after it a fast mode's ring dies away (decay time 1/(ζω)) inside windows whose older part, before the step,
+dominates: they hold its old frequency, then determine nothing until the next pulse. Each mode i whose own window —
+the window rule for it alone, max(five of its periods, two beats of its nearest neighbour (capped at 20 of its
+periods)), never shorter than the model's minimum (:func:`own_window_samples`) — is at most half the window, and
+whose decay time 1/(ζω) at its last estimates is under half the window span, is also fitted on the most recent
+window of that length (:func:`_own_estimate`: the gated pencil for the start, the segment fit on the short window's
+pulse-free runs). Where the short window is one free decay (no pulse flagged in it, by its own detector or by the
+long windows': where a pulse follows the change the long window sees it, and a short run between pulses biases the
+short fit beyond its std) and its estimate lies more than ``OWN_CHANGE_STD`` (3) combined std from the trend
+stage's last output (carried by its rate: a drift is not read as a change; the long window's estimate before the
+trend has one), the mode has changed: its level in the trend stage is re-set there (its rate kept, as after a gap:
+a rate fitted to a few short windows would carry the level away once the ring has died), and it is fed from its own
+window until the long window's start has passed the change (W samples later) — the level only, the rate kept
+(``TrendBank.step``'s ``level_only``) — and the first long window that determines the mode after that re-sets its
+level (fed short windows, the trend stage would follow the long ones only over its memory, learning the lag as a
+rate: 0.1 % off for tens of seconds). Where the mode is only watched for a change, the segment fit is skipped when
+the short window's gated-pencil pole (its start) lies within ``OWN_SCREEN_STD`` (1) combined std of the trend's
+last output — the std of the mode's last short fit and the trend's: a change needs the fit ``OWN_CHANGE_STD`` (3)
+std away, and a fit moves its start by well under two (the tracks identical on every record measured; the option's
+extra CPU per sample on the thruster benchmark +49 % → +3–12 %). Causal: both windows end at the present sample.
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
