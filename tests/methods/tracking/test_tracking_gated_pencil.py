@@ -231,6 +231,21 @@ def test_own_windows_follow_a_fast_mode_stepping_with_no_pulse_after_it():
     refused_in_one_line(prior, "own_windows")
 
 
+def test_own_windows_skip_a_watched_fit_at_the_pencils_pole_and_keep_the_track(monkeypatch):
+    # the short fits skipped where the pencil's pole lies within one combined std of the trend: a change needs
+    # three, so every decision and the track are those of the option fitting every short window
+    n, step_at, step = 3500, 1850, 0.08
+    y, w = stepped_two_modes(n, np.array([100, 600, 1100, 1600]), step_at, step, seed=8)
+    prior = TWO * np.array([1.03, 0.97])
+    tr = methods.track("gated_pencil", y, DT, prior, own_windows=True)
+    monkeypatch.setattr(_gated_pencil, "OWN_SCREEN_STD", None)
+    every = methods.track("gated_pencil", y, DT, prior, own_windows=True)
+    assert tr.extra["own_fits_skipped"] > 0 == every.extra["own_fits_skipped"]
+    np.testing.assert_array_equal(tr.extra["own_window_changes"], every.extra["own_window_changes"])
+    np.testing.assert_array_equal(np.isnan(tr.frequencies), np.isnan(every.frequencies))
+    np.testing.assert_allclose(tr.frequencies, every.frequencies, rtol=1e-6)
+
+
 def test_window_from_estimates_only_for_a_prior_pair_the_estimates_put_twice_as_far_apart():
     # the prior's window: two beats of its closest pair, 2 · 2π/0.5 = 25.13 s, over five periods of 3 rad/s
     # (10.47 s); estimates 3 rad/s apart (≥ 2 × 0.5): five periods of the prior's slowest mode; 1.1 rad/s
