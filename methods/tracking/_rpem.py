@@ -134,7 +134,8 @@ class Options(_ambient.SharedOptions):
         toward a neighbour (the geometric midpoint of the two estimates) takes the largest other local maximum
         between the neighbour's peak and its far edge (:func:`methods.tracking._ambient._pair_edge_peaks`),
         instead of no peak. After a step of a close pair the stepped mode's new peak can lie beyond that
-        midpoint, and the mode would not restart until its walk had carried it there.
+        midpoint, and the mode would not restart until its walk had carried it there. Measured with
+        ``recursions="two"``; with one recursion it loses on the drifts (docs/measured/tracking.md).
     """
 
     estimate_damping: bool = True
