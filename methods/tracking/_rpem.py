@@ -36,7 +36,10 @@ periodogram's peaks are compared with ω̂ and a mode that disagrees ``restart_a
 at the peak; a sample whose e²/S exceeds ``pulse_gate`` does not update θ. With the rate (``"trend"``) the
 peak, the frequency about the window's middle, is compared with ω̂ − ω̇ (W − 1)Δt/2, beyond ``akf_ambient``'s
 floor (the window's resolution), so that a drift the filter follows is no disagreement; a restart resets the
-mode's rate.
+mode's rate. With ``pair_peaks`` a mode whose band's maximum lies on its edge toward a neighbour takes the
+largest other local maximum between the neighbour's peak and its far edge (the peaks of a close pair assigned
+together), so that a stepped mode of the pair whose new peak lies beyond the midpoint of the two estimates
+can still disagree and restart.
 
 Two memories (``recursions="two"``, with the rate). A walk of ω over a horizon is a memory of that horizon: it lags
 a drift less than a window does, but it forgets; a constant rate (ω's walk over one sample, Δt, and no walk
@@ -126,6 +129,13 @@ class Options(_ambient.SharedOptions):
         whole-record recursion's score of its ω over the last window, Σψᵢe/S over √(Σψᵢ²/S), is beyond
         ``reset_gate`` σ and points toward the window recursion's ω̂ᵢ' (a mode that creeps after a step), and a
         reset mode's rate starts again at 0 ± the stated rate (module docstring).
+    pair_peaks : bool
+        The looks assign a close pair's peaks together: a mode whose search band's maximum lies on its edge
+        toward a neighbour (the geometric midpoint of the two estimates) takes the largest other local maximum
+        between the neighbour's peak and its far edge (:func:`methods.tracking._ambient._pair_edge_peaks`),
+        instead of no peak. After a step of a close pair the stepped mode's new peak can lie beyond that
+        midpoint, and the mode would not restart until its walk had carried it there. Measured with
+        ``recursions="two"``; with one recursion it loses on the drifts (docs/measured/tracking.md).
     """
 
     estimate_damping: bool = True
@@ -134,6 +144,7 @@ class Options(_ambient.SharedOptions):
     recursions: str = "one"
     reset_gate: float = 3.0
     score_reset: bool = False
+    pair_peaks: bool = False
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -147,6 +158,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: recursions = {opts.recursions!r} must be 'one' or 'two'")
     if not isinstance(opts.score_reset, bool):
         raise ValueError(f"{name}: score_reset = {opts.score_reset!r} must be true or false")
+    if not isinstance(opts.pair_peaks, bool):
+        raise ValueError(f"{name}: pair_peaks = {opts.pair_peaks!r} must be true or false")
     if opts.score_reset and opts.recursions != "two":
         raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
@@ -485,7 +498,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             unstable = _unstable(unpack(theta), dt)
             ref = theta[iw].copy()
             peak, r_f, v_f, _ = _ambient.periodogram_look(y[k + 1 - W_len:k + 1], dt, ref, opts.band,
-                                                          opts.damping_ratio)
+                                                          opts.damping_ratio, pair_edges=opts.pair_peaks)
             seen_now = np.isfinite(peak) & _ambient.visible(v_f, r_f, ref, opts.band, dt)
             # the peak is the window's frequency, about its middle: with a rate in θ, ω̂ is carried back there
             # (ω̂ − ω̇ (W − 1)Δt/2), so that a drift it follows is no disagreement

@@ -41,6 +41,7 @@ BAD = [
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "reset_gate": 0.0}, "reset_gate = 0.0"),
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "score_reset": "yes"}, "score_reset = 'yes'"),
     ("rpem_ambient", {"score_reset": True}, "score_reset = true needs recursions = 'two'"),
+    ("rpem_ambient", {"pair_peaks": 1}, "pair_peaks = 1"),
 ]
 
 
@@ -88,6 +89,28 @@ def test_periodogram_floor_is_the_white_noise_variance():
     _, r, var, _ = _ambient.periodogram_look(sigma * rng.standard_normal(4096), DT, np.array(PRIOR), 0.3, 0.005)
     assert 0.9 * sigma**2 < r < 1.1 * sigma**2
     assert np.all(var < 0.2 * sigma**2 * 4096 * DT)
+
+
+@pytest.mark.parametrize("true_pair, ref_pair", [((18.8, 20.3), (18.8, 22.2)), ((20.0, 21.6), (18.0, 21.6))])
+def test_pair_peaks_assign_a_stepped_mode_beyond_the_midpoint(true_pair, ref_pair):
+    """Two sinusoids of a close pair (2.3 Fourier bins apart in a 9.8 s window), one of them beyond the
+    geometric midpoint of the estimates (the first: mode 3 stepped down under mode 2's band; the second:
+    mode 2 stepped up into mode 3's): its band's maximum lies on the edge, so the plain look finds no peak;
+    with ``pair_edges`` it finds the sinusoid's frequency within a quarter of the resolution 2π/T, and the
+    other mode's peak is unchanged."""
+    n = int(round(9.8 / DT))
+    t = np.arange(n) * DT
+    w2, w3 = true_pair
+    y = 2.0 * np.sin(w2 * t) + np.sin(w3 * t + 0.7) if ref_pair[0] == w2 else np.sin(w2 * t) + 2.0 * np.sin(w3 * t)
+    y = y + 0.01 * np.random.default_rng(3).standard_normal(n)
+    ref = np.array([3.2, *ref_pair, 55.0])
+    plain, *_ = _ambient.periodogram_look(y, DT, ref, 0.3, 0.005)
+    paired, *_ = _ambient.periodogram_look(y, DT, ref, 0.3, 0.005, pair_edges=True)
+    moved = 2 if ref_pair[0] == w2 else 1          # the mode whose new peak lies beyond the midpoint
+    assert np.isnan(plain[moved])
+    assert abs(paired[moved] - true_pair[moved - 1]) < 0.25 * 2 * np.pi / (n * DT)
+    assert paired[3 - moved] == plain[3 - moved]
+    assert abs(plain[3 - moved] - true_pair[2 - moved]) < 0.25 * 2 * np.pi / (n * DT)
 
 
 @pytest.fixture(scope="module")

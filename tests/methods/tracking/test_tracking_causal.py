@@ -27,14 +27,16 @@ DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory",
             "gated_pencil+freeze", "gated_pencil+window", "gated_pencil+own"]
 # akf_ambient's rate state, its shared modulation and its single-force fit with a memory of looks (the
 # forgetting sum); rpem_ambient's rate in θ (its per-hop CasADi runs hand the state over between looks) and its
-# two memories
+# two memories (and their close pair's peaks assigned together)
 AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "akf_ambient+single": {"force_model": "single", "fit_memory_looks": 30},
            # the shared modulation, its band shortened so that its looks at the tracks' history run before K
            "akf_ambient+slosh": {"frequency_model": "slosh", "slosh_periods": (0.5, 3.0)},
            "rpem_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+two": {"frequency_model": "trend", "recursions": "two"},
-           "rpem_ambient+score": {"frequency_model": "trend", "recursions": "two", "score_reset": True}}
+           "rpem_ambient+score": {"frequency_model": "trend", "recursions": "two", "score_reset": True},
+           "rpem_ambient+pairs": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                  "pair_peaks": True}}
 
 
 def _options(name):
