@@ -28,7 +28,10 @@ METHOD_STYLE = {"fft": ("tab:gray", "o"), "akf": ("tab:blue", "s"), "wkf": ("tab
                 "bopdmd": ("navy", "p"),
                 # the trackers that are not also identifiers (methods/tracking/README.md)
                 "rls_ar": ("maroon", "H"), "next_era": ("teal", "d"), "gated_pencil": ("black", "8"),
-                "akf_ambient": ("darkblue", "s"), "rpem_ambient": ("firebrick", "H")}
+                "akf_ambient": ("darkblue", "s"), "rpem_ambient": ("firebrick", "H"),
+                # variants that are a recommendation of their own get a hue of their own, not a shade of their
+                # base's (a darker firebrick is rls_ar's maroon; a darker darkblue, bopdmd's navy)
+                "rpem_ambient:two": ("magenta", "H"), "akf_ambient:slosh": ("darkgoldenrod", "s")}
 # Any other method (a plugin) gets a colour from this list by a hash of its name, and the marker x.
 EXTRA_COLOURS = ["darkgreen", "teal", "maroon", "indigo", "darkorange", "slategray", "crimson", "olive"]
 MAX_FAILURE_RATE = 0.5   # a (method, cell) that failed more often than this is not drawn as a point
@@ -54,6 +57,8 @@ VARIANT_SHADES = {"paper": 0.55, "tuned": 1.0}
 
 
 def _style(method):
+    if method in METHOD_STYLE:
+        return METHOD_STYLE[method]
     base, _, variant = method.partition(":")
     color, marker = METHOD_STYLE.get(base, (EXTRA_COLOURS[zlib.crc32(base.encode()) % len(EXTRA_COLOURS)], "x"))
     if not variant:

@@ -85,26 +85,57 @@ BOUND_STYLES = {"unknown-force bound": {"color": "0.55", "ls": "-", "lw": 1.2},
 SHADED_BOUND = "unknown-force bound"      # drawn as a grey floor: no tracker can be expected below it
 
 
+BOLD = 3                        # error_vs_time: the panel's most accurate trackers drawn bold
+BASELINE = "next_era"           # and the naive baseline
+
+
+def _best(curves: dict[str, tuple[np.ndarray, np.ndarray]], k: int) -> list[str]:
+    """The ``k`` names whose curve (t, error) has the smallest median over the second half of its time span."""
+    def late(item):
+        t, curve = item[1]
+        with warnings.catch_warnings(action="ignore", category=RuntimeWarning):
+            v = np.nanmedian(curve[t >= 0.5 * (t[0] + t[-1])]) if t.size else np.nan
+        return v if np.isfinite(v) else np.inf
+    return [name for name, _ in sorted(curves.items(), key=late)[:k]]
+
+
+def _legend_line(line):
+    """A legend entry in the line's colour and style, at full strength (the faint lines' alpha left out)."""
+    return matplotlib.lines.Line2D([], [], color=line.get_color(), ls=line.get_linestyle(), lw=1.4)
+
+
 def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], stem: Path,
                   bounds: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]] | None = None) -> list[Path]:
     """Relative error against time, one panel per schedule, one line per tracker (median over replicates
     and modes). ``panels``: title -> tracker -> (t_s, rel_err (R, K, m)); ``bounds``: title -> label
     (``BOUND_STYLES``) -> (t_s, bound std / ω (R, N, m)), drawn as the median over replicates and modes,
-    scaled by 0.67 (the median of |error| of an efficient tracker: the half-normal's)."""
+    scaled by 0.67 (the median of |error| of an efficient tracker: the half-normal's).
+
+    Twenty trackers' lines cannot all be read: in each panel the ``BOLD`` trackers with the smallest median
+    error over the record's second half, and the naive baseline ``BASELINE``, are drawn bold on top, the
+    others thin and faint; the legend sits beside the panels, one entry per tracker."""
     titles = list(panels)
     ncols = min(2, len(titles))
     nrows = -(-len(titles) // ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(6.2 * ncols, 3.4 * nrows), squeeze=False, layout="constrained")
+    handles: dict[str, object] = {}
     for ax, title in zip(axes.flat, titles, strict=False):
+        curves = {}
         for name, (t, rel) in panels[title].items():
             with warnings.catch_warnings(action="ignore", category=RuntimeWarning):
-                curve = np.nanmedian(np.nanmedian(rel, axis=2), axis=0)
+                curves[name] = (t, np.nanmedian(np.nanmedian(rel, axis=2), axis=0))
+        bold = set(_best(curves, BOLD)) | ({BASELINE} & set(curves))
+        for name, (t, curve) in curves.items():
             color, _ = _style(name)
-            ax.plot(t, np.clip(curve, 1e-6, None), color=color, lw=1.0, label=name)
+            strong = name in bold
+            line, = ax.plot(t, np.clip(curve, 1e-6, None), color=color, lw=1.6 if strong else 0.6,
+                            alpha=1.0 if strong else 0.35, zorder=3 if strong else 2, label=name)
+            handles.setdefault(name, line)
         shade = None
         for label, (t, rel) in (bounds or {}).get(title, {}).items():
             curve = np.clip(HALF_NORMAL_MEDIAN * np.median(np.median(rel, axis=2), axis=0), 1e-6, None)
-            ax.plot(t, curve, label=f"{label} (×0.67)", zorder=1, **BOUND_STYLES[label])
+            line, = ax.plot(t, curve, label=f"{label} (×0.67)", zorder=1, **BOUND_STYLES[label])
+            handles.setdefault(f"{label} (×0.67)", line)
             if label == SHADED_BOUND:
                 shade = (t, curve)
         ax.axhline(0.01, color="k", ls="--", lw=0.8)
@@ -121,10 +152,13 @@ def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], s
         ax.grid(True, which="major", alpha=0.3)
     for ax in axes.flat[len(titles):]:
         ax.set_axis_off()
-    axes.flat[0].legend(fontsize=7, ncol=2)
-    fig.suptitle("Tracking error against time (median over replicates and modes; dashed: 1 %; grey floor: the "
-                 "bound that does not know the force, dotted: the genie's)" if bounds else
-                 "Tracking error against time (median over replicates and modes; dashed: 1 %)", fontsize=10, wrap=True)
+    fig.legend([_legend_line(h) for h in handles.values()], list(handles), fontsize=7, loc="outside right center",
+               ncol=1 if len(handles) <= 18 else 2)
+    bold_note = f"bold: each panel's {BOLD} most accurate over its second half and {BASELINE}"
+    fig.suptitle(f"Tracking error against time (median over replicates and modes; dashed: 1 %; {bold_note}; grey "
+                 "floor: the bound that does not know the force, dotted: the genie's)" if bounds else
+                 f"Tracking error against time (median over replicates and modes; dashed: 1 %; {bold_note})",
+                 fontsize=10, wrap=True)
     return _save(fig, stem)
 
 
