@@ -153,6 +153,18 @@ def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarra
     return min(span, max(base, beats))
 
 
+def pair_capped(prior) -> bool:
+    """``capped_rows``: whether the prior's closest pair asks for more than the window rule's cap — two beats
+    (``GAP_CYCLES``) of it over ``GAP_CAP_PERIODS`` periods of the slowest mode, a pair closer than a tenth of
+    the slowest frequency — so that the window is at the cap and does not resolve the pair."""
+    prior = np.sort(np.asarray(prior, dtype=float))
+    if prior.size < 2:
+        return False
+    gap = float(np.min(np.diff(prior)))
+    beats = _defaults.GAP_CYCLES * 2.0 * np.pi / gap if gap > 0 else np.inf
+    return beats > _defaults.GAP_CAP_PERIODS * _defaults.slowest_period_s(prior)
+
+
 def own_window_samples(ref: np.ndarray, dt: float, minimum: int) -> np.ndarray:
     """Each mode's own window in samples: the window rule (:func:`methods.tracking._defaults.window_s`) for
     that mode alone — max(``PERIODS`` of its periods, ``GAP_CYCLES`` beats of its nearest neighbour capped at
@@ -226,6 +238,7 @@ class Options:
     memory: bool = _memory.DEFAULTS["memory"]
     window_from_estimates: bool = True
     own_windows: bool = False
+    capped_rows: bool = True
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
 
@@ -271,7 +284,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
     for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows",
-                "shrink_rows"):
+                "shrink_rows", "capped_rows"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -494,6 +507,11 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     # the user gives is kept)
     adapt = opts.window_from_estimates and given.window_samples is None and given.window_s is None
     w_low = _defaults.min_window_samples(m, order)
+    # capped_rows: the window is at its cap for a pair it cannot resolve; on a pulsed record the rows start at
+    # the five-period window's (shrink_sizes' floor) and grow where the pulse-free columns allow (widest_rows)
+    capped_rows = (min(opts.rows, shrink_sizes(prior, dt, order)[0])
+                   if (opts.capped_rows and given.rows is None and given.window_samples is None
+                       and given.window_s is None and pair_capped(prior)) else None)
     memory_rate = (opts.trend_memory is not None and given.trend_rate_noise is None
                    and isinstance(opts.trend_meas_rel, (int, float)))
     nyquist = np.pi / dt
@@ -535,6 +553,8 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         n_j = e - a + 1
         span[j] = (n_j - 1) * dt
         full = (opts.rows, opts.ar_order, opts.min_segment) if Wj == W else _shorter(Wj, m, order, opts)
+        if capped_rows is not None and pulsed:
+            full = (min(full[0], capped_rows), *full[1:])
         if n_j == Wj:
             fresh[:] = False
         if n_j == Wj or (n_j >= w_restart and not fresh.any()):
