@@ -507,8 +507,9 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     # the user gives is kept)
     adapt = opts.window_from_estimates and given.window_samples is None and given.window_s is None
     w_low = _defaults.min_window_samples(m, order)
-    # capped_rows: the window is at its cap for a pair it cannot resolve; on a pulsed record the rows start at
-    # the five-period window's (shrink_sizes' floor) and grow where the pulse-free columns allow (widest_rows)
+    # capped_rows: the window is at its cap for a pair it cannot resolve; in a window where the pulse detector's
+    # flags leave fewer than 2L columns the rows start at the five-period window's (shrink_sizes' floor) and
+    # grow where the pulse-free columns allow (widest_rows; _window)
     capped_rows = (min(opts.rows, shrink_sizes(prior, dt, order)[0])
                    if (opts.capped_rows and given.rows is None and given.window_samples is None
                        and given.window_s is None and pair_capped(prior)) else None)
@@ -523,7 +524,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
              "rows_free": given.rows is None, "shrink": shrink_sizes(prior, dt, order),
              "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": [],
-             "own_std": np.full(m, np.nan), "own_screened": 0}
+             "own_std": np.full(m, np.nan), "own_screened": 0, "capped_rows": capped_rows}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
             if (opts.trend or opts.memory) else None)
@@ -553,8 +554,6 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         n_j = e - a + 1
         span[j] = (n_j - 1) * dt
         full = (opts.rows, opts.ar_order, opts.min_segment) if Wj == W else _shorter(Wj, m, order, opts)
-        if capped_rows is not None and pulsed:
-            full = (min(full[0], capped_rows), *full[1:])
         if n_j == Wj:
             fresh[:] = False
         if n_j == Wj or (n_j >= w_restart and not fresh.any()):
@@ -777,6 +776,12 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         state["kicks"].update((start + np.flatnonzero(flags)).tolist())
     state["flags"] = flags
     if state["rows_free"]:
+        if (state["capped_rows"] is not None
+                and _free_columns(np.concatenate(([0], np.cumsum(pulses))), seg.size, rows) < 2 * rows):
+            # capped_rows: the pulse detector's own flags leave fewer than 2L columns of the rule's rows (as
+            # shrink_rows' first condition; under a white force they leave plenty): the rows start at the
+            # five-period window's and grow where the columns allow
+            rows = min(rows, state["capped_rows"])
         rows = widest_rows(flags, rows)
         if opts.shrink_rows:
             rows = shrunk_rows(flags, pulses, rows, *state["shrink"], ar_order)

@@ -75,10 +75,14 @@ def test_shrink_rows_does_not_fire_under_a_white_force():
     n = 6000
     for seed in (1, 2):
         y = white_forced(n, seed)
-        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=False)
         tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE)
-        np.testing.assert_array_equal(tr.frequencies, base.frequencies)
-        np.testing.assert_array_equal(tr.converged, base.converged)
+        # neither rows rule fires (capped_rows: no pulse flagged), also with the prior's pair 0.3 % apart
+        for prior, off in ((NEAR_DOUBLE, {"shrink_rows": False}), (NEAR_DOUBLE, {"capped_rows": False}),
+                           (np.array([3.3, 20.9, 20.96, 55.0]), {"shrink_rows": False, "capped_rows": False})):
+            base = methods.track("gated_pencil", y, DT, prior, **off)
+            got = tr if prior is NEAR_DOUBLE else methods.track("gated_pencil", y, DT, prior)
+            np.testing.assert_array_equal(got.frequencies, base.frequencies)
+            np.testing.assert_array_equal(got.converged, base.converged)
 
 
 def test_the_rows_shrink_for_isolated_pulses_only_never_under_the_floor():
