@@ -26,7 +26,10 @@ What. On each window of W samples (every H samples):
    (their mean pulse-free run at least two slowest periods, the shortest window trusted after a restart): a
    window made long for a close pair of the prior under pulses a few periods apart then determines its modes
    (:func:`shrunk_rows`; under a white force the kick test's splits, not the detector, leave the columns
-   short: the rule is silent).
+   short: the rule is silent). With ``capped_rows`` (on by default), where the prior's closest pair asks for
+   more than the window's cap (:func:`pair_capped`: a pair the capped window does not resolve, so rows scaled
+   from it buy no resolution) and the detector's flags leave fewer than 2L columns, L starts at the
+   five-period window's rows and grows from there (pulses too close for ``shrink_rows`` left no columns).
 3. **Modes**: the poles with ω_d > 0 and damping in [−0.02, ``max_damping``] are assigned to the modes by
    ``linear_sum_assignment`` on |log ω − log ω_ref| within ``band``, ω_ref the last estimate of each mode
    (the prior at first); a mode without a pole in its band is not determined in that window.
@@ -197,7 +200,9 @@ class Options:
     segment stay the prior's, scaled down with the window (a window the user gives is kept).
     ``shrink_rows`` (on by default): L also shrinks, down to the five-period window's rows (5/8 of the
     slowest period), to the most that leave 2L columns where the pulse detector's isolated pulses (mean run ≥
-    two slowest periods) leave fewer (:func:`shrunk_rows`).
+    two slowest periods) leave fewer (:func:`shrunk_rows`). ``capped_rows`` (on by default): where the prior's
+    pair asks for more than the capped window (:func:`pair_capped`) and the detector's flags leave fewer than
+    2L columns, L starts at the five-period window's rows and grows where the columns allow.
     ``own_windows`` (off by default: its CPU): each mode whose ring dies within half the window and whose own window
     (:func:`own_window_samples`) is at most half the window is also fitted on that most recent short window; a
     pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
