@@ -26,7 +26,10 @@ What. On each window of W samples (every H samples):
    (their mean pulse-free run at least two slowest periods, the shortest window trusted after a restart): a
    window made long for a close pair of the prior under pulses a few periods apart then determines its modes
    (:func:`shrunk_rows`; under a white force the kick test's splits, not the detector, leave the columns
-   short: the rule is silent).
+   short: the rule is silent). With ``capped_rows`` (on by default), where the prior's closest pair asks for
+   more than the window's cap (:func:`pair_capped`: a pair the capped window does not resolve, so rows scaled
+   from it buy no resolution) and the detector's flags leave fewer than 2L columns, L starts at the
+   five-period window's rows and grows from there (pulses too close for ``shrink_rows`` left no columns).
 3. **Modes**: the poles with ω_d > 0 and damping in [−0.02, ``max_damping``] are assigned to the modes by
    ``linear_sum_assignment`` on |log ω − log ω_ref| within ``band``, ω_ref the last estimate of each mode
    (the prior at first); a mode without a pole in its band is not determined in that window.
@@ -153,6 +156,18 @@ def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarra
     return min(span, max(base, beats))
 
 
+def pair_capped(prior) -> bool:
+    """``capped_rows``: whether the prior's closest pair asks for more than the window rule's cap — two beats
+    (``GAP_CYCLES``) of it over ``GAP_CAP_PERIODS`` periods of the slowest mode, a pair closer than a tenth of
+    the slowest frequency — so that the window is at the cap and does not resolve the pair."""
+    prior = np.sort(np.asarray(prior, dtype=float))
+    if prior.size < 2:
+        return False
+    gap = float(np.min(np.diff(prior)))
+    beats = _defaults.GAP_CYCLES * 2.0 * np.pi / gap if gap > 0 else np.inf
+    return beats > _defaults.GAP_CAP_PERIODS * _defaults.slowest_period_s(prior)
+
+
 def own_window_samples(ref: np.ndarray, dt: float, minimum: int) -> np.ndarray:
     """Each mode's own window in samples: the window rule (:func:`methods.tracking._defaults.window_s`) for
     that mode alone — max(``PERIODS`` of its periods, ``GAP_CYCLES`` beats of its nearest neighbour capped at
@@ -185,7 +200,9 @@ class Options:
     segment stay the prior's, scaled down with the window (a window the user gives is kept).
     ``shrink_rows`` (on by default): L also shrinks, down to the five-period window's rows (5/8 of the
     slowest period), to the most that leave 2L columns where the pulse detector's isolated pulses (mean run ≥
-    two slowest periods) leave fewer (:func:`shrunk_rows`).
+    two slowest periods) leave fewer (:func:`shrunk_rows`). ``capped_rows`` (on by default): where the prior's
+    pair asks for more than the capped window (:func:`pair_capped`) and the detector's flags leave fewer than
+    2L columns, L starts at the five-period window's rows and grows where the columns allow.
     ``own_windows`` (off by default: its CPU): each mode whose ring dies within half the window and whose own window
     (:func:`own_window_samples`) is at most half the window is also fitted on that most recent short window; a
     pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
@@ -226,6 +243,7 @@ class Options:
     memory: bool = _memory.DEFAULTS["memory"]
     window_from_estimates: bool = True
     own_windows: bool = False
+    capped_rows: bool = True
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
 
@@ -271,7 +289,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
     for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows",
-                "shrink_rows"):
+                "shrink_rows", "capped_rows"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -494,6 +512,12 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     # the user gives is kept)
     adapt = opts.window_from_estimates and given.window_samples is None and given.window_s is None
     w_low = _defaults.min_window_samples(m, order)
+    # capped_rows: the window is at its cap for a pair it cannot resolve; in a window where the pulse detector's
+    # flags leave fewer than 2L columns the rows start at the five-period window's (shrink_sizes' floor) and
+    # grow where the pulse-free columns allow (widest_rows; _window)
+    capped_rows = (min(opts.rows, shrink_sizes(prior, dt, order)[0])
+                   if (opts.capped_rows and given.rows is None and given.window_samples is None
+                       and given.window_s is None and pair_capped(prior)) else None)
     memory_rate = (opts.trend_memory is not None and given.trend_rate_noise is None
                    and isinstance(opts.trend_meas_rel, (int, float)))
     nyquist = np.pi / dt
@@ -505,7 +529,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
              "rows_free": given.rows is None, "shrink": shrink_sizes(prior, dt, order),
              "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": [],
-             "own_std": np.full(m, np.nan), "own_screened": 0}
+             "own_std": np.full(m, np.nan), "own_screened": 0, "capped_rows": capped_rows}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
             if (opts.trend or opts.memory) else None)
@@ -757,6 +781,12 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         state["kicks"].update((start + np.flatnonzero(flags)).tolist())
     state["flags"] = flags
     if state["rows_free"]:
+        if (state["capped_rows"] is not None
+                and _free_columns(np.concatenate(([0], np.cumsum(pulses))), seg.size, rows) < 2 * rows):
+            # capped_rows: the pulse detector's own flags leave fewer than 2L columns of the rule's rows (as
+            # shrink_rows' first condition; under a white force they leave plenty): the rows start at the
+            # five-period window's and grow where the columns allow
+            rows = min(rows, state["capped_rows"])
         rows = widest_rows(flags, rows)
         if opts.shrink_rows:
             rows = shrunk_rows(flags, pulses, rows, *state["shrink"], ar_order)

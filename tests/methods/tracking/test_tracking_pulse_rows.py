@@ -5,7 +5,9 @@ A prior whose two modes lie 1.5 % apart asks for a window of 20 periods of the s
 as W/8 = 2.5 periods; pulses 2.6 periods apart then leave too few Hankel columns of that length for the pencil,
 and the window determines no mode. With ``shrink_rows`` (on by default) the rows shrink to the pulse-free
 runs. Under a white
-force (no isolated pulses) the rule must not fire.
+force (no isolated pulses) the rule must not fire. A prior pair closer than the capped window resolves
+(``capped_rows``, on by default): the rows start at the five-period window's, under pulses too close for
+``shrink_rows``.
 """
 
 import numpy as np
@@ -51,8 +53,8 @@ def test_shrunk_rows_track_a_near_double_prior_under_pulses_the_default_leaves_u
     n = 6000
     for seed in (1, 2):
         y = pulsed(n, 250, seed)
-        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=False)
-        tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE)
+        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=False, capped_rows=False)
+        tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, capped_rows=False)
         assert not base.extra["window_converged"].any() and not base.converged.any(), seed
         late = tr.t_s > 60.0
         err = np.abs(tr.frequencies[late] / FREQ - 1)
@@ -62,7 +64,7 @@ def test_shrunk_rows_track_a_near_double_prior_under_pulses_the_default_leaves_u
     # estimates as they were
     changed = y.copy()
     changed[4001:] = pulsed(n - 4001, 170, seed=9)
-    other = methods.track("gated_pencil", changed, DT, NEAR_DOUBLE)
+    other = methods.track("gated_pencil", changed, DT, NEAR_DOUBLE, capped_rows=False)
     early = tr.t_s <= 4000 * DT
     np.testing.assert_array_equal(other.frequencies[early], tr.frequencies[early])
     np.testing.assert_array_equal(other.std[early], tr.std[early])
@@ -73,10 +75,14 @@ def test_shrink_rows_does_not_fire_under_a_white_force():
     n = 6000
     for seed in (1, 2):
         y = white_forced(n, seed)
-        base = methods.track("gated_pencil", y, DT, NEAR_DOUBLE, shrink_rows=False)
         tr = methods.track("gated_pencil", y, DT, NEAR_DOUBLE)
-        np.testing.assert_array_equal(tr.frequencies, base.frequencies)
-        np.testing.assert_array_equal(tr.converged, base.converged)
+        # neither rows rule fires (capped_rows: no pulse flagged), also with the prior's pair 0.3 % apart
+        for prior, off in ((NEAR_DOUBLE, {"shrink_rows": False}), (NEAR_DOUBLE, {"capped_rows": False}),
+                           (np.array([3.3, 20.9, 20.96, 55.0]), {"shrink_rows": False, "capped_rows": False})):
+            base = methods.track("gated_pencil", y, DT, prior, **off)
+            got = tr if prior is NEAR_DOUBLE else methods.track("gated_pencil", y, DT, prior)
+            np.testing.assert_array_equal(got.frequencies, base.frequencies)
+            np.testing.assert_array_equal(got.converged, base.converged)
 
 
 def test_the_rows_shrink_for_isolated_pulses_only_never_under_the_floor():
@@ -127,8 +133,57 @@ def test_the_rows_shrink_for_isolated_pulses_only_never_under_the_floor():
     assert shrunk(few) == rows
 
 
+def bernoulli_pulsed(n, mean, seed, noise=1e-4):
+    """As :func:`pulsed`, the pulses at random times (a Bernoulli draw per sample, mean spacing ``mean``
+    samples), as the benchmarks' thrusters."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * DT
+    y = np.zeros(n)
+    pulses = np.flatnonzero(rng.random(n) < 1.0 / mean)
+    for a, b in zip(np.concatenate(([0], pulses)), np.concatenate((pulses, [n])), strict=True):
+        tau = t[a:b] - t[a]
+        for w in FREQ:
+            amp, phase = rng.uniform(0.02, 0.1), rng.uniform(0, 2 * np.pi)
+            y[a:b] += amp * np.exp(-ZETA * w * tau) * np.cos(w * np.sqrt(1 - ZETA ** 2) * tau + phase)
+    return y + noise * rng.standard_normal(n)
+
+
+def test_capped_rows_track_a_prior_pair_the_capped_window_cannot_resolve():
+    # modes 2 and 3 of the prior 0.3 % apart: two beats (210 s) over the cap, 20 slowest periods (38 s), so
+    # the rows were W/8 = 2.5 slowest periods; pulses at random times 1.7 slowest periods apart on average
+    # (the mean run under the two periods shrink_rows needs) leave too few columns of that length
+    prior = np.array([3.3, 20.9, 20.96, 55.0])
+    assert _gated_pencil.pair_capped(prior) and _gated_pencil.pair_capped(NEAR_DOUBLE)
+    assert not _gated_pencil.pair_capped(np.array([3.3, 20.5, 21.0, 55.0]))       # two beats 25 s: not capped
+    assert not _gated_pencil.pair_capped(np.array([3.3]))
+    n = 6000
+    for seed in (2, 7):
+        y = bernoulli_pulsed(n, 160, seed)
+        base = methods.track("gated_pencil", y, DT, prior, capped_rows=False)
+        tr = methods.track("gated_pencil", y, DT, prior)
+        assert not base.extra["window_converged"].all(axis=1).any(), seed
+        assert tr.extra["window_converged"].all(axis=1).mean() > 0.8, seed
+        late = tr.t_s > 60.0
+        err = np.abs(tr.frequencies[late] / FREQ - 1)
+        assert tr.converged[late].all(), (seed, tr.converged[late].mean(axis=0))
+        assert np.all(err < 0.001), (seed, err.max(axis=0))
+    # a window the user gives keeps the rule's rows (W/8): the option is silent
+    given = methods.track("gated_pencil", y, DT, prior, window_s=38.0)
+    given_off = methods.track("gated_pencil", y, DT, prior, window_s=38.0, capped_rows=False)
+    np.testing.assert_array_equal(given.frequencies, given_off.frequencies)
+    # causal: the record changed after sample 4000 leaves the earlier estimates as they were
+    changed = y.copy()
+    changed[4001:] = bernoulli_pulsed(n - 4001, 160, seed=9)
+    other = methods.track("gated_pencil", changed, DT, prior)
+    early = tr.t_s <= 4000 * DT
+    np.testing.assert_array_equal(other.frequencies[early], tr.frequencies[early])
+    np.testing.assert_array_equal(other.std[early], tr.std[early])
+    assert not np.array_equal(other.frequencies[~early], tr.frequencies[~early], equal_nan=True)
+
+
 def test_shrink_rows_is_refused_in_one_line_unless_a_boolean():
     import pytest
-    with pytest.raises(ValueError, match="shrink_rows = 'yes'") as err:
-        methods.check_track_options("gated_pencil", NEAR_DOUBLE, DT, {"shrink_rows": "yes"})
-    assert "\n" not in str(err.value)
+    for key in ("shrink_rows", "capped_rows"):
+        with pytest.raises(ValueError, match=f"{key} = 'yes'") as err:
+            methods.check_track_options("gated_pencil", NEAR_DOUBLE, DT, {key: "yes"})
+        assert "\n" not in str(err.value)
