@@ -1,7 +1,7 @@
 """``rpem_ambient``'s reported recursion after a step, per record — a development table, not a test (pytest does
 not collect it).
 
-    python tests/methods/tracking/_step_dev.py SEED [--extra "+pair_peaks=true"] [--cells step,−7]
+    python tests/methods/tracking/dev/_step_dev.py SEED [--extra "+pair_peaks=true"] [--cells step,−7]
 
 On ``tracking_ambient``'s cells whose label holds one of ``--cells`` (its configs, 2 replicates), the row
 ``rpem_ambient:frequency_model=trend+recursions=two+score_reset=true`` plus ``--extra``: per cell the median
@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path[:0] = [str(Path(__file__).resolve().parents[3])]
+sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
 

@@ -2,10 +2,10 @@
 Cramér–Rao bound of the window after the step, ``gated_pencil``'s re-convergence and which mode holds it — a
 development script, not a test (pytest does not collect it).
 
-    python tests/methods/tracking/_pulse_cell_dev.py SEEDS [--cell "step +5/−5/0/+8 % at 40 s, 150 N·m every 10 s"]
+    python tests/methods/tracking/dev/_pulse_cell_dev.py SEEDS [--cell "step +5/−5/0/+8 % at 40 s, 150 N·m every 10 s"]
         [--replicates 2] [--trackers next_era,gated_pencil,gated_pencil:key=value] [--periods 5,10,20] [--trace]
 
-    python tests/methods/tracking/_pulse_cell_dev.py SEEDS --set {unseen-grid,unseen-other,beats,beats-thr,anyrate}
+    python tests/methods/tracking/dev/_pulse_cell_dev.py SEEDS --set {unseen-grid,unseen-other,beats,beats-thr,anyrate}
         --trackers next_era,gated_pencil,gated_pencil:key=value    # every record of a set, the rows side by side
 
 The records are the benchmark's own (``tracking_unseen.configs``, ``make_cell`` without its bounds) and every
@@ -23,8 +23,8 @@ import sys
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parent),
-                str(Path(__file__).resolve().parents[3])]
+sys.path[:0] = [str(Path(__file__).resolve().parents[2]), str(Path(__file__).resolve().parent),
+                str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
 from _close_modes_crlb import piecewise_crlb  # noqa: E402

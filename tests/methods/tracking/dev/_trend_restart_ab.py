@@ -1,7 +1,7 @@
 """``gated_pencil``'s trend stage, main's ``trend_restart_rate="keep"`` against ``"freeze"``, on the benchmarks'
 own records and scorers — a development table, not a test (pytest does not collect it).
 
-    python tests/methods/tracking/_trend_restart_ab.py {unseen-other,unseen-grid,beats,beats-thr,anyrate} SEEDS
+    python tests/methods/tracking/dev/_trend_restart_ab.py {unseen-other,unseen-grid,beats,beats-thr,anyrate} SEEDS
         [--replicates 2] [--option key=value ...]
 
 Sets: ``tracking_unseen --set other-rates`` / ``--set grid-rate --records pulses`` (scored as that benchmark
@@ -19,8 +19,8 @@ import sys
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parent),
-                str(Path(__file__).resolve().parents[3])]
+sys.path[:0] = [str(Path(__file__).resolve().parents[2]), str(Path(__file__).resolve().parent),
+                str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402

@@ -1,7 +1,7 @@
 """CPU per sample of ``gated_pencil`` rows on a pulsed and a white-force record, side by side — a development
 script, not a test (pytest does not collect it).
 
-    python tests/methods/tracking/_own_cpu_dev.py [--trackers gated_pencil,gated_pencil:own_windows=true]
+    python tests/methods/tracking/dev/_own_cpu_dev.py [--trackers gated_pencil,gated_pencil:own_windows=true]
         [--repeats 5] [--seed 7]
 
 Records: ``tracking_cpu``'s (the truth plant re-excited by a thruster pulse every 10 s, 3000 samples) and
@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path[:0] = [str(Path(__file__).resolve().parents[3])]
+sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import EXCITATIONS, SCHEDULES  # noqa: E402

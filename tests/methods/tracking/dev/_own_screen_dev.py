@@ -1,7 +1,7 @@
 """Whether ``own_windows``' screen (``_gated_pencil.OWN_SCREEN_STD``) leaves every track as it is — a development
 script, not a test (pytest does not collect it).
 
-    python tests/methods/tracking/_own_screen_dev.py {unseen-grid,unseen-other,beats,beats-thr,anyrate} SEEDS R
+    python tests/methods/tracking/dev/_own_screen_dev.py {unseen-grid,unseen-other,beats,beats-thr,anyrate} SEEDS R
 
 Every record of the set (``_trend_restart_ab.records``) tracked by ``gated_pencil:own_windows=true`` with the
 screen off (``None``: every watched short window fitted) and on (1.0); prints the records whose tracks differ,
@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[3])]
+sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
 from _trend_restart_ab import records  # noqa: E402

@@ -1,7 +1,7 @@
 """Every tracker as shipped (no option beyond the prior) on stepped records unlike the grid's: a development
 table, not a test (pytest does not collect it).
 
-    python tests/methods/tracking/_anyrate_table.py [--seeds 1001,1002] [--trackers next_era,gated_pencil,...]
+    python tests/methods/tracking/dev/_anyrate_table.py [--seeds 1001,1002] [--trackers next_era,gated_pencil,...]
 
 Records (tests/methods/_tracking_signals.py): laboratory-like (1 or 2 modes at 20–60 Hz stepping ±5–20 %
 after dwells of 0.4–2 s, 5 kHz 12-bit accelerometer with an offset, decimated to 250 Hz) and Δt = 1 ms,
@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parents[3])]
+sys.path[:0] = [str(Path(__file__).resolve().parents[2]), str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402

@@ -1,7 +1,7 @@
 """``rpem_ambient``'s slowest mode under a white force, per recursion — a development table, not a test (pytest
 does not collect it).
 
-    python tests/methods/tracking/_mode1_dev.py SEED [--replicates 2] [--per-record]
+    python tests/methods/tracking/dev/_mode1_dev.py SEED [--replicates 2] [--per-record]
 
 On ``tracking_ambient``'s six white-force cells (its configs, no slosh, no thrusters), per record: the window
 recursion (``rpem_ambient:frequency_model=trend``, the same recursion ``recursions="two"`` runs beside the
@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path[:0] = [str(Path(__file__).resolve().parents[3])]
+sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
 

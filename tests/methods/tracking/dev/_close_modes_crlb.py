@@ -2,7 +2,7 @@
 window of ``--periods`` periods of the slowest mode at the record's noise — a development table, not a test
 (pytest does not collect it).
 
-    python tests/methods/tracking/_close_modes_crlb.py [--seeds 1,3,21,23] [--dts 0.004,0.1] [--periods 10,20]
+    python tests/methods/tracking/dev/_close_modes_crlb.py [--seeds 1,3,21,23] [--dts 0.004,0.1] [--periods 10,20]
 
 Records: ``anyrate_record(dt, 6, seed, duration_periods=120)`` (tests/methods/_tracking_signals.py), the ones
 of ``_anyrate_table.py``. After each step the window [step + 1, step + 1 + N) (N samples = that many periods of
@@ -25,7 +25,7 @@ import sys
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parents[3])]
+sys.path[:0] = [str(Path(__file__).resolve().parents[2]), str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
 from _tracking_signals import anyrate_record, modal_response  # noqa: E402
