@@ -22,19 +22,22 @@ NEAR_DOUBLE = np.array([3.3, 20.7, 21.0, 55.0])            # modes 2 and 3 of th
 ZETA = 0.005
 
 
-def pulsed(n, every, seed, noise=1e-4):
-    """The four modes, each restarted at every pulse (every ``every`` samples) with a random amplitude and
+def decays(n, pulses, rng, noise):
+    """The four modes, each restarted at every pulse (sample indices ``pulses``) with a random amplitude and
     phase, between pulses an exact free decay; + white noise."""
-    rng = np.random.default_rng(seed)
     t = np.arange(n) * DT
     y = np.zeros(n)
-    pulses = np.arange(150, n, every)
     for a, b in zip(np.concatenate(([0], pulses)), np.concatenate((pulses, [n])), strict=True):
         tau = t[a:b] - t[a]
         for w in FREQ:
             amp, phase = rng.uniform(0.02, 0.1), rng.uniform(0, 2 * np.pi)
             y[a:b] += amp * np.exp(-ZETA * w * tau) * np.cos(w * np.sqrt(1 - ZETA ** 2) * tau + phase)
     return y + noise * rng.standard_normal(n)
+
+
+def pulsed(n, every, seed, noise=1e-4):
+    """:func:`decays` with a pulse every ``every`` samples."""
+    return decays(n, np.arange(150, n, every), np.random.default_rng(seed), noise)
 
 
 def white_forced(n, seed):
@@ -134,18 +137,10 @@ def test_the_rows_shrink_for_isolated_pulses_only_never_under_the_floor():
 
 
 def bernoulli_pulsed(n, mean, seed, noise=1e-4):
-    """As :func:`pulsed`, the pulses at random times (a Bernoulli draw per sample, mean spacing ``mean``
+    """:func:`decays` with the pulses at random times (a Bernoulli draw per sample, mean spacing ``mean``
     samples), as the benchmarks' thrusters."""
     rng = np.random.default_rng(seed)
-    t = np.arange(n) * DT
-    y = np.zeros(n)
-    pulses = np.flatnonzero(rng.random(n) < 1.0 / mean)
-    for a, b in zip(np.concatenate(([0], pulses)), np.concatenate((pulses, [n])), strict=True):
-        tau = t[a:b] - t[a]
-        for w in FREQ:
-            amp, phase = rng.uniform(0.02, 0.1), rng.uniform(0, 2 * np.pi)
-            y[a:b] += amp * np.exp(-ZETA * w * tau) * np.cos(w * np.sqrt(1 - ZETA ** 2) * tau + phase)
-    return y + noise * rng.standard_normal(n)
+    return decays(n, np.flatnonzero(rng.random(n) < 1.0 / mean), rng, noise)
 
 
 def test_capped_rows_track_a_prior_pair_the_capped_window_cannot_resolve():
