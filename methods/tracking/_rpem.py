@@ -136,6 +136,11 @@ class Options(_ambient.SharedOptions):
         instead of no peak. After a step of a close pair the stepped mode's new peak can lie beyond that
         midpoint, and the mode would not restart until its walk had carried it there. Measured with
         ``recursions="two"``; with one recursion it loses on the drifts (docs/measured/tracking.md).
+    reset_peak : bool
+        ``score_reset``: a reset mode whose look's peak lies beyond the window recursion's ω̂ᵢ', on the side away
+        from the whole-record ω̂ᵢ (the window recursion still walking toward a step's new value), starts again in
+        both recursions at that peak, with the variance Pᵢ' + (peak − ω̂ᵢ')² and its rate at 0 ± the stated
+        rate, instead of at the window recursion's ω̂ᵢ' (:func:`_reset_from_window`).
     """
 
     estimate_damping: bool = True
@@ -145,6 +150,7 @@ class Options(_ambient.SharedOptions):
     reset_gate: float = 3.0
     score_reset: bool = False
     pair_peaks: bool = False
+    reset_peak: bool = False
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -160,6 +166,10 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: score_reset = {opts.score_reset!r} must be true or false")
     if not isinstance(opts.pair_peaks, bool):
         raise ValueError(f"{name}: pair_peaks = {opts.pair_peaks!r} must be true or false")
+    if not isinstance(opts.reset_peak, bool):
+        raise ValueError(f"{name}: reset_peak = {opts.reset_peak!r} must be true or false")
+    if opts.reset_peak and not opts.score_reset:
+        raise ValueError(f"{name}: reset_peak = true needs score_reset = true (got {opts.score_reset!r})")
     if opts.score_reset and opts.recursions != "two":
         raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
@@ -341,7 +351,8 @@ def _variance_two(w_long, v_long, w_win, v_win, odds):
 
 
 def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts,
-                       z_score: np.ndarray | None = None, rate_var: np.ndarray | None = None) -> np.ndarray:
+                       z_score: np.ndarray | None = None, rate_var: np.ndarray | None = None,
+                       peak: np.ndarray | None = None, W_win: np.ndarray | None = None) -> np.ndarray:
     """``recursions="two"``: modes of the whole-record recursion ``long`` ([θ, P, x̂, W, Λ], changed in place)
     start again from the window-memory recursion's (θ, P) when the window recursion predicts the last window
     better, by a log-likelihood ratio ``gain`` = Σ (ℓ_long − ℓ_window) > ``restart_gate``²/2 (its signed root,
@@ -353,7 +364,12 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
     ``rate_var``, the rates' prior variance): a mode is also reset when its score is beyond ``reset_gate`` σ
     and points toward the window recursion's ω̂ᵢ', and a reset mode takes only the window recursion's ω and
     its variance; its rate starts again at 0 ± the stated rate, as a restart does (the window recursion's rate
-    after a step holds the step's climb). Returns the modes reset."""
+    after a step holds the step's climb). ``peak`` (``reset_peak``, the look's periodogram peaks, NaN where
+    none): a reset mode whose peak lies beyond ω̂ᵢ' on the side away from ω̂ᵢ — the window recursion's walk
+    still on its way after a step — first restarts in the window recursion (``theta``, ``P`` and its
+    sensitivities ``W_win``, changed in place) at the peak, with the variance Pᵢ' + (peak − ω̂ᵢ')² (the mean
+    square error of either being right) and its rate at 0 ± the stated rate; the whole-record one then takes
+    that. Returns the modes reset."""
     if not gain > 0.5 * opts.restart_gate ** 2:
         return np.arange(0)
     th_l, P_l, W_l = long[0], long[1], long[3]
@@ -364,6 +380,13 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
     modes = np.flatnonzero(far)
     for i in modes:
         j = np.array([iw[i], ia[i]])
+        if peak is not None and np.isfinite(peak[i]) and (peak[i] - theta[iw[i]]) * gap[i] < 0:
+            v = P[iw[i], iw[i]] + (peak[i] - theta[iw[i]]) ** 2
+            theta[iw[i]], theta[ia[i]] = peak[i], 0.0
+            P[j, :] = 0.0
+            P[:, j] = 0.0
+            P[iw[i], iw[i]], P[ia[i], ia[i]] = v, rate_var[i]
+            W_win[:, j] = 0.0
         th_l[j] = theta[j]
         P_l[j, :] = 0.0
         P_l[:, j] = 0.0
@@ -527,7 +550,8 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     a = np.maximum(since, k + 1 - W_len)
                     info = cum_i[k + 1] - cum_i[a, iw]
                     z_score = (cum_s[k + 1] - cum_s[a, iw]) / np.sqrt(np.where(info > 0, info, np.inf))
-                nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var)
+                nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var,
+                                        peak if opts.reset_peak else None, Wm)
                 since[nr] = k + 1
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]

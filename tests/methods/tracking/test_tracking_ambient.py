@@ -42,6 +42,9 @@ BAD = [
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "score_reset": "yes"}, "score_reset = 'yes'"),
     ("rpem_ambient", {"score_reset": True}, "score_reset = true needs recursions = 'two'"),
     ("rpem_ambient", {"pair_peaks": 1}, "pair_peaks = 1"),
+    ("rpem_ambient", {"reset_peak": "no"}, "reset_peak = 'no'"),
+    ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "reset_peak": True},
+     "reset_peak = true needs score_reset = true"),
 ]
 
 
@@ -342,6 +345,39 @@ def test_score_reset_also_resets_a_mode_whose_score_points_to_the_window_estimat
     # without the scores (score_reset off) the same gaps reset nothing
     long, *_ = _two_memories([0.5, 0.5, 0.5])
     assert _rpem._reset_from_window(long, th_w, P_w, iw, ia, 8.1, opts).size == 0
+
+
+def test_reset_peak_starts_a_reset_mode_at_a_peak_beyond_the_walking_window_estimate():
+    """``reset_peak``, by hand: gaps of 0.5σ (ω̂' = ω̂ + 0.01 on every mode), scores toward ω̂' on modes 0 and 1
+    (both reset), none on mode 2. Mode 0's peak (ω̂ + 0.05) lies beyond ω̂', away from ω̂: both recursions start
+    there, with the variance 3e-4 + 0.04² = 1.9e-3 and the rate 0 ± ``rate_var``, and the window recursion's
+    sensitivity columns 0. Mode 1's peak (ω̂ + 0.005) lies between the two: it takes ω̂' as without the option,
+    and the window recursion keeps it. Mode 2 (not reset) ignores its peak."""
+    from methods.estimate import make_options
+    from methods.tracking import _rpem
+
+    opts = make_options(_rpem.Options, TWO | {"score_reset": True, "reset_peak": True}, "rpem_ambient")
+    long, th_w, P_w, iw, ia = _two_memories([0.5, 0.5, 0.5])
+    z = np.array([4.0, 4.0, 0.0])
+    rate_var = np.array([1e-6, 2e-6, 3e-6])
+    peak = np.array([1.05, 2.005, 3.5])
+    W_w = np.ones((6, 15))
+    th_w0, P_w0 = th_w.copy(), P_w.copy()
+    modes = _rpem._reset_from_window(long, th_w, P_w, iw, ia, 8.1, opts, z, rate_var, peak, W_w)
+    assert list(modes) == [0, 1]
+    th, P, _, W, _ = long
+    np.testing.assert_allclose(th[[0, 12]], [1.05, 0.0])
+    np.testing.assert_allclose(th_w[[0, 12]], [1.05, 0.0])
+    for Q in (P, P_w):
+        np.testing.assert_allclose(Q[np.ix_([0, 12], [0, 12])], [[1.9e-3, 0.0], [0.0, 1e-6]], rtol=1e-12)
+    assert not P_w[[0, 12]][:, np.setdiff1d(np.arange(15), [0, 12])].any()
+    assert not W_w[:, [0, 12]].any() and (np.delete(W_w, [0, 12], axis=1) == 1).all()
+    # mode 1 as without the option; the window recursion's mode 1 and 2 untouched
+    assert th[1] == th_w0[1] and th[13] == 0.0 and P[1, 1] == 3e-4
+    keep = np.setdiff1d(np.arange(15), [0, 12])
+    np.testing.assert_array_equal(th_w[keep], th_w0[keep])
+    np.testing.assert_array_equal(P_w[np.ix_(keep, keep)], P_w0[np.ix_(keep, keep)])
+    assert th[2] == 3.0
 
 
 def test_two_memories_variance_is_the_mixture_error_of_the_whole_record_estimate():

@@ -36,7 +36,9 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+two": {"frequency_model": "trend", "recursions": "two"},
            "rpem_ambient+score": {"frequency_model": "trend", "recursions": "two", "score_reset": True},
            "rpem_ambient+pairs": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                  "pair_peaks": True}}
+                                  "pair_peaks": True},
+           "rpem_ambient+peak": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                 "pair_peaks": True, "reset_peak": True}}
 
 
 def _options(name):
