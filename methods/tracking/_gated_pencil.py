@@ -78,7 +78,11 @@ guess (±5 % on the benchmarks' records), and two prior frequencies that happen 
 a pair that the record does not have — up to 20 periods of the slowest mode — and a window that long straddles
 a step for most of its span. Not from the estimates' slowest period: a window shortened by a slowest mode
 estimated a few % high only adds noise (a 0.1 s one-mode record, six modes at 1 ms). Causal: window j's length
-depends on windows 0 … j − 1 only.
+depends on windows 0 … j − 1 only. ``capped_either`` (on by default): where the prior's closest pair is capped
+(:func:`pair_capped`), the pair counts as determined once either of its modes is, and the estimates' closest pair
+is taken over the determined modes (:func:`capped_determined`): the capped window does not resolve a pair that
+close, the record's pair may lie where the prior's other member is never found, and "every mode determined"
+would keep the window at the cap.
 
 **Both window options act only on a pulsed record**: a pulse flagged in at least half the windows so far. Under a
 continuing force (a white body force: nothing flagged in 86–100 % of the windows) the window fits one forced
@@ -268,7 +272,7 @@ class Options:
     window_from_estimates: bool = True
     own_windows: bool = False
     capped_rows: bool = True
-    capped_either: bool = False
+    capped_either: bool = True
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
 
