@@ -78,7 +78,11 @@ guess (±5 % on the benchmarks' records), and two prior frequencies that happen 
 a pair that the record does not have — up to 20 periods of the slowest mode — and a window that long straddles
 a step for most of its span. Not from the estimates' slowest period: a window shortened by a slowest mode
 estimated a few % high only adds noise (a 0.1 s one-mode record, six modes at 1 ms). Causal: window j's length
-depends on windows 0 … j − 1 only.
+depends on windows 0 … j − 1 only. ``capped_either`` (on by default): where the prior's closest pair is capped
+(:func:`pair_capped`), the pair counts as determined once either of its modes is, and the estimates' closest pair
+is taken over the determined modes (:func:`capped_determined`): the capped window does not resolve a pair that
+close, the record's pair may lie where the prior's other member is never found, and "every mode determined"
+would keep the window at the cap.
 
 **Both window options act only on a pulsed record**: a pulse flagged in at least half the windows so far. Under a
 continuing force (a white body force: nothing flagged in 86–100 % of the windows) the window fits one forced
@@ -133,7 +137,8 @@ OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this man
 PAIR_RATIO = 2.0            # window_from_estimates: the estimates' closest pair this many times the prior's gap
 
 
-def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarray) -> float:
+def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarray,
+                       capped_either: bool = False) -> float:
     """``window_from_estimates``' window span in s: the window rule (:func:`methods.tracking._defaults.window_s`)
     at the prior, unless that window is set by the prior's closest pair (two beats, over ``PERIODS`` periods of
     its slowest mode), every mode has been ``determined`` once, and the estimates ``ref`` put their closest pair
@@ -141,19 +146,42 @@ def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarra
     two beats of the estimates' closest pair (capped at ``GAP_CAP_PERIODS`` periods), never under ``PERIODS``
     periods of the prior's slowest mode. Where the window is set by the slowest period (one mode, or no close
     pair in the prior) it is the prior's: the estimates' slowest period is not a better guess than the prior's
-    by more than the prior's error, and a shorter window only adds noise."""
+    by more than the prior's error, and a shorter window only adds noise.
+
+    ``capped_either`` (:func:`capped_determined`): a capped prior pair counts as determined when either of its
+    modes is, and the estimates' closest pair is taken over the determined modes only (the other member's
+    reference is still the prior's guess, which the determined one has shown wrong or right)."""
     prior = np.sort(np.asarray(prior, dtype=float))
     span = _defaults.window_s(prior)
     T = _defaults.slowest_period_s(prior)
     base = _defaults.PERIODS * T
-    if prior.size < 2 or span <= base * (1 + 1e-9) or not np.all(determined):
+    determined = np.asarray(determined, dtype=bool)
+    counted = capped_determined(prior, determined) if capped_either else determined
+    if prior.size < 2 or span <= base * (1 + 1e-9) or not np.all(counted):
         return span
-    est = np.sort(np.asarray(ref, dtype=float))
+    est = np.sort(np.asarray(ref, dtype=float)[determined])
+    if est.size < 2:
+        return span
     gap_prior, gap_est = float(np.min(np.diff(prior))), float(np.min(np.diff(est)))
     if not gap_est >= PAIR_RATIO * gap_prior:
         return span
     beats = min(_defaults.GAP_CYCLES * 2.0 * np.pi / gap_est, _defaults.GAP_CAP_PERIODS * T)
     return min(span, max(base, beats))
+
+
+def capped_determined(prior, determined: np.ndarray) -> np.ndarray:
+    """``capped_either``: ``determined`` with the prior's closest pair counted as determined when either of its
+    two modes is, where that pair is capped (:func:`pair_capped`). The capped window does not resolve a pair the
+    prior puts that close, so which of the two the record's pole is labelled is the prior's guess; one of them
+    determined already shows whether the prior's pair is the record's (``estimates_window_s``' test)."""
+    determined = np.asarray(determined, dtype=bool).copy()
+    prior = np.asarray(prior, dtype=float)
+    if not pair_capped(prior):
+        return determined
+    i = int(np.argmin(np.diff(prior)))          # the prior is increasing (usable_prior)
+    either = determined[i] | determined[i + 1]
+    determined[i] = determined[i + 1] = either
+    return determined
 
 
 def pair_capped(prior) -> bool:
@@ -244,6 +272,7 @@ class Options:
     window_from_estimates: bool = True
     own_windows: bool = False
     capped_rows: bool = True
+    capped_either: bool = True
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
     change_drift: float = _memory.DEFAULTS["change_drift"]
 
@@ -289,7 +318,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
     for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows",
-                "shrink_rows", "capped_rows"):
+                "shrink_rows", "capped_rows", "capped_either"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -550,8 +579,8 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         # which the prior's longer window averages, and no ring dies away
         pulsed = windows_seen > 0 and 2 * windows_pulsed >= windows_seen
         if adapt and pulsed:
-            Wj = min(W, max(w_low, int(round(estimates_window_s(prior, state["ref"],
-                                                                np.isfinite(state["last_w"])) / dt))))
+            Wj = min(W, max(w_low, int(round(estimates_window_s(prior, state["ref"], np.isfinite(state["last_w"]),
+                                                                opts.capped_either) / dt))))
         if adapt and bank is not None and memory_rate:
             bank.rate_noise = _defaults.trend_rate_noise_memory(opts.trend_meas_rel, (Wj - 1) * dt,
                                                                 opts.trend_memory)

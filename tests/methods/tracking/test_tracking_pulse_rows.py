@@ -178,7 +178,67 @@ def test_capped_rows_track_a_prior_pair_the_capped_window_cannot_resolve():
 
 def test_shrink_rows_is_refused_in_one_line_unless_a_boolean():
     import pytest
-    for key in ("shrink_rows", "capped_rows"):
+    for key in ("shrink_rows", "capped_rows", "capped_either"):
         with pytest.raises(ValueError, match=f"{key} = 'yes'") as err:
             methods.check_track_options("gated_pencil", NEAR_DOUBLE, DT, {key: "yes"})
         assert "\n" not in str(err.value)
+
+
+def stepped(n, step, mean, seed, before, after, noise=1e-4):
+    """Free decays of the modes ``before`` up to sample ``step`` and ``after`` from it, restarted at the step
+    and at pulses at random times (mean spacing ``mean`` samples), + white noise."""
+    rng = np.random.default_rng(seed)
+    pulses = np.union1d(np.flatnonzero(rng.random(n) < 1.0 / mean), [step])
+    t = np.arange(n) * DT
+    y = np.zeros(n)
+    for a, b in zip(np.concatenate(([0], pulses)), np.concatenate((pulses, [n])), strict=True):
+        tau = t[a:b] - t[a]
+        for w in (before if a < step else after):
+            amp, phase = rng.uniform(0.02, 0.1), rng.uniform(0, 2 * np.pi)
+            y[a:b] += amp * np.exp(-ZETA * w * tau) * np.cos(w * np.sqrt(1 - ZETA ** 2) * tau + phase)
+    return y + noise * rng.standard_normal(n)
+
+
+def test_capped_either_shortens_the_window_when_one_mode_of_a_capped_prior_pair_is_found():
+    # the prior's modes 2 and 3 0.3 % apart (window at the cap, 20 slowest periods = 38 s); the record has one
+    # mode there: the other is never determined, so "every mode determined once" never holds and the window
+    # stays at the cap; with capped_either the pair counts once one of its modes is, the estimates' closest
+    # pair is 17 rad/s, and the window is five slowest periods (5 · 2π/3.3 = 9.5 s)
+    prior = np.array([3.3, 20.9, 20.96, 55.0])
+    before = np.array([3.23, 20.24, 56.67])
+    after = before * np.array([1.05, 0.96, 1.04])
+    det = np.array([True, True, False, True])
+    np.testing.assert_array_equal(_gated_pencil.capped_determined(prior, det), [True, True, True, True])
+    np.testing.assert_array_equal(_gated_pencil.capped_determined(prior, [True, False, False, True]),
+                                  [True, False, False, True])
+    wide = np.array([3.3, 20.5, 21.0, 55.0])                                       # not capped: unchanged
+    np.testing.assert_array_equal(_gated_pencil.capped_determined(wide, det), det)
+    ref = np.array([3.23, 20.24, 20.96, 56.67])
+    cap = _gated_pencil.estimates_window_s(prior, ref, det)
+    assert abs(cap - 20 * 2 * np.pi / 3.3) < 0.05, cap
+    assert abs(_gated_pencil.estimates_window_s(prior, ref, det, True) - 5 * 2 * np.pi / 3.3) < 0.05
+    n, step = 7000, 3500
+    for seed in (1, 7):
+        y = stepped(n, step, 160, seed, before, after)
+        t_step = step * DT
+        reconv = {}
+        for opt in (False, True):
+            tr = methods.track("gated_pencil", y, DT, prior, capped_either=opt)
+            k = np.round(tr.t_s / DT).astype(int)
+            truth = np.where((k >= step)[:, None], after, before)
+            err = np.abs(tr.frequencies[:, [0, 1, 3]] / truth - 1).max(axis=1)
+            bad = (tr.t_s >= t_step) & ~(err <= 0.005)
+            assert not bad[-1], (seed, opt)
+            reconv[opt] = tr.t_s[np.flatnonzero(bad)[-1] + 1] - t_step
+            spans = tr.extra["window_span_s"][tr.t_s > 45.0]
+            assert (spans.max() < 10.0) if opt else (spans.min() > 37.0), (seed, opt, spans.min(), spans.max())
+        assert reconv[True] < 15.0 < 25.0 < reconv[False], (seed, reconv)
+    # causal: the record changed after sample 5000 leaves the earlier estimates as they were
+    changed = y.copy()
+    changed[5001:] = stepped(n - 5001, 10, 160, 9, after, after)
+    one = methods.track("gated_pencil", y, DT, prior, capped_either=True)
+    other = methods.track("gated_pencil", changed, DT, prior, capped_either=True)
+    early = one.t_s <= 5000 * DT
+    np.testing.assert_array_equal(other.frequencies[early], one.frequencies[early])
+    np.testing.assert_array_equal(other.std[early], one.std[early])
+    assert not np.array_equal(other.frequencies[~early], one.frequencies[~early], equal_nan=True)
