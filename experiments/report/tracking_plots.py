@@ -193,7 +193,12 @@ def reconvergence_vs_noise(summary: pd.DataFrame, stem: Path) -> list[Path]:
         ax.set_ylabel("re-convergence after the step (s)")
         ax.set_title(f"excitation: {exc}", fontsize=9)
         ax.grid(True, alpha=0.3)
-    axes.flat[0].legend(fontsize=7, ncol=2)
+    handles = {}                                     # one entry per tracker, from every panel, beside them
+    for ax in axes.flat:
+        for h, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(label, h)
+    fig.legend(list(handles.values()), list(handles), fontsize=7, loc="outside right center",
+               ncol=1 if len(handles) <= 18 else 2)
     fig.suptitle("Re-convergence time after the step (median over replicates; dashed: the 20 s target; open, "
                  "at the top: never in most replicates)", fontsize=10, wrap=True)
     return _save(fig, stem)
