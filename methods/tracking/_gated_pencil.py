@@ -67,6 +67,9 @@ What. On each window of W samples (every H samples):
    trackers' rule from the slowest period): the rate noise that gives the trend filter a time constant of k
    window spans, ``trend_meas_rel``/(k·(W − 1)Δt)² (:func:`methods.tracking._defaults.trend_rate_noise_memory`)
    — a filter that forgets faster than a window follows the overlapping windows' shared errors as a rate.
+   ``trend_span_relevel`` (off by default, an option): a window whose span differs from the last used
+   window's by more than a factor 2 (``window_from_estimates`` collapsing a capped window) sets the mode's
+   level and keeps its rate (:mod:`methods.tracking._trend`, "A change of span").
 
 **The window from the estimates** (``window_from_estimates``, on by default): where the prior's window
 (:func:`methods.tracking._defaults.window_s`: five periods of the slowest mode, two beats of the closest pair,
@@ -268,6 +271,7 @@ class Options:
     trend_rate0: float | None = _trend.DEFAULTS["trend_rate0"]
     trend_restart_rate: str = _trend.RESTART_RATE
     trend_memory: float | None = 1.0
+    trend_span_relevel: bool = False
     memory: bool = _memory.DEFAULTS["memory"]
     window_from_estimates: bool = True
     own_windows: bool = False
@@ -338,6 +342,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: window_samples = {opts.window_samples} is too short for rows = {opts.rows} "
                          f"and ar_order = {opts.ar_order} (needs ≥ 3 (rows + 1) and > 2 ar_order)")
     _trend.check(opts, name)
+    if not isinstance(opts.trend_span_relevel, bool):
+        raise ValueError(f"{name}: trend_span_relevel = {opts.trend_span_relevel!r} must be true or false")
     if opts.trend_restart_rate not in _trend.RESTART_RATES:
         raise ValueError(f"{name}: trend_restart_rate = {opts.trend_restart_rate!r} must be one of "
                          f"{', '.join(_trend.RESTART_RATES)}")
@@ -560,7 +566,8 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
              "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": [],
              "own_std": np.full(m, np.nan), "own_screened": 0, "capped_rows": capped_rows}
     limit = np.log1p(opts.band)
-    bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate)
+    bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate,
+                             span_relevel=opts.trend_span_relevel)
             if (opts.trend or opts.memory) else None)
     cusum = _memory.Cusum(m, opts.change_threshold, opts.change_drift) if opts.memory else None
     out = np.full((ends.size, m), np.nan)

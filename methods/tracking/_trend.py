@@ -50,6 +50,19 @@ before the gap, ν² > ``trend_gate`` · (P₀₀ at the last update + R) (R wit
 (variance R) and keeps
 the rate held before the gap: a step is a new level, a drift keeps its learnt rate, and a window that agrees
 with the prediction updates the filter as any other (``relevel_gap``, on).
+**A change of span** (``TrendBank``'s ``span_relevel``, an option of ``gated_pencil``: ``trend_span_relevel``,
+off by default). A window estimate is stamped at its window's centre and averages the frequency over its span;
+when the span changes (``window_from_estimates`` shortening a capped 40 s window to 10 s at once), the new
+window's stamp moves by half the difference of the spans and it forgets what the longer one averaged, so the
+step from the last long window's estimate to the first short one's is no sample of a rate. Where the span of a
+mode's window differs from the span of the last window that updated it by more than a factor 2 — the stamp
+moving by more than the new window's half-span — that window sets the level and keeps the rate and its
+variance, as after a gap; the level's variance is the window's own (the gate's std, not the overlap-inflated R,
+which would open the gate to the windows after it), and every later window that starts before that window's
+end — one that still shares samples with it — is gated as any other but updates the level only (the rate's
+cross-covariance set to 0, as ``freeze``'s straddling windows): without this hold the short windows that slide
+over a step just after the collapse teach the rate their ramp (on the capped design records this doubled the
+replicates over 10 periods). The windows after the hold update the filter as any other.
 A mode starts at its first window estimate the method calls determined (``converged_per_mode``), rate 0
 with std ``trend_rate0`` · ω per second; windows it does not determine are skipped (the filter only
 predicts). Reported ``converged``: the mode is started and its last determined window passed the gate.
@@ -70,6 +83,9 @@ from methods.tracking import _defaults
 # "freeze" restores the rate from before the change and lets those windows (gated) update the level only
 RESTART_RATES = ("hold", "reset", "keep", "freeze")
 RESTART_RATE = "keep"
+# span_relevel: a window whose span differs from the last used window's by more than this factor sets the level
+# (its stamp, the centre, moves by more than its own half-span)
+SPAN_FACTOR = 2.0
 TREND_FIELDS = ("trend", "trend_rate_noise", "trend_meas_rel", "trend_gate", "trend_restart_after", "trend_rate0")
 # trend_rate_noise (s^-1.5) and trend_rate0 (s^-1): None = from the prior's slowest period
 # (:func:`methods.tracking._defaults.trend_noises`; 1e-4 and 0.002 on the tracking grid's records).
@@ -121,12 +137,15 @@ class TrendBank:
     """
 
     def __init__(self, m: int, *, rate_noise: float, meas_rel: float, gate: float, restart_after: int,
-                 rate0: float, restart_rate: str = RESTART_RATE, relevel_gap: bool = True):
+                 rate0: float, restart_rate: str = RESTART_RATE, relevel_gap: bool = True,
+                 span_relevel: bool = False):
         if restart_rate not in RESTART_RATES:
             raise ValueError(f"restart_rate = {restart_rate!r} must be one of {', '.join(RESTART_RATES)}")
         self.m, self.rate_noise, self.meas_rel = m, rate_noise, meas_rel
         self.gate, self.restart_after, self.rate0 = gate, restart_after, rate0
-        self.restart_rate, self.relevel_gap = restart_rate, relevel_gap
+        self.restart_rate, self.relevel_gap, self.span_relevel = restart_rate, relevel_gap, span_relevel
+        self.span_update = np.full(m, np.nan)       # span (s) of the mode's last used window
+        self.span_hold_until = np.full(m, -np.inf)  # span_relevel: windows starting before this update the level
         self.kf: list = [None] * m
         self.t_last = np.zeros(m)
         self.w0 = np.zeros(m)
@@ -229,6 +248,17 @@ class TrendBank:
                     self._level(kf, zi, r_std ** 2)
                     self.ok[i] = True
                     self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+                elif (good and self.span_relevel and np.isfinite(self.span_update[i]) and self.span_update[i] > 0
+                      and lead[i] > 0 and abs(np.log(2 * lead[i] / self.span_update[i])) > np.log(SPAN_FACTOR)):
+                    # the window's span changed by more than SPAN_FACTOR: its stamp and memory moved, the jump
+                    # from the last window's level is no rate (docstring, "A change of span"); the level's
+                    # variance is the window's own (the gate's), so windows that straddle a later change fail
+                    kf.x = np.array([zi, kf.x[1]])
+                    kf.P = np.diag([g_std ** 2, kf.P[1, 1]])
+                    self.misses[i], self.ok[i] = 0, True
+                    self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+                    self.relevels[i] += 1
+                    self.span_hold_until[i] = t_c[i] + lead[i]
                 elif (good and self.relevel_gap and t_c[i] - self.t_update[i] > lead[i]
                       and (zi - kf.x[0]) ** 2 > self.gate * (self.p_update[i] + g_std ** 2)):
                     # no window determined the mode for more than half a window's span: the level is the
@@ -247,8 +277,8 @@ class TrendBank:
                     s = kf.P[0, 0] + kf.R[0, 0]
                     nu_norm[i] = nu / np.sqrt(s)
                     if nu * nu / (kf.P[0, 0] + g_std ** 2) <= self.gate:
-                        if (straddles and self.restart_rate == "freeze") or (level_only is not None
-                                                                             and level_only[i]):
+                        if ((straddles and self.restart_rate == "freeze") or (level_only is not None and level_only[i])
+                                or t_c[i] - lead[i] <= self.span_hold_until[i]):
                             # a window that may straddle the change: a sample of the level, not of the rate
                             # (the ramp of such windows is the window sliding over a step, not a drift)
                             kf.P[0, 1] = kf.P[1, 0] = 0.0
@@ -281,6 +311,8 @@ class TrendBank:
                             self.misses[i], self.ok[i] = 0, True
                             self.restarts[i] += 1
                             self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
+            if self.t_update[i] == t_c[i]:
+                self.span_update[i] = 2 * lead[i]
             if self.restart_rate == "freeze" and self.t_update[i] == t_c[i]:
                 self._remember(i, kf, t_c[i] + lead[i], 2 * lead[i])
             x = ahead @ kf.x

@@ -319,3 +319,51 @@ def test_level_only_windows_move_the_level_and_leave_the_rate():
     assert np.all(rates[60:] == rates[59])
     assert abs(level / (20.0 * (1 + 0.001 * t_c[-1]) * 1.002) - 1) < 5e-4
     assert not np.all(out[False][0][60:] == rates[59])
+
+
+def _collapse(seed, span_relevel, long_s=40.0, short_s=9.2, hop_s=3.7, t_step=30.0, rise=0.01, own=5e-4,
+              short_from=41.0):
+    """A capped window that collapses (``window_from_estimates``): windows of ``long_s`` up to 40.9 s, then of
+    ``short_s`` every ``hop_s`` from ``short_from``; the frequency (20 rad/s) steps by ``rise`` at ``t_step``,
+    inside the long windows; each window's estimate is the mean of the frequency over its span (own std
+    ``own``). The bank fed as gated_pencil feeds it (R = (span/hop)·own², the gate against own). Returns the
+    window ends, the output and the new level."""
+    t_end = np.concatenate([np.arange(long_s, short_from, hop_s / 4), np.arange(short_from, 100.0, hop_s)])
+    span = np.where(t_end < short_from, long_s, short_s)
+    share = np.clip((t_end - t_step) / span, 0.0, 1.0)
+    z = 20.0 * (1 + rise * share) * (1 + own * np.random.default_rng(seed).standard_normal(t_end.size))
+    bank = _trend.TrendBank(1, **OPTS, span_relevel=span_relevel)
+    out = np.array([bank.step(t_end[j] - span[j] / 2, span[j] / 2, z[j:j + 1], np.ones(1, bool),
+                              np.sqrt(span[j] / hop_s) * own * z[j:j + 1], own * z[j:j + 1])[0][0]
+                    for j in range(t_end.size)])
+    return t_end, out, 20.0 * (1 + rise)
+
+
+def test_span_relevel_the_jump_to_a_shorter_window_is_a_level_not_a_rate():
+    # the long windows average a +1 % step made 10 s before their end (+0.25 %), the short ones after it are
+    # wholly after it: the jump between them passes the gate. Learnt as a rate it carries the output past the
+    # new level; with span_relevel the first short window sets the level, so the output stays within 3 × the
+    # windows' own std (0.15 %) of it from the first short window on
+    worst = {False: [], True: []}
+    for seed in range(1, 11):
+        for sr in worst:
+            t_end, out, level = _collapse(seed, sr)
+            worst[sr].append(np.max(np.abs(out[t_end >= 41.0] / level - 1)))
+    assert max(worst[True]) < 1.5e-3, worst
+    assert sum(w > 1.5e-3 for w in worst[False]) >= 5, worst
+
+
+def test_span_relevel_changes_nothing_where_the_span_does_not_change():
+    n, t_step = 120, 60.0
+    t_end, z, _ = _sliding_over_a_step(n, t_step, np.array([20.0]), np.array([21.0]), 5e-4, 4)
+    runs = []
+    for sr in (False, True):
+        bank = _trend.TrendBank(1, **OPTS, span_relevel=sr)
+        runs.append([bank.step(t_end[j] - LEAD, LEAD, z[j], np.ones(1, bool))[0][0] for j in range(n)])
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def test_gated_pencil_refuses_a_trend_span_relevel_that_is_not_a_bool():
+    with pytest.raises(ValueError) as err:
+        methods.check_track_options("gated_pencil", [3.8, 16.0, 26.0, 46.0], DT, {"trend_span_relevel": "yes"})
+    assert "trend_span_relevel = 'yes'" in str(err.value) and "\n" not in str(err.value)
