@@ -60,16 +60,18 @@ def track_figure(stem, *, y, dt: float, t0: float, t_s, freq_rad_s, std_rad_s, c
                            noverlap=nperseg - max(1, nperseg // 8), scaling="density", mode="psd")
     p_db = 10 * np.log10(np.maximum(p, np.max(p) * 1e-12 if np.max(p) > 0 else 1e-300))
     fig = Figure(figsize=(11, 7.0))
-    grid = fig.add_gridspec(2, 1, height_ratios=[2.6, 1], left=0.08, right=0.90, top=0.94, bottom=0.08, hspace=0.12)
-    ax = fig.add_subplot(grid[0])
-    ax_rec = fig.add_subplot(grid[1], sharex=ax)
+    # the colour bar in a column of its own, so that the spectrogram and the record below share one time axis
+    grid = fig.add_gridspec(2, 2, height_ratios=[2.6, 1], width_ratios=[1, 0.02], left=0.08, right=0.93, top=0.94,
+                            bottom=0.08, hspace=0.12, wspace=0.015)
+    ax = fig.add_subplot(grid[0, 0])
+    ax_rec = fig.add_subplot(grid[1, 0], sharex=ax)
     top = np.nanmax(f_hz + 2 * np.nan_to_num(s_hz)) if np.isfinite(f_hz).any() else f[-1]
     fmax = min(f[-1], 1.3 * top) if np.isfinite(top) else f[-1]
     keep = f <= fmax
     vmax = float(np.max(p_db[keep])) if keep.any() else float(np.max(p_db))
     mesh = ax.pcolormesh(t0 + tt, f[keep], p_db[keep], shading="nearest", cmap="Greys", vmin=vmax - 60, vmax=vmax,
                          rasterized=True)
-    cbar = fig.colorbar(mesh, ax=ax, pad=0.01, fraction=0.04)
+    cbar = fig.colorbar(mesh, cax=fig.add_subplot(grid[0, 1]))
     cbar.set_label("PSD (dB re max)", fontsize=8)
     for i in range(f_hz.shape[1]):
         color = f"C{(i + 3) % 10}"
