@@ -385,8 +385,7 @@ def widest_rows(flags: np.ndarray, rows: int, candidates: int = 6) -> int:
     cum = np.concatenate(([0], np.cumsum(flags)))
     best = rows
     for L in np.unique(np.linspace(rows, top, candidates).round().astype(int)):
-        k = np.arange(n - L)
-        if int(np.count_nonzero(cum[k + L + 1] - cum[k + 1] == 0)) >= 2 * L:
+        if _free_columns(cum, n, int(L)) >= 2 * L:
             best = int(L)
     return best
 
