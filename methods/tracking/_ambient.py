@@ -282,6 +282,7 @@ def _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref) -> np.ndarray:
     out = peak.copy()
     m = ref.size
     bin_w = w[1] - w[0]
+    maxima = None
     for i in range(m):
         if np.isfinite(peak[i]):
             continue
@@ -295,9 +296,9 @@ def _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref) -> np.ndarray:
             a, b = lo[i], peak[i + 1]
         else:
             continue
-        k = np.flatnonzero((w > a) & (w < b))
-        k = k[(k > 0) & (k < w.size - 1)]
-        k = k[(p[k] > p[k - 1]) & (p[k] >= p[k + 1])]
+        if maxima is None:
+            maxima = scipy.signal.find_peaks(p)[0]                          # the periodogram's local maxima
+        k = maxima[(w[maxima] > a) & (w[maxima] < b)]
         # not the neighbour's own maximum (the bin its vertex lies in)
         k = k[np.abs(w[k] - (a if j == sel[0] else b)) > bin_w]
         if k.size:

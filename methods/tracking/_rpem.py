@@ -156,18 +156,12 @@ class Options(_ambient.SharedOptions):
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = make_options(Options, options, name)
     _ambient.check_shared(name, opts, prior, dt, n_samples)
-    if not isinstance(opts.estimate_damping, bool):
-        raise ValueError(f"{name}: estimate_damping = {opts.estimate_damping!r} must be true or false")
-    if opts.frequency_model not in ("trend", "walk"):
-        raise ValueError(f"{name}: frequency_model = {opts.frequency_model!r} must be 'trend' or 'walk'")
-    if opts.recursions not in ("one", "two"):
-        raise ValueError(f"{name}: recursions = {opts.recursions!r} must be 'one' or 'two'")
-    if not isinstance(opts.score_reset, bool):
-        raise ValueError(f"{name}: score_reset = {opts.score_reset!r} must be true or false")
-    if not isinstance(opts.pair_peaks, bool):
-        raise ValueError(f"{name}: pair_peaks = {opts.pair_peaks!r} must be true or false")
-    if not isinstance(opts.reset_peak, bool):
-        raise ValueError(f"{name}: reset_peak = {opts.reset_peak!r} must be true or false")
+    for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak"):
+        if not isinstance(getattr(opts, field), bool):
+            raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
+    for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two"))):
+        if getattr(opts, field) not in allowed:
+            raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
         raise ValueError(f"{name}: reset_peak = true needs score_reset = true (got {opts.score_reset!r})")
     if opts.score_reset and opts.recursions != "two":
