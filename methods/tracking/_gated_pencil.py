@@ -271,7 +271,7 @@ class Options:
     trend_rate0: float | None = _trend.DEFAULTS["trend_rate0"]
     trend_restart_rate: str = _trend.RESTART_RATE
     trend_memory: float | None = 1.0
-    trend_span_relevel: bool = False
+    trend_span_relevel: bool = True
     memory: bool = _memory.DEFAULTS["memory"]
     window_from_estimates: bool = True
     own_windows: bool = False
