@@ -67,7 +67,7 @@ What. On each window of W samples (every H samples):
    trackers' rule from the slowest period): the rate noise that gives the trend filter a time constant of k
    window spans, ``trend_meas_rel``/(k·(W − 1)Δt)² (:func:`methods.tracking._defaults.trend_rate_noise_memory`)
    — a filter that forgets faster than a window follows the overlapping windows' shared errors as a rate.
-   ``trend_span_relevel`` (off by default, an option): a window whose span differs from the last used
+   ``trend_span_relevel`` (on by default): a window whose span differs from the last used
    window's by more than a factor 2 (``window_from_estimates`` collapsing a capped window) sets the mode's
    level and keeps its rate (:mod:`methods.tracking._trend`, "A change of span").
 

@@ -50,8 +50,8 @@ before the gap, ν² > ``trend_gate`` · (P₀₀ at the last update + R) (R wit
 (variance R) and keeps
 the rate held before the gap: a step is a new level, a drift keeps its learnt rate, and a window that agrees
 with the prediction updates the filter as any other (``relevel_gap``, on).
-**A change of span** (``TrendBank``'s ``span_relevel``, an option of ``gated_pencil``: ``trend_span_relevel``,
-off by default). A window estimate is stamped at its window's centre and averages the frequency over its span;
+**A change of span** (``TrendBank``'s ``span_relevel``, ``gated_pencil``'s ``trend_span_relevel``,
+on by default). A window estimate is stamped at its window's centre and averages the frequency over its span;
 when the span changes (``window_from_estimates`` shortening a capped 40 s window to 10 s at once), the new
 window's stamp moves by half the difference of the spans and it forgets what the longer one averaged, so the
 step from the last long window's estimate to the first short one's is no sample of a rate. Where the span of a

@@ -24,7 +24,7 @@ TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every w
 # the defaults from Δt and the prior (window 413 samples here), the change detector's window restarts and
 # gated_pencil's kick test
 DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory", "gated_pencil+kicks",
-            "gated_pencil+freeze", "gated_pencil+window", "gated_pencil+own", "gated_pencil+span"]
+            "gated_pencil+freeze", "gated_pencil+nowindow", "gated_pencil+own", "gated_pencil+nospan"]
 # akf_ambient's rate state, its shared modulation and its single-force fit with a memory of looks (the
 # forgetting sum); rpem_ambient's rate in θ (its per-hop CasADi runs hand the state over between looks) and its
 # two memories (and their close pair's peaks assigned together)
@@ -49,10 +49,10 @@ def _options(name):
         return name, {"split_kicks": True}
     if extra == "freeze":                 # the trend stage's rate restored from before a change, held over it
         return name, {"trend_restart_rate": "freeze"}
-    if extra == "span":                   # a change of the window's span re-sets the trend stage's level
-        return name, {"trend_span_relevel": True}
-    if extra == "window":                 # each window's length from the estimates of the windows before it
-        return name, {"window_from_estimates": True}
+    if extra == "nospan":                 # the defaults but a change of span is no new level of the trend
+        return name, {"trend_span_relevel": False}
+    if extra == "nowindow":               # the defaults but every window's length from the prior alone
+        return name, {"window_from_estimates": False}
     if extra == "own":                    # each fast mode also on its own short window ending at the present
         return name, {"own_windows": True}
     if extra in ("defaults", "memory"):
