@@ -47,8 +47,8 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["DIVERGED_REL", "HOLD_S", "ONBOARD_BUDGET_S", "ONBOARD_SLOWDOWN", "SETTLE_PERIODS", "SUMMARY_MEDIANS",
-           "TAIL", "TOL", "converged_from", "lag_s", "sample_index", "score_dwells", "score_record", "score_track",
-           "summarize_cell"]
+           "TAIL", "TOL", "converged_from", "lag_s", "reconvergence_median", "sample_index", "score_dwells",
+           "score_record", "score_track", "summarize_cell"]
 
 TOL = 0.01
 HOLD_S = 2.0
@@ -290,9 +290,19 @@ SUMMARY_MEDIANS = ("t_converge_s", "t_reconverge_s", "err_rel_median", "err_rel_
                    "reconverged_share")
 
 
+def reconvergence_median(values) -> float:
+    """The median over replicates of a re-convergence (s or periods) in which a replicate that never
+    re-converged (NaN) counts as ∞, not as absent: two replicates of 5 s and never give ∞ ("never"), three
+    of 5 s, 7 s and never give 7 s. NaN only when there is no replicate."""
+    v = np.asarray(values, dtype=float)
+    return float(np.median(np.where(np.isnan(v), np.inf, v))) if v.size else math.nan
+
+
 def summarize_cell(rows: pd.DataFrame, *, has_step: bool = False) -> dict:
     """One (tracker, cell): medians over replicates of the per-record scores, and the rates (the share of
-    replicates that never converged, never re-converged after the step, diverged, locked falsely)."""
+    replicates that never converged, never re-converged after the step, diverged, locked falsely). On a
+    step cell (``has_step``) the re-convergence's median counts a replicate that never re-converged as ∞
+    (:func:`reconvergence_median`), so the median of a cell is never read off its fast replicates alone."""
     out = {"replicates": int(len(rows))}
     for col in SUMMARY_MEDIANS:
         if col not in rows:                     # scores written before the column existed
@@ -300,6 +310,10 @@ def summarize_cell(rows: pd.DataFrame, *, has_step: bool = False) -> dict:
             continue
         values = rows[col].to_numpy(dtype=float)
         out[col] = float(np.nanmedian(values)) if np.isfinite(values).any() else math.nan
+    if has_step:
+        for col in ("t_reconverge_s", "reconverge_periods"):
+            if col in rows:
+                out[col] = reconvergence_median(rows[col].to_numpy(dtype=float))
     out["never_converged_rate"] = float(rows["t_converge_s"].isna().mean())
     out["never_reconverged_rate"] = float(rows["t_reconverge_s"].isna().mean()) if has_step else math.nan
     out["diverged_rate"] = float(rows["diverged"].astype(bool).mean())

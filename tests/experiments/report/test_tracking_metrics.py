@@ -81,6 +81,21 @@ def test_reconvergence_after_a_step():
     assert summarize_cell(pd.DataFrame([s]), has_step=True)["never_reconverged_rate"] == 0.0
 
 
+def test_a_replicate_that_never_reconverges_counts_in_the_cells_median():
+    truth = constant_truth()
+    truth[T >= 30.0, 2] *= 1.06
+    fast, slow, never = truth.copy(), truth.copy(), truth.copy()
+    fast[(T >= 30.0) & (T < 34.0), 2] = W0[2]                     # back 4 s after the step
+    slow[(T >= 30.0) & (T < 40.0), 2] = W0[2]                     # back 10 s after it
+    never[T >= 30.0, 2] = W0[2]                                   # never back
+    rows = [score(e, truth, step_time_s=30.0) for e in (fast, never)]
+    two = summarize_cell(pd.DataFrame(rows), has_step=True)
+    # the median of 4 s and never is never, not the 4 s of the one that came back
+    assert two["t_reconverge_s"] == math.inf and two["never_reconverged_rate"] == 0.5
+    three = summarize_cell(pd.DataFrame(rows + [score(slow, truth, step_time_s=30.0)]), has_step=True)
+    assert three["t_reconverge_s"] == pytest.approx(10.0)
+
+
 def test_lag_of_a_late_copy_of_a_drift():
     truth = W0 * (1 + 0.2 * T / T[-1])[:, None]
     lag = 3.0
