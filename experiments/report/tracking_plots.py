@@ -200,7 +200,7 @@ def reconvergence_vs_noise(summary: pd.DataFrame, stem: Path) -> list[Path]:
     fig.legend(list(handles.values()), list(handles), fontsize=7, loc="outside right center",
                ncol=1 if len(handles) <= 18 else 2)
     fig.suptitle("Re-convergence time after the step (median over replicates; dashed: the 20 s target; open, "
-                 "at the top: never in most replicates)", fontsize=10, wrap=True)
+                 "at the top: never in half the replicates or more)", fontsize=10, wrap=True)
     return _save(fig, stem)
 
 
