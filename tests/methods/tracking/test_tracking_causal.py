@@ -40,8 +40,10 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+peak": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                  "pair_peaks": True, "reset_peak": True},
            # the reported ω averaged with its zero-rate conditional, per sample from the whole-record posterior
-           "rpem_ambient+ratetest": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                     "pair_peaks": True, "rate_test": True}}
+           "rpem_ambient+ratemode": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                     "pair_peaks": True, "rate_test": "mode"},
+           "rpem_ambient+rateall": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                    "pair_peaks": True, "rate_test": "all"}}
 
 
 def _options(name):
