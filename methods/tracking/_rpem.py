@@ -69,6 +69,19 @@ detection: Benveniste, Basseville & Moustakides, IEEE TAC 32(7), 1987). A reset 
 variance, and its rate starts again at 0 ± the stated rate, as a restart's does: after a step the window
 recursion's rate holds the step's climb, which the whole-record recursion (no walk of the rate) would keep.
 
+A test of the rates (``rate_test``, with ``score_reset``). The whole-record recursion models each frequency as a
+line; a mode that does not move is then reported at a line's end point, whose variance is about four times
+that of a constant fitted to the same samples (least squares over [0, T]: 4σ²/N against σ²/N), and its ω̂
+wanders by its own score and the rate that score teaches (docs/measured/tracking.md: the slow mode 1 after
+the benchmark's steps is this, the same with the step removed). Two nested models are averaged instead: the
+rate free (the recursion's posterior) and the rate 0 (that posterior conditioned on ω̇ = 0, which for a
+linear-Gaussian model is the rate-0 model's own posterior), weighted at equal prior odds by the Savage–Dickey
+density ratio of the rate's posterior and prior at 0 — per mode (``"mode"``) or for every rate at once
+(``"all"``: a change of mass moves every mode). The conditional keeps what the rate absorbed in the recursion:
+the start's transient (a first peak 3–12 % off, linearised far from the truth) and a reset to a still-walking
+estimate, which the rate-0 estimate then carries; on the design seeds it wins the 100 µg steps and loses some
+drifts and the 1000 µg step, so it stays off.
+
 A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
 but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
 16–155 nats over 10 s, on its drifts by at most 4.2 (design seeds 7 and 11, docs/measured/tracking.md). filterpy's

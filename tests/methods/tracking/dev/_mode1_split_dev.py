@@ -11,7 +11,10 @@ the Gauss–Newton step of the mode's ω and rate, L e = P⁻ψ e/S, into the pa
 (P⁻ᵢᵢψᵢ e/S), its own ζ and K, and each other mode's ω, ζ and K (the cross terms of P⁻). Per stretch of
 ``--every`` s: the mode's error (%), its rate (%/s of ω), its 1σ (%) and the change of ω over the stretch
 (% of ω) split into the rate's drift (Σ Δt ω̇), its own gradient, its own ζ/K, and the other modes' terms; the
-same split for the rate (the change of ω̇ in %/s); the whole-record recursion's resets.
+same split for the rate (the change of ω̇ in %/s); the whole-record recursion's resets; and the mode's own
+zero-rate conditional ω̂ − (P_ωω̇/P_ω̇ω̇) ω̇ (its error, %) with its Savage–Dickey weight μ₀ (``rate_test="mode"``).
+``--no-step``: the same record, the same force and noise draws, with the schedule's step set to 0.
+Findings: docs/measured/tracking.md, "What moves mode 1 after a step".
 """
 
 import argparse
@@ -83,7 +86,7 @@ def _split_advance(orig):
             state, out = step(state, yk, const)
             state = np.asarray(state).ravel()
             LOG.append((th_pred[iw] - th[iw], th, np.sqrt(np.diag(Pk)[iw]), contrib, state[iw] - th_pred[iw],
-                        state[ia] - th_pred[ia]))
+                        state[ia] - th_pred[ia], Pk[iw, ia], Pk[ia, ia]))
             outs.append(np.asarray(out).ravel())
         theta = state[:p].copy()
         P = state[p:p + p * p].reshape(p, p).copy()
@@ -142,6 +145,12 @@ def main() -> None:
     ca = np.array([r[3][m + i] for r in rows])          # to ω̇_i
     dw_upd = np.array([r[4][i] for r in rows])
     da_upd = np.array([r[5][i] for r in rows])
+    p_wa = np.array([r[6][i] for r in rows])
+    p_aa = np.array([r[7][i] for r in rows])
+    # the mode's own zero-rate conditional (``rate_test="mode"``) and its weight μ₀, from the same posterior
+    prior_var = (opts.get("rate_rel_per_s", 1e-3) * cell["prior_rad_s"][args.replicate][i]) ** 2
+    w0 = thw - p_wa / p_aa * rate
+    mu0 = 1 / (1 + np.exp(-np.clip(0.5 * np.log(prior_var / p_aa) - 0.5 * rate ** 2 / p_aa, -50, 50)))
     k_all = n0 + np.arange(len(rows))
     w_true = truth[k_all, i]
     print(f"seed {args.seed} | {args.cell} | replicate {args.replicate} | {args.row}{args.extra} | mode {args.mode} | "
@@ -152,7 +161,8 @@ def main() -> None:
           f"(max update {np.max(np.abs(dw_upd)):.2e}, {np.max(np.abs(da_upd)):.2e}; a reset between samples "
           "is neither)")
     names = list(groups)
-    print("t s | e % | rate %/s | 1σ % | bound % | Δω % over the stretch: rate drift, " + ", ".join(names)
+    print("t s | e % | rate %/s | 1σ % | bound % | rate-0 e % | μ₀ | Δω % over the stretch: rate drift, "
+          + ", ".join(names)
           + " | Δrate %/s: " + ", ".join(names))
     step_n = int(round(args.every / dt))
     for a in range(0, len(rows), step_n):
@@ -163,7 +173,8 @@ def main() -> None:
         parts = [100 * drift[sl].sum() / wt] + [100 * cw[sl][:, groups[g]].sum() / wt for g in names]
         rparts = [100 * ca[sl][:, groups[g]].sum() / wt for g in names]
         print(f"{k * dt:6.1f} | {100 * (thw[b - 1] - wt) / wt:+.2f} | {100 * rate[b - 1] / wt:+.4f} | "
-              f"{100 * sd[b - 1] / wt:.2f} | {100 * bound[k, i] / wt:.2f} | "
+              f"{100 * sd[b - 1] / wt:.2f} | {100 * bound[k, i] / wt:.2f} | {100 * (w0[b - 1] - wt) / wt:+.2f} | "
+              f"{mu0[b - 1]:.2f} | "
               + " ".join(f"{v:+.2f}" for v in parts) + " | " + " ".join(f"{v:+.4f}" for v in rparts), flush=True)
 
 
