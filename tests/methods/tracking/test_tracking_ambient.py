@@ -45,6 +45,9 @@ BAD = [
     ("rpem_ambient", {"reset_peak": "no"}, "reset_peak = 'no'"),
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "reset_peak": True},
      "reset_peak = true needs score_reset = true"),
+    ("rpem_ambient", {"rate_test": "yes"}, "rate_test = 'yes'"),
+    ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "rate_test": "all"},
+     "rate_test = 'all' needs score_reset = true"),
 ]
 
 
@@ -391,6 +394,58 @@ def test_two_memories_variance_is_the_mixture_error_of_the_whole_record_estimate
                                [0.25 * 0.01 + 0.75 * 0.06, 0.25 * 0.04 + 0.75 * 1.09])
     np.testing.assert_allclose(_rpem._variance_two(w[None], v[None], w2[None], v2[None], np.array([-50.0])),
                                v[None], rtol=1e-12)
+
+
+def _level_and_rate(rate, seed):
+    """A level ω plus a rate a·t seen with white noise (σ 0.05, 400 samples over 40 s, t from the record's end),
+    priors ω ~ N(3, 0.1²), a ~ N(0, 0.01²): the rate model's posterior (ω at the end, a) by least squares with
+    the prior, and independently each nested model's evidence (the record's Gaussian density under it,
+    ``scipy.stats.multivariate_normal``) and the level model's own posterior (ω̂₀, V₀)."""
+    import scipy.stats
+
+    n, sig, sw, sa = 400, 0.05, 0.1, 0.01
+    t = np.linspace(-40.0, 0.0, n)
+    y = 3.02 + rate * t + sig * np.random.default_rng(seed).standard_normal(n)
+    X = np.column_stack([np.ones(n), t])
+    S0 = np.diag([sw ** 2, sa ** 2])
+    m0 = np.array([3.0, 0.0])
+    P = np.linalg.inv(np.linalg.inv(S0) + X.T @ X / sig ** 2)
+    mean = P @ (np.linalg.inv(S0) @ m0 + X.T @ y / sig ** 2)
+    log_e1 = scipy.stats.multivariate_normal.logpdf(y, X @ m0, X @ S0 @ X.T + sig ** 2 * np.eye(n))
+    log_e0 = scipy.stats.multivariate_normal.logpdf(y, np.full(n, 3.0), sw ** 2 + sig ** 2 * np.eye(n))
+    v0 = 1.0 / (1 / sw ** 2 + n / sig ** 2)
+    return mean, P, log_e1, log_e0, v0 * (3.0 / sw ** 2 + y.sum() / sig ** 2), v0, sa ** 2
+
+
+@pytest.mark.parametrize("joint", [False, True], ids=["mode", "all"])
+@pytest.mark.parametrize("rates, weights", [((0.0, 3e-4), ((0.55, 0.99), (0.05, 0.8))),
+                                            ((0.0, 6e-3), ((0.55, 0.99), (0.0, 0.01)))], ids=["between", "drift"])
+def test_zero_rate_average_is_the_average_of_the_two_batch_models(rates, weights, joint):
+    """``rate_test``'s average against both nested models computed in batch (:func:`_level_and_rate`), two modes,
+    each seen on its own record. Per mode (``"mode"``) μ₀ᵢ is the mode's own evidence ratio at equal prior
+    odds; for every rate at once (``"all"``) one μ₀ from the summed log evidences of "no rate" and "every rate
+    free". The average μ₀ω̂₀ + (1 − μ₀)ω̂ and its mixture variance must agree with ``_zero_rate_average`` fed
+    the rate model's posterior alone. ``weights``: each record's μ₀ — no rate favours the level, 3e-4 per s
+    (1.4σ of the record's rate) is undecided, 6e-3 (0.6σ of the rate's prior, 27σ of the record's) the rate's."""
+    from methods.tracking import _rpem
+
+    recs = [_level_and_rate(r, 31 + i) for i, r in enumerate(rates)]
+    mean = np.array([r[0] for r in recs])
+    P = [r[1] for r in recs]
+    w_bar, v_bar = _rpem._zero_rate_average(mean[:, 0], np.array([p[0, 0] for p in P]), mean[:, 1],
+                                            np.diag([p[0, 1] for p in P]), np.diag([p[1, 1] for p in P]),
+                                            np.array([r[6] for r in recs]), joint)
+    mu0 = np.array([1.0 / (1.0 + np.exp(r[2] - r[3])) for r in recs])
+    for m, (lo, hi) in zip(mu0, weights, strict=True):
+        assert lo <= m <= hi, mu0
+    if joint:
+        mu0 = np.full(2, 1.0 / (1.0 + np.exp(sum(r[2] - r[3] for r in recs))))
+    w0, v0 = np.array([r[4] for r in recs]), np.array([r[5] for r in recs])
+    w_ref = mu0 * w0 + (1 - mu0) * mean[:, 0]
+    v_ref = mu0 * (v0 + (w0 - w_ref) ** 2) + (1 - mu0) * (np.array([p[0, 0] for p in P]) + (mean[:, 0] - w_ref) ** 2)
+    np.testing.assert_allclose(w_bar, w_ref, rtol=1e-6)
+    np.testing.assert_allclose(v_bar, v_ref, rtol=1e-6)
+    assert np.all(np.abs(w0 - mean[:, 0]) > 10 * np.abs(w_bar - w_ref))     # the models differ: μ₀ is tested
 
 
 @pytest.fixture(scope="module")

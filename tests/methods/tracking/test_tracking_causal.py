@@ -27,7 +27,7 @@ DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory",
             "gated_pencil+freeze", "gated_pencil+nowindow", "gated_pencil+own", "gated_pencil+nospan"]
 # akf_ambient's rate state, its shared modulation and its single-force fit with a memory of looks (the
 # forgetting sum); rpem_ambient's rate in θ (its per-hop CasADi runs hand the state over between looks) and its
-# two memories (and their close pair's peaks assigned together)
+# two memories (and their close pair's peaks assigned together, the zero-rate average)
 AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "akf_ambient+single": {"force_model": "single", "fit_memory_looks": 30},
            # the shared modulation, its band shortened so that its looks at the tracks' history run before K
@@ -38,7 +38,12 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+pairs": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                   "pair_peaks": True},
            "rpem_ambient+peak": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                 "pair_peaks": True, "reset_peak": True}}
+                                 "pair_peaks": True, "reset_peak": True},
+           # the reported ω averaged with its zero-rate conditional, per sample from the whole-record posterior
+           "rpem_ambient+ratemode": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                     "pair_peaks": True, "rate_test": "mode"},
+           "rpem_ambient+rateall": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                    "pair_peaks": True, "rate_test": "all"}}
 
 
 def _options(name):
