@@ -141,6 +141,12 @@ class Options(_ambient.SharedOptions):
         from the whole-record ω̂ᵢ (the window recursion still walking toward a step's new value), starts again in
         both recursions at that peak, with the variance Pᵢ' + (peak − ω̂ᵢ')² and its rate at 0 ± the stated
         rate, instead of at the window recursion's ω̂ᵢ' (:func:`_reset_from_window`).
+    rate_test : bool
+        ``recursions="two"``: each mode's reported ω is the posterior average of the whole-record recursion
+        (its constant rate) and of the same recursion without a rate (ω̇ᵢ = 0 since the mode's last reset,
+        its estimate the Gaussian posterior conditioned on ω̇ᵢ = 0), weighted by the Savage–Dickey density ratio
+        of the rate at 0 at equal prior odds (:func:`_rate_evidence`): a rate learnt from a step's climb or a
+        start's transient is reported only as far as the record supports it.
     """
 
     estimate_damping: bool = True
@@ -151,12 +157,13 @@ class Options(_ambient.SharedOptions):
     score_reset: bool = False
     pair_peaks: bool = False
     reset_peak: bool = False
+    rate_test: bool = False
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = make_options(Options, options, name)
     _ambient.check_shared(name, opts, prior, dt, n_samples)
-    for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak"):
+    for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak", "rate_test"):
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two"))):
@@ -164,8 +171,9 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
         raise ValueError(f"{name}: reset_peak = true needs score_reset = true (got {opts.score_reset!r})")
-    if opts.score_reset and opts.recursions != "two":
-        raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
+    for field in ("score_reset", "rate_test"):
+        if getattr(opts, field) and opts.recursions != "two":
+            raise ValueError(f"{name}: {field} = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
         raise ValueError(f"{name}: recursions = 'two' needs frequency_model = 'trend' (got {opts.frequency_model!r})")
     g = opts.reset_gate
@@ -227,7 +235,8 @@ def _sx_transition(w, z, dt):
 def _step_function(m: int, est_z: bool, trend: bool = False):
     """One sample of the recursion (module docstring) as a CasADi SX function, its derivatives algorithmic:
 
-        (state, y(k), const) ↦ (state', [ω̂; P_ωω; ζ̂; ½(ln S + e²/S); pulse]),   state = [θ, vec P, x̂, vec W, Λ],
+        (state, y(k), const) ↦ (state', [ω̂; P_ωω; ζ̂; ψe/S; ψ²/S; (ω̇; P_ωω̇; P_ω̇ω̇ with the rate); ½(ln S + e²/S);
+        pulse]),   state = [θ, vec P, x̂, vec W, Λ],
         const = [Δt, ν²·horizon, Δt/T, pulse_gate, ζ, k̃ scale (2m), Q_θ (ω entries 0), ω low (m), ω high (m)].
 
     ∂Φ/∂θ, ∂K/∂θ and ∂C/∂θ are ``casadi.jacobian`` of Φ(θ)x̂ + K(θ)ε and C(θ)x̂ with x̂ and ε held (the
@@ -293,7 +302,10 @@ def _step_function(m: int, est_z: bool, trend: bool = False):
     s_safe = ca.if_else(S > 0, S, 1)
     score = ca.if_else(ok, psi[:m] * e / s_safe, ca.SX.zeros(m))
     info = ca.if_else(ok, psi[:m] * psi[:m] / s_safe, ca.SX.zeros(m))
-    out = ca.vertcat(th_new[:m], ca.diag(P_new)[:m], th_new[m:m + nz], score, info, nll, pulse)
+    # with the rate: each ω̇ᵢ, Cov(ωᵢ, ω̇ᵢ) and Var(ω̇ᵢ) after the update (``rate_test``)
+    rate = ([th_new[3 * m + nz:], ca.vertcat(*[P_new[i, 3 * m + nz + i] for i in range(m)]),
+             ca.diag(P_new)[3 * m + nz:]] if trend else [])
+    out = ca.vertcat(th_new[:m], ca.diag(P_new)[:m], th_new[m:m + nz], score, info, *rate, nll, pulse)
     return ca.Function("rpem_step", [st, yk, c], [state, out])
 
 
@@ -342,6 +354,25 @@ def _variance_two(w_long, v_long, w_win, v_win, odds):
     mu = 1.0 / (1.0 + np.exp(-np.clip(odds, -50.0, 50.0)))
     mu = mu[:, None] if np.ndim(mu) else mu
     return (1 - mu) * v_long + mu * (v_win + (w_long - w_win) ** 2)
+
+
+def _rate_evidence(w, v, rate, c, s2, m0, v0):
+    """``rate_test``: the whole-record recursion's ω̂ and its variance ``v`` averaged over two nested models,
+    its constant rate (``rate`` = ω̇ᵢ, ``c`` = Cov(ωᵢ, ω̇ᵢ), ``s2`` = Var(ω̇ᵢ)) and no rate (ω̇ᵢ = 0 since the mode's
+    last reset, where the rate's prior was N(``m0``, ``v0``)). The rate walks not in that recursion, so the
+    no-rate model's posterior is the joint Gaussian's conditioned on ω̇ᵢ = 0: ω̂ − (c/s2)ω̇, v − c²/s2; and its
+    Bayes factor against the rate model is the Savage–Dickey density ratio (Dickey, Ann. Math. Stat. 42(1),
+    1971; Verdinelli & Wasserman, JASA 90(430), 1995), the rate's posterior density at 0 over its prior's,
+    B = N(0; ω̇, s2) / N(0; m0, v0). At equal prior odds the rate model has the probability π = 1/(1 + B); the
+    reported ω̂ is π ω̂ + (1 − π) ω̂₀ and its variance the mixture's. Arrays of one shape (samples × modes), m0
+    and v0 per mode; written here because it is three lines of a Gaussian, which no kept library does as such."""
+    s2 = np.maximum(s2, 1e-300)
+    log_b = -0.5 * np.log(s2 / v0) - 0.5 * rate ** 2 / s2 + 0.5 * m0 ** 2 / v0
+    pi = 1.0 / (1.0 + np.exp(np.clip(log_b, -50.0, 50.0)))
+    w0 = w - c / s2 * rate
+    v_0 = np.maximum(v - c * c / s2, 0.0)
+    w_avg = pi * w + (1 - pi) * w0
+    return w_avg, pi * (v + (w - w_avg) ** 2) + (1 - pi) * (v_0 + (w0 - w_avg) ** 2)
 
 
 def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts,
@@ -479,6 +510,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     cum_s = np.zeros((n + 1, m)) if two else None     # the whole-record recursion's Σ ψᵢe/S and Σ ψᵢ²/S
     cum_i = np.zeros((n + 1, m)) if two else None
     since = np.full(m, W_len)                         # its modes' last reset (sample)
+    rate_m0, rate_v0 = np.zeros(m), rate_var.copy()   # its rates' prior since then (``rate_test``)
     if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
         q_long = q_fixed.copy()
         q_long[ia] = 0.0
@@ -501,8 +533,12 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             cum_i[k0 + 1:k1 + 1] = cum_i[k0] + np.cumsum(out[j0 + m:j0 + 2 * m].T, axis=0)
             ks = np.arange(k0 + 1, k1 + 1)
             odds = cum[ks] - cum[np.maximum(ks - W_len, W_len)]          # over the last window
-            var[k0:k1] = _variance_two(out[iw].T, out[m + iw].T, freq[k0:k1], var[k0:k1], odds)
-            freq[k0:k1] = out[iw].T
+            w_l, v_l = out[iw].T, out[m + iw].T
+            if opts.rate_test:      # the rate and its covariance rows follow the scores and informations
+                w_l, v_l = _rate_evidence(w_l, v_l, *(out[j0 + j * m:j0 + (j + 1) * m].T for j in (2, 3, 4)),
+                                          rate_m0, rate_v0)
+            var[k0:k1] = _variance_two(w_l, v_l, freq[k0:k1], var[k0:k1], odds)
+            freq[k0:k1] = w_l
         damp[k0:k1] = out[2 * m + iw].T if est_z else opts.damping_ratio
         n_pulses += int(np.sum(out[-1]))
         started[k0:k1] = True
@@ -547,6 +583,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var,
                                         peak if opts.reset_peak else None, Wm)
                 since[nr] = k + 1
+                rate_m0[nr], rate_v0[nr] = long[0][ia[nr]], long[1][ia[nr], ia[nr]]   # the rate's new prior
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]
                 if _unstable(unpack(long[0]), dt):
@@ -555,8 +592,12 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             seen[k] = seen_now
             freq[k], var[k] = theta[iw], np.diag(P)[iw]
             if two:
-                var[k] = _variance_two(long[0][iw], np.diag(long[1])[iw], freq[k], var[k], gain)
-                freq[k] = long[0][iw]
+                w_l, v_l = long[0][iw], np.diag(long[1])[iw]
+                if opts.rate_test:
+                    w_l, v_l = _rate_evidence(w_l, v_l, long[0][ia], long[1][iw, ia], long[1][ia, ia], rate_m0,
+                                              rate_v0)
+                var[k] = _variance_two(w_l, v_l, freq[k], var[k], gain)
+                freq[k] = w_l
             th_out = long[0] if two else theta
             damp[k] = th_out[iz] if est_z else opts.damping_ratio
     return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets,

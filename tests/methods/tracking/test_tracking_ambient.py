@@ -45,6 +45,8 @@ BAD = [
     ("rpem_ambient", {"reset_peak": "no"}, "reset_peak = 'no'"),
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "reset_peak": True},
      "reset_peak = true needs score_reset = true"),
+    ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "rate_test": "yes"}, "rate_test = 'yes'"),
+    ("rpem_ambient", {"frequency_model": "trend", "rate_test": True}, "rate_test = true needs recursions = 'two'"),
 ]
 
 
@@ -345,6 +347,41 @@ def test_score_reset_also_resets_a_mode_whose_score_points_to_the_window_estimat
     # without the scores (score_reset off) the same gaps reset nothing
     long, *_ = _two_memories([0.5, 0.5, 0.5])
     assert _rpem._reset_from_window(long, th_w, P_w, iw, ia, 8.1, opts).size == 0
+
+
+def test_rate_evidence_is_the_bayesian_average_of_a_line_and_a_level():
+    """``rate_test``'s average against a batch computation: samples y = ω(T) + b(t − T) + noise of a line with
+    prior ω(T) ~ N(0, 1), b ~ N(m0, v0); the rate model's posterior of (ω(T), b) (conjugate, assembled
+    directly) goes into ``_rate_evidence``, and its average must equal the one built from the two models'
+    marginal likelihoods (``scipy.stats.multivariate_normal`` of the whole record, y ~ N(X μ, σ²I + X Σ Xᵀ)) and
+    the level-only model's own posterior: a Bayes factor by the data's densities, not by Savage–Dickey. Slopes
+    chosen so that the rate's posterior probability is between 0.1 and 0.9 (else either model alone passes)."""
+    import scipy.stats
+
+    from methods.tracking import _rpem
+
+    rng = np.random.default_rng(11)
+    t = np.linspace(-10.0, 0.0, 40)
+    sigma, m0, v0 = 1.0, 0.02, 0.05 ** 2
+    probs = []
+    for slope in (0.0, 0.06, 0.09):
+        y = 0.3 + slope * t + sigma * rng.standard_normal(t.size)
+        out = {}
+        for label, X, mu, Sig in (("rate", np.column_stack([np.ones_like(t), t]), np.array([0.0, m0]),
+                                   np.diag([1.0, v0])),
+                                  ("level", np.ones((t.size, 1)), np.zeros(1), np.eye(1))):
+            post_cov = np.linalg.inv(np.linalg.inv(Sig) + X.T @ X / sigma ** 2)
+            post_mean = post_cov @ (np.linalg.solve(Sig, mu) + X.T @ y / sigma ** 2)
+            evidence = scipy.stats.multivariate_normal(X @ mu, sigma ** 2 * np.eye(t.size) + X @ Sig @ X.T).logpdf(y)
+            out[label] = post_mean, post_cov, evidence
+        (m1, c1, e1), (mz, cz, ez) = out["rate"], out["level"]
+        pi = 1.0 / (1.0 + np.exp(ez - e1))
+        w_avg = pi * m1[0] + (1 - pi) * mz[0]
+        v_avg = pi * (c1[0, 0] + (m1[0] - w_avg) ** 2) + (1 - pi) * (cz[0, 0] + (mz[0] - w_avg) ** 2)
+        w, v = _rpem._rate_evidence(m1[0], c1[0, 0], m1[1], c1[0, 1], c1[1, 1], m0, v0)
+        np.testing.assert_allclose([w, v], [w_avg, v_avg], rtol=1e-6)
+        probs.append(pi)
+    assert 0.1 < min(probs) and max(probs) < 0.9 and probs[0] < probs[2], probs
 
 
 def test_reset_peak_starts_a_reset_mode_at_a_peak_beyond_the_walking_window_estimate():

@@ -38,7 +38,9 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+pairs": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                   "pair_peaks": True},
            "rpem_ambient+peak": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                 "pair_peaks": True, "reset_peak": True}}
+                                 "pair_peaks": True, "reset_peak": True},
+           "rpem_ambient+ratetest": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                     "pair_peaks": True, "rate_test": True}}
 
 
 def _options(name):
