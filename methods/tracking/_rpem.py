@@ -141,12 +141,15 @@ class Options(_ambient.SharedOptions):
         from the whole-record ω̂ᵢ (the window recursion still walking toward a step's new value), starts again in
         both recursions at that peak, with the variance Pᵢ' + (peak − ω̂ᵢ')² and its rate at 0 ± the stated
         rate, instead of at the window recursion's ω̂ᵢ' (:func:`_reset_from_window`).
-    rate_test : bool
-        ``recursions="two"``: each mode's reported ω is the posterior average of the whole-record recursion
-        (its constant rate) and of the same recursion without a rate (ω̇ᵢ = 0 since the mode's last reset,
-        its estimate the Gaussian posterior conditioned on ω̇ᵢ = 0), weighted by the Savage–Dickey density ratio
-        of the rate at 0 at equal prior odds (:func:`_rate_evidence`): a rate learnt from a step's climb or a
-        start's transient is reported only as far as the record supports it.
+    rate_test : str
+        ``"off"`` (default); ``"always"`` (``recursions="two"``): each mode's reported ω is the posterior average
+        of the whole-record recursion (its constant rate) and of the same recursion without a rate (ω̇ᵢ = 0
+        since the mode's last reset, its estimate the Gaussian posterior conditioned on ω̇ᵢ = 0), weighted by
+        the Savage–Dickey density ratio of the rate at 0 at equal prior odds (:func:`_rate_evidence`): a rate
+        learnt from a step's climb or a start's transient is reported only as far as the record supports it;
+        ``"after_change"``: the same from the first look at which the last window's likelihood ratio opens the
+        reset gate (Λ_W > ``restart_gate``²/2: the record has changed, so every mode's rate since the start is
+        in doubt), the whole-record recursion's ω̂ before it.
     """
 
     estimate_damping: bool = True
@@ -157,23 +160,25 @@ class Options(_ambient.SharedOptions):
     score_reset: bool = False
     pair_peaks: bool = False
     reset_peak: bool = False
-    rate_test: bool = False
+    rate_test: str = "off"
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = make_options(Options, options, name)
     _ambient.check_shared(name, opts, prior, dt, n_samples)
-    for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak", "rate_test"):
+    for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak"):
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
-    for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two"))):
+    for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
+                           ("rate_test", ("off", "always", "after_change"))):
         if getattr(opts, field) not in allowed:
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
         raise ValueError(f"{name}: reset_peak = true needs score_reset = true (got {opts.score_reset!r})")
-    for field in ("score_reset", "rate_test"):
-        if getattr(opts, field) and opts.recursions != "two":
-            raise ValueError(f"{name}: {field} = true needs recursions = 'two' (got {opts.recursions!r})")
+    if opts.score_reset and opts.recursions != "two":
+        raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
+    if opts.rate_test != "off" and opts.recursions != "two":
+        raise ValueError(f"{name}: rate_test = {opts.rate_test!r} needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
         raise ValueError(f"{name}: recursions = 'two' needs frequency_model = 'trend' (got {opts.frequency_model!r})")
     g = opts.reset_gate
@@ -511,6 +516,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     cum_i = np.zeros((n + 1, m)) if two else None
     since = np.full(m, W_len)                         # its modes' last reset (sample)
     rate_m0, rate_v0 = np.zeros(m), rate_var.copy()   # its rates' prior since then (``rate_test``)
+    tested = opts.rate_test == "always"               # the rates tested (``"after_change"``: from a change on)
     if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
         q_long = q_fixed.copy()
         q_long[ia] = 0.0
@@ -534,7 +540,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             ks = np.arange(k0 + 1, k1 + 1)
             odds = cum[ks] - cum[np.maximum(ks - W_len, W_len)]          # over the last window
             w_l, v_l = out[iw].T, out[m + iw].T
-            if opts.rate_test:      # the rate and its covariance rows follow the scores and informations
+            if tested:      # the rate and its covariance rows follow the scores and informations
                 w_l, v_l = _rate_evidence(w_l, v_l, *(out[j0 + j * m:j0 + (j + 1) * m].T for j in (2, 3, 4)),
                                           rate_m0, rate_v0)
             var[k0:k1] = _variance_two(w_l, v_l, freq[k0:k1], var[k0:k1], odds)
@@ -593,7 +599,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             freq[k], var[k] = theta[iw], np.diag(P)[iw]
             if two:
                 w_l, v_l = long[0][iw], np.diag(long[1])[iw]
-                if opts.rate_test:
+                if opts.rate_test == "after_change" and gain > 0.5 * opts.restart_gate ** 2:
+                    tested = True       # from this look on
+                if tested:
                     w_l, v_l = _rate_evidence(w_l, v_l, long[0][ia], long[1][iw, ia], long[1][ia, ia], rate_m0,
                                               rate_v0)
                 var[k] = _variance_two(w_l, v_l, freq[k], var[k], gain)

@@ -40,7 +40,7 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+peak": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                  "pair_peaks": True, "reset_peak": True},
            "rpem_ambient+ratetest": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                     "pair_peaks": True, "rate_test": True}}
+                                     "pair_peaks": True, "rate_test": "after_change"}}
 
 
 def _options(name):
