@@ -69,6 +69,13 @@ detection: Benveniste, Basseville & Moustakides, IEEE TAC 32(7), 1987). A reset 
 variance, and its rate starts again at 0 ± the stated rate, as a restart's does: after a step the window
 recursion's rate holds the step's climb, which the whole-record recursion (no walk of the rate) would keep.
 
+With ``rate_test`` the reported ω of each mode is the posterior average of the whole-record recursion and its
+no-rate submodel (ω̇ᵢ = 0 since the mode's last reset). The rate does not walk there, so the submodel's posterior
+is the joint Gaussian conditioned on ω̇ᵢ = 0 and its Bayes factor is the Savage–Dickey density ratio of ω̇ᵢ at 0
+(:func:`_rate_evidence`); a constant-rate model otherwise turns a step it was not reset for, or a start's
+transient, into a rate it extrapolates for the rest of the record (``"after_change"``: only from the first
+opening of the reset gate on).
+
 A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
 but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
 16–155 nats over 10 s, on its drifts by at most 4.2 (design seeds 7 and 11, docs/measured/tracking.md). filterpy's
