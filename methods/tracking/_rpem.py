@@ -149,7 +149,7 @@ class Options(_ambient.SharedOptions):
         both recursions at that peak, with the variance Pᵢ' + (peak − ω̂ᵢ')² and its rate at 0 ± the stated
         rate, instead of at the window recursion's ω̂ᵢ' (:func:`_reset_from_window`).
     rate_test : str
-        ``"off"`` (default); ``"always"`` (``recursions="two"``): each mode's reported ω is the posterior average
+        ``"off"`` (default); ``"mode"`` (``recursions="two"``): each mode's reported ω is the posterior average
         of the whole-record recursion (its constant rate) and of the same recursion without a rate (ω̇ᵢ = 0
         since the mode's last reset, its estimate the Gaussian posterior conditioned on ω̇ᵢ = 0), weighted by
         the Savage–Dickey density ratio of the rate at 0 at equal prior odds (:func:`_rate_evidence`): a rate
@@ -177,7 +177,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
-                           ("rate_test", ("off", "always", "after_change"))):
+                           ("rate_test", ("off", "mode", "after_change"))):
         if getattr(opts, field) not in allowed:
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
@@ -523,7 +523,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     cum_i = np.zeros((n + 1, m)) if two else None
     since = np.full(m, W_len)                         # its modes' last reset (sample)
     rate_m0, rate_v0 = np.zeros(m), rate_var.copy()   # its rates' prior since then (``rate_test``)
-    tested = opts.rate_test == "always"               # the rates tested (``"after_change"``: from a change on)
+    tested = opts.rate_test == "mode"                 # the rates tested (``"after_change"``: from a change on)
     if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
         q_long = q_fixed.copy()
         q_long[ia] = 0.0

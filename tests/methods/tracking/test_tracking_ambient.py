@@ -46,8 +46,8 @@ BAD = [
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "reset_peak": True},
      "reset_peak = true needs score_reset = true"),
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "rate_test": "yes"}, "rate_test = 'yes'"),
-    ("rpem_ambient", {"frequency_model": "trend", "rate_test": "always"},
-     "rate_test = 'always' needs recursions = 'two'"),
+    ("rpem_ambient", {"frequency_model": "trend", "rate_test": "mode"},
+     "rate_test = 'mode' needs recursions = 'two'"),
 ]
 
 
