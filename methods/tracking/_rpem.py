@@ -161,7 +161,10 @@ class Options(_ambient.SharedOptions):
         Savage–Dickey density ratio of the rate's posterior and prior at 0 (:func:`_zero_rate_average`);
         ``"all"``: one such test of every rate at once (the structure drifts or it does not: a change of mass
         moves every mode). A mode that does not drift is then reported with the variance of a constant
-        frequency instead of the ~4× of a line's end point (module docstring).
+        frequency instead of the ~4× of a line's end point (module docstring); ``"after_change"``: as
+        ``"mode"``, from the first look at which the last window's likelihood ratio opens the reset gate (Λ_W >
+        ``restart_gate``²/2: the record has changed, so every mode's rate since the start is in doubt), the
+        whole-record recursion's ω̂ before it — a record that never opens the gate keeps its rates.
     """
 
     estimate_damping: bool = True
@@ -182,7 +185,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
-                           ("rate_test", ("off", "mode", "all"))):
+                           ("rate_test", ("off", "mode", "all", "after_change"))):
         if getattr(opts, field) not in allowed:
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
@@ -547,6 +550,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     cum_s = np.zeros((n + 1, m)) if two else None     # the whole-record recursion's Σ ψᵢe/S and Σ ψᵢ²/S
     cum_i = np.zeros((n + 1, m)) if two else None
     since = np.full(m, W_len)                         # its modes' last reset (sample)
+    tested = opts.rate_test in ("mode", "all")        # the rates tested (``"after_change"``: from a change on)
     if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
         q_long = q_fixed.copy()
         q_long[ia] = 0.0
@@ -570,7 +574,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             ks = np.arange(k0 + 1, k1 + 1)
             odds = cum[ks] - cum[np.maximum(ks - W_len, W_len)]          # over the last window
             w_l, v_l = out[iw].T, out[m + iw].T
-            if opts.rate_test != "off":
+            if tested:
                 j1 = j0 + 2 * m
                 blocks = out[j1 + m:j1 + m + 2 * m * m].T.reshape(-1, 2, m, m).swapaxes(-1, -2)   # column-major
                 w_l, v_l = _zero_rate_average(w_l, v_l, out[j1:j1 + m].T, blocks[:, 0], blocks[:, 1], rate_var,
@@ -630,7 +634,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             freq[k], var[k] = theta[iw], np.diag(P)[iw]
             if two:
                 w_l, v_l = long[0][iw], np.diag(long[1])[iw]
-                if opts.rate_test != "off":
+                if opts.rate_test == "after_change" and gain > 0.5 * opts.restart_gate ** 2:
+                    tested = True       # from this look on
+                if tested:
                     w_l, v_l = _zero_rate_average(w_l, v_l, long[0][ia], long[1][np.ix_(iw, ia)],
                                                   long[1][np.ix_(ia, ia)], rate_var, opts.rate_test == "all")
                 var[k] = _variance_two(w_l, v_l, freq[k], var[k], gain)

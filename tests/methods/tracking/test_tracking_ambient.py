@@ -48,6 +48,8 @@ BAD = [
     ("rpem_ambient", {"rate_test": "yes"}, "rate_test = 'yes'"),
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "rate_test": "all"},
      "rate_test = 'all' needs score_reset = true"),
+    ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "rate_test": "after_change"},
+     "rate_test = 'after_change' needs score_reset = true"),
 ]
 
 

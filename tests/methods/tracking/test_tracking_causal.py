@@ -43,7 +43,9 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+ratemode": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                      "pair_peaks": True, "rate_test": "mode"},
            "rpem_ambient+rateall": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                    "pair_peaks": True, "rate_test": "all"}}
+                                    "pair_peaks": True, "rate_test": "all"},
+           "rpem_ambient+ratechange": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                       "pair_peaks": True, "rate_test": "after_change"}}
 
 
 def _options(name):

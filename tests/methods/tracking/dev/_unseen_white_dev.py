@@ -1,0 +1,101 @@
+"""``rpem_ambient``'s recursions per mode on the unseen white-force records — a development table, not a test
+(pytest does not collect it).
+
+    python tests/methods/tracking/dev/_unseen_white_dev.py SEED [--replicates 2] [--extra "+opt=value"]
+        [--rows window,reported] [--cache DIR] [--per-record]
+
+On ``tracking_unseen``'s three white-force records (``AMBIENT_CELLS`` without slosh; design seeds only), per
+record and per recursion: the window recursion (``rpem_ambient:frequency_model=trend+pair_peaks=true``, the
+recursion ``recursions="two"`` runs beside the whole-record one, which does not feed back into it), the reported
+one (``rpem_ambient:two``'s options) and, with ``--extra``, the reported one with those options added. Per record
+and row: the benchmark's × bound (median |e| over time and modes after 30 s over the unknown-force bound's),
+each mode's median |e| over that mode's bound median 1σ after 30 s and its median signed error (%), the
+re-convergence after a step; ``--per-record`` adds each mode's error (%) at 20…120 s and the resets. ``--cache``
+keeps the simulated cells (with their bounds) as pickles, so that a second call does not simulate them again.
+"""
+
+import argparse
+import os
+import pickle
+import sys
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
+
+import numpy as np  # noqa: E402
+
+import methods  # noqa: E402
+from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
+from experiments.benchmarks.tracking_unseen import configs  # noqa: E402
+from experiments.report.tracking_metrics import score_track  # noqa: E402
+from experiments.simulate.tracking_data import make_cell  # noqa: E402
+
+TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true"
+ROWS = {"window": "rpem_ambient:frequency_model=trend+pair_peaks=true", "reported": TWO}
+MARKS = (20, 30, 45, 60, 75, 90, 105, 120)
+
+
+def cells(seed: int, replicates: int, cache: str | None):
+    for i, (label, cfg) in enumerate(configs(seed, replicates, records="ambient").items()):
+        if "white force" not in label or "slosh" in label:
+            continue
+        path = Path(cache) / f"unseen_{seed}_{replicates}_{i}.pkl" if cache else None
+        if path is not None and path.exists():
+            cell = pickle.loads(path.read_bytes())
+        else:
+            cell = make_cell(cfg)
+            if path is not None:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_bytes(pickle.dumps(cell))
+        yield label, cell
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("seed", type=int)
+    ap.add_argument("--replicates", type=int, default=2)
+    ap.add_argument("--extra", default="")
+    ap.add_argument("--rows", default="window,reported")
+    ap.add_argument("--cache", default=None)
+    ap.add_argument("--per-record", action="store_true")
+    args = ap.parse_args()
+    rows = {k: ROWS[k] for k in args.rows.split(",") if k}
+    if args.extra:
+        rows["variant"] = TWO + args.extra
+    for label, cell in cells(args.seed, args.replicates, args.cache):
+        dt, st, truth = float(cell["dt_s"]), float(cell["step_time_s"]), cell["truth_freq_rad_s"]
+        print(f"## {args.seed} | {label}")
+        for r in range(args.replicates):
+            bound = cell["pcrb_unknown_force_std_rad_s"][r]
+            for row, spec in rows.items():
+                name, opts = parse_row(spec)
+                tr = methods.track(name, cell["accel_m_s2"][r], dt, cell["prior_rad_s"][r], **opts)
+                k = np.round(tr.t_s / dt).astype(int)
+                e = (tr.frequencies - truth[k]) / truth[k]
+                b = bound[k] / truth[k]
+                late = tr.t_s >= 30.0
+                xb = np.median(np.abs(e[late])) / np.median(b[late])
+                per = np.median(np.abs(e[late]), axis=0) / np.median(b[late], axis=0)
+                sgn = 100 * np.median(e[late], axis=0)
+                rc = ""
+                if np.isfinite(st):
+                    v = score_track(tr.t_s, tr.frequencies, np.ones(tr.frequencies.shape, bool), 1.0, truth, dt,
+                                    step_time_s=st)["t_reconverge_s"]
+                    rc = f" | re-conv. {v:.1f} s"
+                print(f"r{r} {row:8s} × bound {xb:.2f} | per mode " + "/".join(f"{x:.1f}" for x in per)
+                      + " | signed % " + "/".join(f"{x:+.2f}" for x in sgn) + rc, flush=True)
+                if args.per_record:
+                    for t in MARKS:
+                        j = np.searchsorted(tr.t_s, t)
+                        if j < tr.t_s.size:
+                            print(f"     {t:4d} s: e % " + " ".join(f"{100 * x:+6.2f}" for x in e[j])
+                                  + " | σ_B % " + " ".join(f"{100 * x:5.2f}" for x in b[j])
+                                  + " | σ % " + " ".join(f"{100 * x:5.2f}" for x in tr.std[j] / tr.frequencies[j]))
+                    if tr.extra.get("reset_times_s"):
+                        print("     resets " + " ".join(f"{a:.1f}/m{i + 1}" for a, i in tr.extra["reset_times_s"]))
+                    print(f"     {tr.message}")
+
+
+if __name__ == "__main__":
+    main()
