@@ -138,6 +138,7 @@ MIN_DAMPING = -0.02
 OWN_SCREEN_STD = 1.0        # own_windows: no segment fit where the pencil's pole is this near the trend
 OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this many combined std from the trend's
 PAIR_RATIO = 2.0            # window_from_estimates: the estimates' closest pair this many times the prior's gap
+RING_PERIODS = 5.0          # ring_start: the newest ring holds this many periods of the mode
 
 
 def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarray,
@@ -275,6 +276,7 @@ class Options:
     memory: bool = _memory.DEFAULTS["memory"]
     window_from_estimates: bool = True
     own_windows: bool = False
+    ring_start: bool = False
     capped_rows: bool = True
     capped_either: bool = True
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
@@ -321,7 +323,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
-    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows",
+    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows", "ring_start",
                 "shrink_rows", "capped_rows", "capped_either"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
@@ -772,6 +774,49 @@ def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state, free_on
     return float(wi), float(si), not flags.any()
 
 
+def ring_run(pulses: np.ndarray, ref: np.ndarray, dt: float) -> tuple[int, np.ndarray]:
+    """``ring_start``: (first sample of the window's newest ring, the modes it holds) — the ring is the last
+    pulse-free run, after the last sample the pulse detector flagged (``pulses``; none flagged: no fresh ring,
+    (−1, none)); a mode is held when the run spans at least ``RING_PERIODS`` of its periods (at ``ref``) and
+    resolves it from every other mode (their gap at least the run's resolution 2π/span, as ``own_windows``)."""
+    at = np.flatnonzero(pulses)
+    if at.size == 0:
+        return -1, np.zeros(ref.size, dtype=bool)
+    a = int(at[-1]) + 1
+    span = (pulses.size - 1 - a) * dt
+    held = span >= RING_PERIODS * 2.0 * np.pi / ref
+    if ref.size > 1:
+        gap = np.abs(ref[:, None] - ref[None, :]) + np.diag(np.full(ref.size, np.inf))
+        held &= gap.min(axis=1) >= 2.0 * np.pi / max(span, 1e-300)
+    return a, held
+
+
+def ring_search(run: np.ndarray, dt: float, ref: np.ndarray, zeta: np.ndarray, i: int, limit: float) -> float:
+    """``ring_start``: mode i's frequency from the ring ``run`` alone — the variable-projection fit over ω_i in
+    its band (log distance ≤ ``limit`` from ``ref[i]``): the run's least-squares residual with every mode's
+    damped cosine and sine (the others at ``ref``, damping ``zeta``) and an offset, minimised over ω_i on a grid
+    at a quarter of the run's resolution 2π/span, then by :func:`scipy.optimize.minimize_scalar` (bounded)
+    between the best grid point's neighbours. A 1-D search needs no start: a mode that stepped by more than the
+    run's resolution since it was last determined is found where the window's Hankel rows (W/8 or more: a
+    column longer than the ring) see nothing of it."""
+    n = run.size
+    span = (n - 1) * dt
+    w = np.asarray(ref, dtype=float).copy()
+
+    def rss(wi: float) -> float:
+        w[i] = wi
+        X = _segments.free_decay_basis(n, dt, w, zeta)
+        return float(np.sum((run - X @ np.linalg.lstsq(X, run, rcond=None)[0]) ** 2))
+
+    lo, hi = ref[i] * np.exp(-limit), min(ref[i] * np.exp(limit), 0.999 * np.pi / dt)
+    grid = np.linspace(lo, hi, max(3, int(np.ceil((hi - lo) / (0.25 * 2.0 * np.pi / span))) + 1))
+    cost = np.array([rss(g) for g in grid])
+    k = int(np.argmin(cost))
+    best = scipy.optimize.minimize_scalar(rss, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]),
+                                          method="bounded")
+    return float(best.x) if best.success and best.fun <= cost[k] else float(grid[k])
+
+
 def _fittable(y: np.ndarray, dt: float, runs: list, w0: np.ndarray, z0: np.ndarray) -> list:
     """The runs whose own basis (m damped sinusoids at the start (w0, z0) and an offset) is not near-singular.
 
@@ -841,12 +886,20 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     hit = cost[rr, cc] < 1e6
     freq[cc[hit]] = np.exp(cand[rr[hit]])
     found[cc[hit]] = True
-    if opts.refine and found.any():
-        last_w, last_z = state["last_w"], state["last_z"]
+    last_w, last_z = state["last_w"], state["last_z"]
+    # ring_start: the window's newest ring (after its last pulse) and the modes it holds; a mode the pencil gave
+    # no pole starts from the ring alone (ring_search)
+    ring_at, held = ring_run(pulses, ref, dt) if opts.refine and opts.ring_start else (-1, np.zeros(ref.size, bool))
+    z_ring = np.clip(np.where(np.isfinite(last_z), last_z, 0.005), 1e-4, opts.max_damping)
+    ring = {int(i): ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
+            for i in np.flatnonzero(held & ~found)}
+    if opts.refine and (found.any() or ring):
         zc = np.clip(zeta[ok][rr[hit]], 1e-4, opts.max_damping)
         w0 = np.where(found, freq, np.where(np.isfinite(last_w), last_w, ref))
         z0 = np.where(np.isfinite(last_z), last_z, 0.005)
         z0[cc[hit]] = zc
+        for i, wi in ring.items():
+            w0[i] = wi
         runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w0, z0)
         refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
         if refined is not None and opts.split_kicks:
@@ -870,7 +923,17 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         if refined is not None:
             wr, zr, sr = refined
             span_s = (seg.size - 1) * dt
-            good = _labelled(wr, zr, sr, ref, limit, opts.max_phase_std / span_s, opts.max_damping,
+            max_std = np.full(ref.size, opts.max_phase_std / span_s)
+            if held.any():
+                # ring_start: a held mode that fails the phase-std test over the window passes it over the ring
+                # when the ring alone puts it where the window's fit does (within a quarter of the ring's
+                # resolution): its information is the ring's, a fresh free decay after a pulse
+                span_r = (seg.size - 1 - ring_at) * dt
+                for i in np.flatnonzero(held & (sr > max_std) & (sr <= opts.max_phase_std / span_r)):
+                    wi = ring[i] if i in ring else ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
+                    if abs(wr[i] - wi) <= 0.25 * 2.0 * np.pi / span_r:
+                        max_std[i] = opts.max_phase_std / span_r
+            good = _labelled(wr, zr, sr, ref, limit, max_std, opts.max_damping,
                              2 * np.pi / span_s if opts.close_pairs else None)
             wr, zr, sr = _in_order(wr, zr, sr, good)
             freq[good], wstd[good], found[good] = wr[good], sr[good], True
