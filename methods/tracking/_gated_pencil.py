@@ -791,30 +791,42 @@ def ring_run(pulses: np.ndarray, ref: np.ndarray, dt: float) -> tuple[int, np.nd
     return a, held
 
 
-def ring_search(run: np.ndarray, dt: float, ref: np.ndarray, zeta: np.ndarray, i: int, limit: float) -> float:
-    """``ring_start``: mode i's frequency from the ring ``run`` alone — the variable-projection fit over ω_i in
+def ring_search(run: np.ndarray, dt: float, ref: np.ndarray, zeta: np.ndarray, i: int,
+                limit: float) -> tuple[float, float]:
+    """``ring_start``: (ω, std) of mode i from the ring ``run`` alone — the variable-projection fit over ω_i in
     its band (log distance ≤ ``limit`` from ``ref[i]``): the run's least-squares residual with every mode's
     damped cosine and sine (the others at ``ref``, damping ``zeta``) and an offset, minimised over ω_i on a grid
     at a quarter of the run's resolution 2π/span, then by :func:`scipy.optimize.minimize_scalar` (bounded)
-    between the best grid point's neighbours. A 1-D search needs no start: a mode that stepped by more than the
-    run's resolution since it was last determined is found where the window's Hankel rows (W/8 or more: a
-    column longer than the ring) see nothing of it."""
+    between the best grid point's neighbours; the std from the residual's variance over the projected
+    derivative of the fitted mode (the reduced Jacobian of the one nonlinear parameter; written here because
+    :func:`methods.pem.separable_fit` frees every mode's ω and ζ, which a ring shorter than the slow modes'
+    periods cannot determine). A 1-D search needs no start: a mode that stepped by more than the run's
+    resolution since it was last determined is found where the window's Hankel rows (W/8 or more: a column
+    longer than the ring) see nothing of it."""
     n = run.size
     span = (n - 1) * dt
     w = np.asarray(ref, dtype=float).copy()
 
-    def rss(wi: float) -> float:
+    def fit(wi: float):
         w[i] = wi
         X = _segments.free_decay_basis(n, dt, w, zeta)
-        return float(np.sum((run - X @ np.linalg.lstsq(X, run, rcond=None)[0]) ** 2))
+        c = np.linalg.lstsq(X, run, rcond=None)[0]
+        return X, c, float(np.sum((run - X @ c) ** 2))
 
     lo, hi = ref[i] * np.exp(-limit), min(ref[i] * np.exp(limit), 0.999 * np.pi / dt)
     grid = np.linspace(lo, hi, max(3, int(np.ceil((hi - lo) / (0.25 * 2.0 * np.pi / span))) + 1))
-    cost = np.array([rss(g) for g in grid])
+    cost = np.array([fit(g)[2] for g in grid])
     k = int(np.argmin(cost))
-    best = scipy.optimize.minimize_scalar(rss, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]),
-                                          method="bounded")
-    return float(best.x) if best.success and best.fun <= cost[k] else float(grid[k])
+    best = scipy.optimize.minimize_scalar(lambda x: fit(x)[2], method="bounded",
+                                          bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]))
+    wi = float(best.x) if best.success and best.fun <= cost[k] else float(grid[k])
+    X, c, rss = fit(wi)
+    h = 1e-6 * wi
+    d = (fit(wi + h)[0] - fit(wi - h)[0]) @ c / (2 * h)
+    d -= X @ np.linalg.lstsq(X, d, rcond=None)[0]
+    dof = n - X.shape[1] - 1
+    norm = float(np.linalg.norm(d))
+    return wi, (float(np.sqrt(rss / dof)) / norm if dof > 0 and norm > 0 else np.inf)
 
 
 def _fittable(y: np.ndarray, dt: float, runs: list, w0: np.ndarray, z0: np.ndarray) -> list:
@@ -893,12 +905,15 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     z_ring = np.clip(np.where(np.isfinite(last_z), last_z, 0.005), 1e-4, opts.max_damping)
     ring = {int(i): ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
             for i in np.flatnonzero(held & ~found)}
-    if opts.refine and (found.any() or ring):
+    # the phase-std test on the ring alone (a flagged noise outlier starts no ring)
+    span_r = (seg.size - 1 - ring_at) * dt
+    starts = {i: v[0] for i, v in ring.items() if v[1] * span_r <= opts.max_phase_std}
+    if opts.refine and (found.any() or starts):
         zc = np.clip(zeta[ok][rr[hit]], 1e-4, opts.max_damping)
         w0 = np.where(found, freq, np.where(np.isfinite(last_w), last_w, ref))
         z0 = np.where(np.isfinite(last_z), last_z, 0.005)
         z0[cc[hit]] = zc
-        for i, wi in ring.items():
+        for i, wi in starts.items():
             w0[i] = wi
         runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w0, z0)
         refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
@@ -925,14 +940,13 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
             span_s = (seg.size - 1) * dt
             max_std = np.full(ref.size, opts.max_phase_std / span_s)
             if held.any():
-                # ring_start: a held mode that fails the phase-std test over the window passes it over the ring
-                # when the ring alone puts it where the window's fit does (within a quarter of the ring's
-                # resolution): its information is the ring's, a fresh free decay after a pulse
-                span_r = (seg.size - 1 - ring_at) * dt
-                for i in np.flatnonzero(held & (sr > max_std) & (sr <= opts.max_phase_std / span_r)):
-                    wi = ring[i] if i in ring else ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
-                    if abs(wr[i] - wi) <= 0.25 * 2.0 * np.pi / span_r:
-                        max_std[i] = opts.max_phase_std / span_r
+                # ring_start: a held mode that fails the phase-std test over the window passes it when the ring
+                # alone passes it (its own std × the ring's span) and puts the mode where the window's fit does
+                # (within 3 combined std): its information is the ring's, a fresh free decay after a pulse
+                for i in np.flatnonzero(held & (sr > max_std)):
+                    wi, si = ring[i] if i in ring else ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
+                    if si * span_r <= opts.max_phase_std and abs(wr[i] - wi) <= 3 * np.hypot(sr[i], si):
+                        max_std[i] = max(max_std[i], sr[i])
             good = _labelled(wr, zr, sr, ref, limit, max_std, opts.max_damping,
                              2 * np.pi / span_s if opts.close_pairs else None)
             wr, zr, sr = _in_order(wr, zr, sr, good)
