@@ -152,6 +152,7 @@ OWN_SCREEN_STD = 1.0        # own_windows: no segment fit where the pencil's pol
 OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this many combined std from the trend's
 PAIR_RATIO = 2.0            # window_from_estimates: the estimates' closest pair this many times the prior's gap
 RING_PERIODS = 5.0          # ring_start: the newest ring holds this many periods of the mode
+RING_LEVEL_ONLY = True      # ring_start: a mode passed on the ring, and its next window, update the level only
 
 
 def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarray,
@@ -581,7 +582,9 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
              "rows_free": given.rows is None, "shrink": shrink_sizes(prior, dt, order),
              "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": [],
-             "own_std": np.full(m, np.nan), "own_screened": 0, "capped_rows": capped_rows}
+             "own_std": np.full(m, np.nan), "own_screened": 0, "capped_rows": capped_rows,
+             "ring_used": np.zeros(m, dtype=bool), "ring_level": np.zeros(m, dtype=bool),
+             "found_at": np.full(m, -np.inf)}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate,
                              span_relevel=opts.trend_span_relevel)
@@ -648,7 +651,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
             else None
         out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas,
                                                         wstd[j] if opts.refine else None,
-                                                        own_until >= e)
+                                                        (own_until >= e) | (state["ring_level"] & found[j]))
         if state.get("flags") is not None and state["flags"].any():
             last_pulse = max(last_pulse, state["seg_start"] + int(np.flatnonzero(state["flags"])[-1]))
         if cusum is not None:
@@ -790,20 +793,22 @@ def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state, free_on
     return float(wi), float(si), not flags.any()
 
 
-def ring_run(pulses: np.ndarray, ref: np.ndarray, dt: float) -> tuple[int, np.ndarray]:
+def ring_run(pulses: np.ndarray, ref: np.ndarray, dt: float, rows: int) -> tuple[int, np.ndarray]:
     """``ring_start``: (first sample of the window's newest ring, the modes it holds) — the ring is the last
-    pulse-free run, after the last sample the pulse detector flagged (``pulses``; none flagged: no fresh ring,
-    (−1, none)); a mode is held when the run spans at least ``RING_PERIODS`` of its periods (at ``ref``) and
-    resolves it from every other mode (their gap at least the run's resolution 2π/span, as ``own_windows``)."""
+    pulse-free run, after the last sample the pulse detector flagged (``pulses``), when it is shorter than the
+    3(L + 1) samples a pencil of ``rows`` L needs for 2L columns of its own (a longer ring the window's pencil
+    and fit already see whole; none flagged or a longer ring: (−1, none)); a mode is held when the run spans at
+    least ``RING_PERIODS`` of its periods (at ``ref``) and ``GAP_CYCLES`` (2) beats of its nearest other mode (the
+    window rule's resolution, :func:`own_window_samples`)."""
     at = np.flatnonzero(pulses)
-    if at.size == 0:
+    if at.size == 0 or pulses.size - 1 - at[-1] >= 3 * (rows + 1):
         return -1, np.zeros(ref.size, dtype=bool)
     a = int(at[-1]) + 1
     span = (pulses.size - 1 - a) * dt
     held = span >= RING_PERIODS * 2.0 * np.pi / ref
     if ref.size > 1:
         gap = np.abs(ref[:, None] - ref[None, :]) + np.diag(np.full(ref.size, np.inf))
-        held &= gap.min(axis=1) >= 2.0 * np.pi / max(span, 1e-300)
+        held &= span >= _defaults.GAP_CYCLES * 2.0 * np.pi / gap.min(axis=1)
     return a, held
 
 
@@ -917,7 +922,12 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     last_w, last_z = state["last_w"], state["last_z"]
     # ring_start: the window's newest ring (after its last pulse) and the modes it holds; a mode the pencil gave
     # no pole starts from the ring alone (ring_search)
-    ring_at, held = ring_run(pulses, ref, dt) if opts.refine and opts.ring_start else (-1, np.zeros(ref.size, bool))
+    ring_at, held = (ring_run(pulses, ref, dt, rows) if opts.refine and opts.ring_start
+                     else (-1, np.zeros(ref.size, dtype=bool)))
+    # only a mode no window has determined for more than half a window's span (the trend stage's gap: after a
+    # step with no ring, or before a mode's first ring)
+    e_now = start + seg.size - 1
+    held &= e_now - state["found_at"] > (seg.size - 1) / 2
     z_ring = np.clip(np.where(np.isfinite(last_z), last_z, 0.005), 1e-4, opts.max_damping)
     ring = {int(i): ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
             for i in np.flatnonzero(held & ~found)}
@@ -929,10 +939,15 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         w0 = np.where(found, freq, np.where(np.isfinite(last_w), last_w, ref))
         z0 = np.where(np.isfinite(last_z), last_z, 0.005)
         z0[cc[hit]] = zc
+        w_ring = w0.copy()
         for i, wi in starts.items():
-            w0[i] = wi
-        runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w0, z0)
-        refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
+            w_ring[i] = wi
+        runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w_ring, z0)
+        refined = pem.separable_fit(centred, dt, runs, w_ring, z0, opts.refine_steps) if runs else None
+        if refined is None and starts:
+            # the ring's start left the fit ill-posed: the default's start
+            runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w0, z0)
+            refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
         if refined is not None and opts.split_kicks:
             # a run inside one an earlier window tested clean is not tested again (the windows overlap by
             # W − H samples: only the newest run is new); causal, and the test's cost once per run
@@ -955,18 +970,28 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
             wr, zr, sr = refined
             span_s = (seg.size - 1) * dt
             max_std = np.full(ref.size, opts.max_phase_std / span_s)
+            passed = np.zeros(ref.size, dtype=bool)
             if held.any():
-                # ring_start: a held mode that fails the phase-std test over the window passes it when the ring
-                # alone passes it (its own std × the ring's span) and puts the mode where the window's fit does
-                # (within 3 combined std): its information is the ring's, a fresh free decay after a pulse
-                for i in np.flatnonzero(held & (sr > max_std)):
+                # ring_start: a held mode that fails the phase-std test over the window passes it when it passes
+                # over the ring's span, the ring alone passes it too (its own std × the ring's span) and puts the
+                # mode where the window's fit does (within 3 combined std): its information is the ring's, a
+                # fresh free decay after a pulse
+                for i in np.flatnonzero(held & (sr > max_std) & (sr * span_r <= opts.max_phase_std)):
                     wi, si = ring[i] if i in ring else ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
                     if si * span_r <= opts.max_phase_std and abs(wr[i] - wi) <= 3 * np.hypot(sr[i], si):
                         max_std[i] = max(max_std[i], sr[i])
+                        passed[i] = True
             good = _labelled(wr, zr, sr, ref, limit, max_std, opts.max_damping,
                              2 * np.pi / span_s if opts.close_pairs else None)
+            if opts.ring_start and RING_LEVEL_ONLY:
+                # a mode passed on the ring, and the next window that determines it, update the trend's level
+                # only: a rate learnt from them is the weak ring's error (two estimates of one ring)
+                passed &= good
+                state["ring_level"] = passed | (state["ring_used"] & good)
+                state["ring_used"] = passed | (state["ring_used"] & ~good)
             wr, zr, sr = _in_order(wr, zr, sr, good)
             freq[good], wstd[good], found[good] = wr[good], sr[good], True
+            state["found_at"] = np.where(good, e_now, state["found_at"])
             state["last_w"] = np.where(good, wr, last_w)
             state["last_z"] = np.where(good, zr, last_z)
     state["ref"] = usable_prior(np.where(found, freq, ref), prior, nyquist)
