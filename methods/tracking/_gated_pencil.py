@@ -152,7 +152,6 @@ OWN_SCREEN_STD = 1.0        # own_windows: no segment fit where the pencil's pol
 OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this many combined std from the trend's
 PAIR_RATIO = 2.0            # window_from_estimates: the estimates' closest pair this many times the prior's gap
 RING_PERIODS = 5.0          # ring_start: the newest ring holds this many periods of the mode
-RING_LEVEL_ONLY = True      # ring_start: a mode passed on the ring, and its next window, update the level only
 
 
 def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarray,
@@ -583,7 +582,6 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
              "rows_free": given.rows is None, "shrink": shrink_sizes(prior, dt, order),
              "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": [],
              "own_std": np.full(m, np.nan), "own_screened": 0, "capped_rows": capped_rows,
-             "ring_used": np.zeros(m, dtype=bool), "ring_level": np.zeros(m, dtype=bool),
              "found_at": np.full(m, -np.inf)}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate,
@@ -651,7 +649,7 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
             else None
         out[j], out_std[j], out_conv[j], nu = bank.step(e * dt - span_j / 2, span_j / 2, freq[j], found[j], meas,
                                                         wstd[j] if opts.refine else None,
-                                                        (own_until >= e) | (state["ring_level"] & found[j]))
+                                                        own_until >= e)
         if state.get("flags") is not None and state["flags"].any():
             last_pulse = max(last_pulse, state["seg_start"] + int(np.flatnonzero(state["flags"])[-1]))
         if cusum is not None:
@@ -970,7 +968,6 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
             wr, zr, sr = refined
             span_s = (seg.size - 1) * dt
             max_std = np.full(ref.size, opts.max_phase_std / span_s)
-            passed = np.zeros(ref.size, dtype=bool)
             if held.any():
                 # ring_start: a held mode that fails the phase-std test over the window passes it when it passes
                 # over the ring's span, the ring alone passes it too (its own std × the ring's span) and puts the
@@ -980,15 +977,8 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
                     wi, si = ring[i] if i in ring else ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
                     if si * span_r <= opts.max_phase_std and abs(wr[i] - wi) <= 3 * np.hypot(sr[i], si):
                         max_std[i] = max(max_std[i], sr[i])
-                        passed[i] = True
             good = _labelled(wr, zr, sr, ref, limit, max_std, opts.max_damping,
                              2 * np.pi / span_s if opts.close_pairs else None)
-            if opts.ring_start and RING_LEVEL_ONLY:
-                # a mode passed on the ring, and the next window that determines it, update the trend's level
-                # only: a rate learnt from them is the weak ring's error (two estimates of one ring)
-                passed &= good
-                state["ring_level"] = passed | (state["ring_used"] & good)
-                state["ring_used"] = passed | (state["ring_used"] & ~good)
             wr, zr, sr = _in_order(wr, zr, sr, good)
             freq[good], wstd[good], found[good] = wr[good], sr[good], True
             state["found_at"] = np.where(good, e_now, state["found_at"])
