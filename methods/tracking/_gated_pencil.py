@@ -116,18 +116,20 @@ last output — the std of the mode's last short fit and the trend's: a change n
 std away, and a fit moves its start by well under two (the tracks identical on every record measured; the option's
 extra CPU per sample on the thruster benchmark +49 % → +3–12 %). Causal: both windows end at the present sample.
 
-**The newest ring** (``ring_start``, an option, off by default): the window's Hankel rows are sized for the slowest
-mode (W/8 or more, ~12 periods of a mode 18 times faster), so a fast mode whose frequency stepped while it was
-dead is seen again only a few hops after the pulse that rings it: the pencil's columns need ~2L samples of the
-new ring, and the window's fit of a short ring fails the phase-std test over the whole window (an energy test
-for a mode that rings throughout). The newest ring — the window's last pulse-free run after a sample the pulse
-detector flagged — holds a mode when it spans ``RING_PERIODS`` (5) of the mode's periods and resolves it from
-every other mode (:func:`ring_run`). For a held mode, :func:`ring_search` fits the ring alone (ω of that mode
-by a 1-D search over its band, every other mode at its last estimate, the amplitudes projected out; its std
-from the reduced Jacobian): where the pencil gave the mode no pole that is the segment fit's start, and where
-the window's fit fails the phase-std test over the window it passes when the ring alone passes it over the
-ring's span and lies within 3 combined std of the window's fit. Everything else (band, labels, trend) is the
-default's. Causal: the ring is the window's own last samples.
+**The newest ring** (``ring_start``, an option, off by default: near-neutral on the design sets, not better on every
+one): the window's Hankel rows are sized for the slowest mode (W/8 or more, ~12 periods of a mode 18 times faster),
+so a fast mode whose frequency stepped while its ring was dead is determined again only some hops after the pulse
+that rings it: the pencil needs 3(L + 1) samples of the new ring for 2L columns of its own, and the window's fit of a
+short ring fails the phase-std test over the whole window (an energy test for a mode that rings throughout). The
+window's newest ring — its last pulse-free run, after the last sample the pulse detector flagged, when shorter than
+3(L + 1) — holds a mode when it spans ``RING_PERIODS`` (5) of the mode's periods and two beats of its nearest other
+mode (:func:`ring_run`), and the mode has not been determined for more than half a window span (the trend stage's
+gap: after a step with no ring, or before its first ring). For a held mode, :func:`ring_search` fits the ring alone
+(ω of that mode by a 1-D search over its band, every other mode at its last estimate, the amplitudes projected out;
+its std from the reduced Jacobian): where the pencil gave the mode no pole that is the segment fit's start (the
+default start where that fit is ill-posed), and where the window's fit fails the phase-std test over the window it
+passes when the window's std and the ring's own both pass it over the ring's span and the two estimates lie within 3
+combined std. Band, labels and trend stage are the default's. Causal: the ring is the window's own last samples.
 
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
@@ -253,10 +255,10 @@ class Options:
     pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
     the mode's level is re-set in the trend stage, then fed from its own window until the long window no
     longer holds the change (module docstring). The two window options act only on a pulsed record (a pulse
-    flagged in at least half the windows so far). ``ring_start`` (off by default): a fast mode from the window's
-    newest ring, after its last pulse — the segment fit's start where the pencil gave it no pole, and the
-    phase-std test over the ring's span where the ring alone passes it and agrees with the window's fit
-    (module docstring, "The newest ring")."""
+    flagged in at least half the windows so far). ``ring_start`` (off by default): a fast mode undetermined for
+    half a window span, from the window's newest ring (after its last pulse, shorter than the pencil's 3(L + 1))
+    — the segment fit's start where the pencil gave it no pole, and the phase-std test over the ring's span where
+    the ring alone passes it and agrees with the window's fit (module docstring, "The newest ring")."""
 
     window_samples: int | None = None
     hop_samples: int | None = None
