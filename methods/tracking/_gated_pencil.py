@@ -116,6 +116,21 @@ last output — the std of the mode's last short fit and the trend's: a change n
 std away, and a fit moves its start by well under two (the tracks identical on every record measured; the option's
 extra CPU per sample on the thruster benchmark +49 % → +3–12 %). Causal: both windows end at the present sample.
 
+**The newest ring** (``ring_start``, an option, off by default: near-neutral on the design sets, not better on every
+one): the window's Hankel rows are sized for the slowest mode (W/8 or more, ~12 periods of a mode 18 times faster),
+so a fast mode whose frequency stepped while its ring was dead is determined again only some hops after the pulse
+that rings it: the pencil needs 3(L + 1) samples of the new ring for 2L columns of its own, and the window's fit of a
+short ring fails the phase-std test over the whole window (an energy test for a mode that rings throughout). The
+window's newest ring — its last pulse-free run, after the last sample the pulse detector flagged, when shorter than
+3(L + 1) — holds a mode when it spans ``RING_PERIODS`` (5) of the mode's periods and two beats of its nearest other
+mode (:func:`ring_run`), and the mode has not been determined for more than half a window span (the trend stage's
+gap: after a step with no ring, or before its first ring). For a held mode, :func:`ring_search` fits the ring alone
+(ω of that mode by a 1-D search over its band, every other mode at its last estimate, the amplitudes projected out;
+its std from the reduced Jacobian): where the pencil gave the mode no pole that is the segment fit's start (the
+default start where that fit is ill-posed), and where the window's fit fails the phase-std test over the window it
+passes when the window's std and the ring's own both pass it over the ring's span and the two estimates lie within 3
+combined std. Band, labels and trend stage are the default's. Causal: the ring is the window's own last samples.
+
 Under a continuing white force (no pulses) every sample is an input: nothing is flagged and the pencil fits
 one free decay to a forced response, as the other window estimators do. Causal: a window's estimate uses its
 own samples; the trend stage uses earlier windows only.
@@ -138,6 +153,7 @@ MIN_DAMPING = -0.02
 OWN_SCREEN_STD = 1.0        # own_windows: no segment fit where the pencil's pole is this near the trend
 OWN_CHANGE_STD = 3.0        # own_windows: a change is a short estimate this many combined std from the trend's
 PAIR_RATIO = 2.0            # window_from_estimates: the estimates' closest pair this many times the prior's gap
+RING_PERIODS = 5.0          # ring_start: the newest ring holds this many periods of the mode
 
 
 def estimates_window_s(prior: np.ndarray, ref: np.ndarray, determined: np.ndarray,
@@ -239,7 +255,10 @@ class Options:
     pulse-free short estimate beyond ``OWN_CHANGE_STD`` combined std of the trend's last output is a change:
     the mode's level is re-set in the trend stage, then fed from its own window until the long window no
     longer holds the change (module docstring). The two window options act only on a pulsed record (a pulse
-    flagged in at least half the windows so far)."""
+    flagged in at least half the windows so far). ``ring_start`` (off by default): a fast mode undetermined for
+    half a window span, from the window's newest ring (after its last pulse, shorter than the pencil's 3(L + 1))
+    — the segment fit's start where the pencil gave it no pole, and the phase-std test over the ring's span where
+    the ring alone passes it and agrees with the window's fit (module docstring, "The newest ring")."""
 
     window_samples: int | None = None
     hop_samples: int | None = None
@@ -275,6 +294,7 @@ class Options:
     memory: bool = _memory.DEFAULTS["memory"]
     window_from_estimates: bool = True
     own_windows: bool = False
+    ring_start: bool = False
     capped_rows: bool = True
     capped_either: bool = True
     change_threshold: float = _memory.DEFAULTS["change_threshold"]
@@ -321,7 +341,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
-    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows",
+    for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows", "ring_start",
                 "shrink_rows", "capped_rows", "capped_either"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
@@ -563,7 +583,8 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     state = {"last_w": np.full(m, np.nan), "last_z": np.full(m, np.nan), "ref": prior.copy(), "flags": None,
              "rows_free": given.rows is None, "shrink": shrink_sizes(prior, dt, order),
              "seg_start": 0, "kicks": set(), "clean": [], "pulses": set(), "own_changes": [],
-             "own_std": np.full(m, np.nan), "own_screened": 0, "capped_rows": capped_rows}
+             "own_std": np.full(m, np.nan), "own_screened": 0, "capped_rows": capped_rows,
+             "found_at": np.full(m, -np.inf)}
     limit = np.log1p(opts.band)
     bank = (_trend.TrendBank(m, **_trend.settings(opts, prior), restart_rate=opts.trend_restart_rate,
                              span_relevel=opts.trend_span_relevel)
@@ -772,6 +793,63 @@ def _own_estimate(seg, dt, i, sizes, order, opts, nyquist, limit, state, free_on
     return float(wi), float(si), not flags.any()
 
 
+def ring_run(pulses: np.ndarray, ref: np.ndarray, dt: float, rows: int) -> tuple[int, np.ndarray]:
+    """``ring_start``: (first sample of the window's newest ring, the modes it holds) — the ring is the last
+    pulse-free run, after the last sample the pulse detector flagged (``pulses``), when it is shorter than the
+    3(L + 1) samples a pencil of ``rows`` L needs for 2L columns of its own (a longer ring the window's pencil
+    and fit already see whole; none flagged or a longer ring: (−1, none)); a mode is held when the run spans at
+    least ``RING_PERIODS`` of its periods (at ``ref``) and ``GAP_CYCLES`` (2) beats of its nearest other mode (the
+    window rule's resolution, :func:`own_window_samples`)."""
+    at = np.flatnonzero(pulses)
+    if at.size == 0 or pulses.size - 1 - at[-1] >= 3 * (rows + 1):
+        return -1, np.zeros(ref.size, dtype=bool)
+    a = int(at[-1]) + 1
+    span = (pulses.size - 1 - a) * dt
+    held = span >= RING_PERIODS * 2.0 * np.pi / ref
+    if ref.size > 1:
+        gap = np.abs(ref[:, None] - ref[None, :]) + np.diag(np.full(ref.size, np.inf))
+        held &= span >= _defaults.GAP_CYCLES * 2.0 * np.pi / gap.min(axis=1)
+    return a, held
+
+
+def ring_search(run: np.ndarray, dt: float, ref: np.ndarray, zeta: np.ndarray, i: int,
+                limit: float) -> tuple[float, float]:
+    """``ring_start``: (ω, std) of mode i from the ring ``run`` alone — the variable-projection fit over ω_i in
+    its band (log distance ≤ ``limit`` from ``ref[i]``): the run's least-squares residual with every mode's
+    damped cosine and sine (the others at ``ref``, damping ``zeta``) and an offset, minimised over ω_i on a grid
+    at a quarter of the run's resolution 2π/span, then by :func:`scipy.optimize.minimize_scalar` (bounded)
+    between the best grid point's neighbours; the std from the residual's variance over the projected
+    derivative of the fitted mode (the reduced Jacobian of the one nonlinear parameter; written here because
+    :func:`methods.pem.separable_fit` frees every mode's ω and ζ, which a ring shorter than the slow modes'
+    periods cannot determine). A 1-D search needs no start: a mode that stepped by more than the run's
+    resolution since it was last determined is found where the window's Hankel rows (W/8 or more: a column
+    longer than the ring) see nothing of it."""
+    n = run.size
+    span = (n - 1) * dt
+    w = np.asarray(ref, dtype=float).copy()
+
+    def fit(wi: float):
+        w[i] = wi
+        X = _segments.free_decay_basis(n, dt, w, zeta)
+        c = np.linalg.lstsq(X, run, rcond=None)[0]
+        return X, c, float(np.sum((run - X @ c) ** 2))
+
+    lo, hi = ref[i] * np.exp(-limit), min(ref[i] * np.exp(limit), 0.999 * np.pi / dt)
+    grid = np.linspace(lo, hi, max(3, int(np.ceil((hi - lo) / (0.25 * 2.0 * np.pi / span))) + 1))
+    cost = np.array([fit(g)[2] for g in grid])
+    k = int(np.argmin(cost))
+    best = scipy.optimize.minimize_scalar(lambda x: fit(x)[2], method="bounded",
+                                          bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]))
+    wi = float(best.x) if best.success and best.fun <= cost[k] else float(grid[k])
+    X, c, rss = fit(wi)
+    h = 1e-6 * wi
+    d = (fit(wi + h)[0] - fit(wi - h)[0]) @ c / (2 * h)
+    d -= X @ np.linalg.lstsq(X, d, rcond=None)[0]
+    dof = n - X.shape[1] - 1
+    norm = float(np.linalg.norm(d))
+    return wi, (float(np.sqrt(rss / dof)) / norm if dof > 0 and norm > 0 else np.inf)
+
+
 def _fittable(y: np.ndarray, dt: float, runs: list, w0: np.ndarray, z0: np.ndarray) -> list:
     """The runs whose own basis (m damped sinusoids at the start (w0, z0) and an offset) is not near-singular.
 
@@ -841,14 +919,35 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     hit = cost[rr, cc] < 1e6
     freq[cc[hit]] = np.exp(cand[rr[hit]])
     found[cc[hit]] = True
-    if opts.refine and found.any():
-        last_w, last_z = state["last_w"], state["last_z"]
+    last_w, last_z = state["last_w"], state["last_z"]
+    # ring_start: the window's newest ring (after its last pulse) and the modes it holds; a mode the pencil gave
+    # no pole starts from the ring alone (ring_search)
+    ring_at, held = (ring_run(pulses, ref, dt, rows) if opts.refine and opts.ring_start
+                     else (-1, np.zeros(ref.size, dtype=bool)))
+    # only a mode no window has determined for more than half a window's span (the trend stage's gap: after a
+    # step with no ring, or before a mode's first ring)
+    e_now = start + seg.size - 1
+    held &= e_now - state["found_at"] > (seg.size - 1) / 2
+    z_ring = np.clip(np.where(np.isfinite(last_z), last_z, 0.005), 1e-4, opts.max_damping)
+    ring = {int(i): ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
+            for i in np.flatnonzero(held & ~found)}
+    # the phase-std test on the ring alone (a flagged noise outlier starts no ring)
+    span_r = (seg.size - 1 - ring_at) * dt
+    starts = {i: v[0] for i, v in ring.items() if v[1] * span_r <= opts.max_phase_std}
+    if opts.refine and (found.any() or starts):
         zc = np.clip(zeta[ok][rr[hit]], 1e-4, opts.max_damping)
         w0 = np.where(found, freq, np.where(np.isfinite(last_w), last_w, ref))
         z0 = np.where(np.isfinite(last_z), last_z, 0.005)
         z0[cc[hit]] = zc
-        runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w0, z0)
-        refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
+        w_ring = w0.copy()
+        for i, wi in starts.items():
+            w_ring[i] = wi
+        runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w_ring, z0)
+        refined = pem.separable_fit(centred, dt, runs, w_ring, z0, opts.refine_steps) if runs else None
+        if refined is None and starts:
+            # the ring's start left the fit ill-posed: the default's start
+            runs = _fittable(centred, dt, _segments.segments(flags, min_segment), w0, z0)
+            refined = pem.separable_fit(centred, dt, runs, w0, z0, opts.refine_steps) if runs else None
         if refined is not None and opts.split_kicks:
             # a run inside one an earlier window tested clean is not tested again (the windows overlap by
             # W − H samples: only the newest run is new); causal, and the test's cost once per run
@@ -870,10 +969,21 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
         if refined is not None:
             wr, zr, sr = refined
             span_s = (seg.size - 1) * dt
-            good = _labelled(wr, zr, sr, ref, limit, opts.max_phase_std / span_s, opts.max_damping,
+            max_std = np.full(ref.size, opts.max_phase_std / span_s)
+            if held.any():
+                # ring_start: a held mode that fails the phase-std test over the window passes it when it passes
+                # over the ring's span, the ring alone passes it too (its own std × the ring's span) and puts the
+                # mode where the window's fit does (within 3 combined std): its information is the ring's, a
+                # fresh free decay after a pulse
+                for i in np.flatnonzero(held & (sr > max_std) & (sr * span_r <= opts.max_phase_std)):
+                    wi, si = ring[i] if i in ring else ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
+                    if si * span_r <= opts.max_phase_std and abs(wr[i] - wi) <= 3 * np.hypot(sr[i], si):
+                        max_std[i] = max(max_std[i], sr[i])
+            good = _labelled(wr, zr, sr, ref, limit, max_std, opts.max_damping,
                              2 * np.pi / span_s if opts.close_pairs else None)
             wr, zr, sr = _in_order(wr, zr, sr, good)
             freq[good], wstd[good], found[good] = wr[good], sr[good], True
+            state["found_at"] = np.where(good, e_now, state["found_at"])
             state["last_w"] = np.where(good, wr, last_w)
             state["last_z"] = np.where(good, zr, last_z)
     state["ref"] = usable_prior(np.where(found, freq, ref), prior, nyquist)

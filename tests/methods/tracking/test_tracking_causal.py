@@ -24,7 +24,8 @@ TREND = ["fft+trend", "pem+trend", "era+trend"]       # the trend stage: every w
 # the defaults from Δt and the prior (window 413 samples here), the change detector's window restarts and
 # gated_pencil's kick test
 DEFAULTS = ["gated_pencil+defaults", "next_era+defaults", "gated_pencil+memory", "gated_pencil+kicks",
-            "gated_pencil+freeze", "gated_pencil+nowindow", "gated_pencil+own", "gated_pencil+nospan"]
+            "gated_pencil+freeze", "gated_pencil+nowindow", "gated_pencil+own", "gated_pencil+nospan",
+            "gated_pencil+ring"]
 # akf_ambient's rate state, its shared modulation and its single-force fit with a memory of looks (the
 # forgetting sum); rpem_ambient's rate in θ (its per-hop CasADi runs hand the state over between looks) and its
 # two memories (and their close pair's peaks assigned together, the zero-rate average)
@@ -62,6 +63,8 @@ def _options(name):
         return name, {"window_from_estimates": False}
     if extra == "own":                    # each fast mode also on its own short window ending at the present
         return name, {"own_windows": True}
+    if extra == "ring":                   # a fast mode from the window's newest ring (after its last pulse)
+        return name, {"ring_start": True}
     if extra in ("defaults", "memory"):
         return name, ({"memory": True, "change_threshold": 2.0} if extra == "memory" else {})
     fields = {f for f in methods.track_options_class(name).__dataclass_fields__}

@@ -283,3 +283,46 @@ def test_the_window_options_keep_the_default_track_under_a_continuing_force():
     assert base.converged.all(axis=1).mean() > 0.5
     np.testing.assert_array_equal(tr.extra["window_span_s"], base.extra["window_span_s"])
     np.testing.assert_array_equal(tr.frequencies, base.frequencies)
+
+
+def test_ring_start_determines_a_stepped_fast_mode_from_the_first_ring_after_a_late_pulse():
+    # the fast mode steps +8 % at 37 s, 15 s after the last pulse (its ring, decay time 1/(ζω) = 3.3 s, is
+    # below the noise by then); a pulse 12 s after the step rings it again. The window (10.5 s, hop 1.05 s =
+    # ten fast periods) ends 36, 87, 138 samples after that pulse: on the first the ring is ~5 fast periods
+    # past the pulse detector's flags, and the window's fit of it fails the phase-std test over the whole
+    # window; the ring alone passes it. The truth is the generator's frequency at each window's end.
+    n, step_at, late = 3500, 1850, 2460
+    prior = TWO * np.array([1.03, 0.97])
+    for seed in (8, 9, 10):
+        y, w = stepped_two_modes(n, np.array([100, 600, 1100, late]), step_at, 0.08, seed=seed, noise=3e-3)
+        base = methods.track("gated_pencil", y, DT, prior)
+        tr = methods.track("gated_pencil", y, DT, prior, ring_start=True)
+        periods = []
+        for track in (base, tr):
+            e = track.extra["window_end_sample"]
+            ok = (track.extra["window_converged"][:, 1] & (e > late)
+                  & (np.abs(track.extra["window_frequencies"][:, 1] / w[e, 1] - 1) < 0.01))
+            periods.append((e[np.argmax(ok)] - late) * DT * w[-1, 1] / (2 * np.pi) if ok.any() else np.inf)
+        # before the late pulse the option changes nothing here (no ring holds the fast mode where the window's
+        # own test fails)
+        early = tr.t_s < late * DT
+        np.testing.assert_array_equal(tr.frequencies[early], base.frequencies[early])
+        assert periods[1] <= 20 < periods[0], (seed, periods)
+    refused_in_one_line(prior, "ring_start")
+
+
+def test_ring_search_finds_a_mode_on_a_short_ring_with_its_std():
+    # a ring of 40 samples (about 8 periods of the 62 rad/s mode) over a slow mode that turns by 2.4 rad: the
+    # 1-D search from a reference 10 % off lands on the truth within 3 of its own std, and that std is
+    # the size a sinusoid's Cramér–Rao bound gives (σ √12 / (a √n T) within a factor 3)
+    rng = np.random.default_rng(3)
+    n, dt, a, sigma = 40, DT, 0.05, 2e-3
+    t = np.arange(n) * dt
+    truth = np.array([3.0, 62.0])
+    y = (0.08 * np.cos(truth[0] * t + 0.4) + a * np.exp(-0.005 * truth[1] * t) * np.cos(truth[1] * t + 1.1)
+         + sigma * rng.standard_normal(n))
+    ref = np.array([3.1, 62.0 / 1.1])
+    w, s = _gated_pencil.ring_search(y - y.mean(), dt, ref, np.full(2, 0.005), 1, np.log1p(0.3))
+    crb = sigma * np.sqrt(12.0) / (a * np.sqrt(n) * n * dt)
+    assert abs(w - truth[1]) <= 3 * s, (w, s)
+    assert crb / 3 <= s <= 3 * crb, (s, crb)
