@@ -4,14 +4,15 @@
     python tests/methods/tracking/dev/_unseen_white_dev.py SEED [--replicates 2] [--extra "+opt=value"]
         [--rows window,reported] [--cache DIR] [--per-record]
 
-On ``tracking_unseen``'s three white-force records (``AMBIENT_CELLS`` without slosh; design seeds only), per
-record and per recursion: the window recursion (``rpem_ambient:frequency_model=trend+pair_peaks=true``, the
-recursion ``recursions="two"`` runs beside the whole-record one, which does not feed back into it), the reported
-one (``rpem_ambient:two``'s options) and, with ``--extra``, the reported one with those options added. Per record
-and row: the benchmark's × bound (median |e| over time and modes after 30 s over the unknown-force bound's),
-each mode's median |e| over that mode's bound median 1σ after 30 s and its median signed error (%), the
-re-convergence after a step; ``--per-record`` adds each mode's error (%) at 20…120 s and the resets. ``--cache``
-keeps the simulated cells (with their bounds) as pickles, so that a second call does not simulate them again.
+On ``tracking_unseen``'s three white-force records (``AMBIENT_CELLS`` without slosh; design seeds only), per record
+and per recursion: the window recursion (``rpem_ambient:frequency_model=trend+pair_peaks=true``, the recursion
+``recursions="two"`` runs beside the whole-record one, which does not feed back into it), the reported one
+(``rpem_ambient:two``'s options before it took ``rate_test``) and, with ``--extra``, the reported one with those
+options added. Per record and row: the benchmark's × bound (median |e| over time and modes after 30 s over the
+unknown-force bound's), each mode's median |e| over that mode's bound median 1σ after 30 s and its median signed
+error (%), the re-convergence after a step; ``--per-record`` adds each mode's error (%) at 20…120 s and the resets.
+``--cache`` keeps the simulated cells (with their bounds) as pickles, so that a second call does not simulate them
+again.
 """
 
 import argparse
