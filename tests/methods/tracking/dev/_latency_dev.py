@@ -22,12 +22,12 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[2]), str(Path(__file__).res
 
 import numpy as np  # noqa: E402
 from _close_modes_crlb import piecewise_crlb  # noqa: E402
+from _pulse_cell_dev import step_cell  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks import tracking_unseen as tu  # noqa: E402
 from experiments.benchmarks.tracking_cpu import parse_row  # noqa: E402
 from experiments.report import tracking_metrics  # noqa: E402
-from experiments.simulate.tracking_data import make_cell  # noqa: E402
 from methods.tracking import _segments  # noqa: E402
 
 CELL = "step +5/−5/0/+8 % at 40 s, 150 N·m every 10 s, 700 µg"
@@ -88,11 +88,7 @@ def main(argv=None):
             labels = ([k for k in cfgs if k.startswith("step")] if args.set == "unseen-grid"
                       else [next(k for k in cfgs if k.startswith(args.cell))])
             for label in labels:
-                cell = make_cell(cfgs[label], bounds=False)
-                dt = float(cell["dt_s"])
-                st = float(cell["step_time_s"])
-                w_after = cell["truth_freq_rad_s"][int(round(st / dt))]
-                period = 2 * np.pi / w_after.min()
+                cell, dt, st, w_after, period = step_cell(cfgs[label])
                 for r in range(args.replicates):
                     pulses = np.flatnonzero(np.any(cell["inputs"][r] != 0, axis=1)) * dt - st
                     before = pulses[pulses <= 0]

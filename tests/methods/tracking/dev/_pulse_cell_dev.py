@@ -39,6 +39,16 @@ from methods.tracking import _segments  # noqa: E402
 CELL = "step +5/−5/0/+8 % at 40 s, 150 N·m every 10 s, 700 µg"
 
 
+def step_cell(cfg) -> tuple[dict, float, float, np.ndarray, float]:
+    """A step cell of ``cfg`` without its bounds: the cell, Δt, the step's time, the frequencies just after the
+    step and the slowest period there."""
+    cell = make_cell(cfg, bounds=False)
+    dt = float(cell["dt_s"])
+    st = float(cell["step_time_s"])
+    w_after = cell["truth_freq_rad_s"][int(round(st / dt))]
+    return cell, dt, st, w_after, 2 * np.pi / w_after.min()
+
+
 def bound(cell: dict, r: int, periods: float) -> np.ndarray:
     """2σ/ω of every mode from the window of ``periods`` periods after the step (module docstring)."""
     dt = float(cell["dt_s"])
@@ -140,11 +150,7 @@ def main(argv=None):
         for seed in (int(s) for s in args.seeds.split(",")):
             cfgs = tu.configs(seed, args.replicates, records="pulses")
             label = next(k for k in cfgs if k.startswith(args.cell))
-            cell = make_cell(cfgs[label], bounds=False)
-            dt = float(cell["dt_s"])
-            st = float(cell["step_time_s"])
-            w_after = cell["truth_freq_rad_s"][int(round(st / dt))]
-            period = 2 * np.pi / w_after.min()
+            cell, dt, st, w_after, period = step_cell(cfgs[label])
             for r in range(args.replicates):
                 print(f"seed {seed}, replicate {r}: ω after the step {np.round(w_after, 2)}, prior "
                       f"{np.round(cell['prior_rad_s'][r], 2)}", flush=True)
