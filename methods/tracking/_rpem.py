@@ -79,8 +79,11 @@ linear-Gaussian model is the rate-0 model's own posterior), weighted at equal pr
 density ratio of the rate's posterior and prior at 0 — per mode (``"mode"``) or for every rate at once
 (``"all"``: a change of mass moves every mode). The conditional keeps what the rate absorbed in the recursion:
 the start's transient (a first peak 3–12 % off, linearised far from the truth) and a reset to a still-walking
-estimate, which the rate-0 estimate then carries; on the design seeds it wins the 100 µg steps and loses some
-drifts and the 1000 µg step, so it stays off.
+estimate, which the rate-0 estimate then carries; on the design seeds from the start (``"mode"``, ``"all"``) it
+wins the 100 µg steps and loses some drifts and the 1000 µg step. ``"after_change"`` tests the rates only from
+the first look at which the reset gate opens (a record that never changes keeps its rates: every drift the
+same), and is in the variant ``rpem_ambient:two`` (configs/tracker/rpem_ambient_two.yaml); the default stays
+``"off"``.
 
 A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
 but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
