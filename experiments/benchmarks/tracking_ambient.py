@@ -96,11 +96,11 @@ def run(specs: list[str], seed: int, replicates: int) -> pd.DataFrame:
 
 
 def summary(df: pd.DataFrame) -> pd.DataFrame:
-    s = df.groupby(["cell", "tracker"], sort=False).median(numeric_only=True).reset_index().drop(columns="r")
+    groups = df.groupby(["cell", "tracker"], sort=False)
+    s = groups.median(numeric_only=True).reset_index().drop(columns="r")
     # a replicate that never re-converged after the step counts as ∞ in the median (not as absent)
-    steps = df.groupby(["cell", "tracker"], sort=False)["has_step"].first().to_numpy()
-    rc = df.groupby(["cell", "tracker"], sort=False)["t_reconverge_s"].agg(reconvergence_median).to_numpy()
-    s["t_reconverge_s"] = np.where(steps, rc, np.nan)
+    rc = groups["t_reconverge_s"].agg(reconvergence_median).to_numpy()
+    s["t_reconverge_s"] = np.where(groups["has_step"].first().to_numpy(), rc, np.nan)
     base = s[s.tracker == BASELINE].set_index("cell")["err_30"]
     s["x_next_era"] = s["err_30"] / s["cell"].map(base)
     s["x_bound"] = s["err_30"] / s["bound_30"]

@@ -99,6 +99,12 @@ def _best(curves: dict[str, tuple[np.ndarray, np.ndarray]], k: int) -> list[str]
     return [name for name, _ in sorted(curves.items(), key=late)[:k]]
 
 
+def _side_legend(fig, handles: dict) -> None:
+    """One legend beside the panels, an entry per label of ``handles`` (label → artist), two columns past 18."""
+    fig.legend(list(handles.values()), list(handles), fontsize=7, loc="outside right center",
+               ncol=1 if len(handles) <= 18 else 2)
+
+
 def _legend_line(line):
     """A legend entry in the line's colour and style, at full strength (the faint lines' alpha left out)."""
     return matplotlib.lines.Line2D([], [], color=line.get_color(), ls=line.get_linestyle(), lw=1.4)
@@ -152,8 +158,7 @@ def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], s
         ax.grid(True, which="major", alpha=0.3)
     for ax in axes.flat[len(titles):]:
         ax.set_axis_off()
-    fig.legend([_legend_line(h) for h in handles.values()], list(handles), fontsize=7, loc="outside right center",
-               ncol=1 if len(handles) <= 18 else 2)
+    _side_legend(fig, {label: _legend_line(h) for label, h in handles.items()})
     bold_note = f"bold: each panel's {BOLD} most accurate over its second half and {BASELINE}"
     fig.suptitle(f"Tracking error against time (median over replicates and modes; dashed: 1 %; {bold_note}; grey "
                  "floor: the bound that does not know the force, dotted: the genie's)" if bounds else
@@ -197,8 +202,7 @@ def reconvergence_vs_noise(summary: pd.DataFrame, stem: Path) -> list[Path]:
     for ax in axes.flat:
         for h, label in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(label, h)
-    fig.legend(list(handles.values()), list(handles), fontsize=7, loc="outside right center",
-               ncol=1 if len(handles) <= 18 else 2)
+    _side_legend(fig, handles)
     fig.suptitle("Re-convergence time after the step (median over replicates; dashed: the 20 s target; open, "
                  "at the top: never in half the replicates or more)", fontsize=10, wrap=True)
     return _save(fig, stem)

@@ -342,7 +342,7 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = resolve(make_options(Options, options, name), name, prior, dt, n_samples)
     for key in ("refine", "split_kicks", "close_pairs", "window_from_estimates", "own_windows", "ring_start",
-                "shrink_rows", "capped_rows", "capped_either"):
+                "shrink_rows", "capped_rows", "capped_either", "trend_span_relevel"):
         if not isinstance(getattr(opts, key), bool):
             raise ValueError(f"{name}: {key} = {getattr(opts, key)!r} must be true or false")
     _int(opts.refine_steps, "refine_steps", 1, name)
@@ -362,8 +362,6 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: window_samples = {opts.window_samples} is too short for rows = {opts.rows} "
                          f"and ar_order = {opts.ar_order} (needs ≥ 3 (rows + 1) and > 2 ar_order)")
     _trend.check(opts, name)
-    if not isinstance(opts.trend_span_relevel, bool):
-        raise ValueError(f"{name}: trend_span_relevel = {opts.trend_span_relevel!r} must be true or false")
     if opts.trend_restart_rate not in _trend.RESTART_RATES:
         raise ValueError(f"{name}: trend_restart_rate = {opts.trend_restart_rate!r} must be one of "
                          f"{', '.join(_trend.RESTART_RATES)}")
@@ -402,7 +400,7 @@ def widest_rows(flags: np.ndarray, rows: int, candidates: int = 6) -> int:
     top = n // 3 - 1
     if top <= rows:
         return rows
-    cum = np.concatenate(([0], np.cumsum(flags)))
+    cum = _flag_sums(flags)
     best = rows
     for L in np.unique(np.linspace(rows, top, candidates).round().astype(int)):
         if _free_columns(cum, n, int(L)) >= 2 * L:
@@ -410,10 +408,20 @@ def widest_rows(flags: np.ndarray, rows: int, candidates: int = 6) -> int:
     return best
 
 
-def _free_columns(cum: np.ndarray, n: int, L: int) -> int:
-    """Hankel columns of L + 1 samples with no flagged sample in k + 1 … k + L (``cum``: the flags' cumsum)."""
+def _flag_sums(flags: np.ndarray) -> np.ndarray:
+    """The flags' prefix sums, 0 first: the flags in samples a … b − 1 are ``cum[b] − cum[a]``."""
+    return np.concatenate(([0], np.cumsum(flags)))
+
+
+def _free_mask(cum: np.ndarray, n: int, L: int) -> np.ndarray:
+    """Per Hankel column k of L + 1 samples: no flagged sample in k + 1 … k + L (``cum``: :func:`_flag_sums`)."""
     k = np.arange(n - L)
-    return int(np.count_nonzero(cum[k + L + 1] - cum[k + 1] == 0))
+    return cum[k + L + 1] - cum[k + 1] == 0
+
+
+def _free_columns(cum: np.ndarray, n: int, L: int) -> int:
+    """The number of :func:`_free_mask`'s free columns."""
+    return int(np.count_nonzero(_free_mask(cum, n, L)))
 
 
 def _events(flags: np.ndarray, merge: int) -> int:
@@ -438,10 +446,10 @@ def shrunk_rows(flags: np.ndarray, pulses: np.ndarray, rows: int, floor: int, mi
     them pull the trend away (docs/measured/tracking.md), so the rule stays silent; so it does where the
     pulses lie closer than ``min_run`` on average."""
     n = flags.size
-    cum = np.concatenate(([0], np.cumsum(flags)))
+    cum = _flag_sums(flags)
     if floor >= rows or _free_columns(cum, n, rows) >= 2 * rows:
         return rows
-    if _free_columns(np.concatenate(([0], np.cumsum(pulses))), n, rows) >= 2 * rows:
+    if _free_columns(_flag_sums(pulses), n, rows) >= 2 * rows:
         return rows                                   # the kick test's flags, not pulses: silent
     if (n - int(np.count_nonzero(pulses))) / (_events(pulses, merge) + 1) < min_run:
         return rows                                   # pulses everywhere, not isolated: silent
@@ -474,9 +482,7 @@ def window_poles(seg: np.ndarray, dt: float, order: int, rows: int, ar_order: in
     if flags is None:
         flags = pulse_flags(seg, ar_order, cut)
     cols = np.lib.stride_tricks.sliding_window_view(seg, rows + 1)          # (n − L, L + 1)
-    cum = np.concatenate(([0], np.cumsum(flags)))
-    k = np.arange(n - rows)
-    keep = (cum[k + rows + 1] - cum[k + 1]) == 0
+    keep = _free_mask(_flag_sums(flags), n, rows)
     if keep.sum() < 2 * rows:                      # pulses everywhere: this window determines nothing
         return np.empty(0, dtype=complex), float(keep.mean())
     y0, y1 = cols[keep, :rows].T, cols[keep, 1:].T
@@ -895,7 +901,7 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     state["flags"] = flags
     if state["rows_free"]:
         if (state["capped_rows"] is not None
-                and _free_columns(np.concatenate(([0], np.cumsum(pulses))), seg.size, rows) < 2 * rows):
+                and _free_columns(_flag_sums(pulses), seg.size, rows) < 2 * rows):
             # capped_rows: the pulse detector's own flags leave fewer than 2L columns of the rule's rows (as
             # shrink_rows' first condition; under a white force they leave plenty): the rows start at the
             # five-period window's and grow where the columns allow
@@ -920,20 +926,20 @@ def _window(seg, dt, sizes, order, opts, nyquist, limit, prior, state, freq, fou
     freq[cc[hit]] = np.exp(cand[rr[hit]])
     found[cc[hit]] = True
     last_w, last_z = state["last_w"], state["last_z"]
-    # ring_start: the window's newest ring (after its last pulse) and the modes it holds; a mode the pencil gave
-    # no pole starts from the ring alone (ring_search)
-    ring_at, held = (ring_run(pulses, ref, dt, rows) if opts.refine and opts.ring_start
-                     else (-1, np.zeros(ref.size, dtype=bool)))
-    # only a mode no window has determined for more than half a window's span (the trend stage's gap: after a
-    # step with no ring, or before a mode's first ring)
     e_now = start + seg.size - 1
-    held &= e_now - state["found_at"] > (seg.size - 1) / 2
-    z_ring = np.clip(np.where(np.isfinite(last_z), last_z, 0.005), 1e-4, opts.max_damping)
-    ring = {int(i): ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
-            for i in np.flatnonzero(held & ~found)}
-    # the phase-std test on the ring alone (a flagged noise outlier starts no ring)
-    span_r = (seg.size - 1 - ring_at) * dt
-    starts = {i: v[0] for i, v in ring.items() if v[1] * span_r <= opts.max_phase_std}
+    held, ring, starts = np.zeros(ref.size, dtype=bool), {}, {}
+    if opts.refine and opts.ring_start:
+        # the window's newest ring (after its last pulse) and the modes it holds, only a mode no window has
+        # determined for more than half a window's span (the trend stage's gap: after a step with no ring, or
+        # before a mode's first ring); a mode the pencil gave no pole starts from the ring alone (ring_search)
+        ring_at, held = ring_run(pulses, ref, dt, rows)
+        held &= e_now - state["found_at"] > (seg.size - 1) / 2
+        z_ring = np.clip(np.where(np.isfinite(last_z), last_z, 0.005), 1e-4, opts.max_damping)
+        ring = {int(i): ring_search(centred[ring_at:], dt, ref, z_ring, int(i), limit)
+                for i in np.flatnonzero(held & ~found)}
+        # the phase-std test on the ring alone (a flagged noise outlier starts no ring)
+        span_r = (seg.size - 1 - ring_at) * dt
+        starts = {i: v[0] for i, v in ring.items() if v[1] * span_r <= opts.max_phase_std}
     if opts.refine and (found.any() or starts):
         zc = np.clip(zeta[ok][rr[hit]], 1e-4, opts.max_damping)
         w0 = np.where(found, freq, np.where(np.isfinite(last_w), last_w, ref))

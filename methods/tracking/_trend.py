@@ -171,10 +171,16 @@ class TrendBank:
         kf = self.kf[i]
         if kf is None:
             return
+        self.t_last[i], self.hold_until[i] = t_c, -np.inf
+        self._set_level(i, kf, t_c, zi, r_var)
+
+    def _set_level(self, i: int, kf, t_c: float, zi: float, r_var: float) -> None:
+        """Mode i's level set to ``zi`` with variance ``r_var`` by the window at ``t_c``, its rate and the rate's
+        variance kept (a re-level: counted in ``relevels``)."""
         kf.x = np.array([zi, kf.x[1]])
         kf.P = np.diag([r_var, kf.P[1, 1]])
-        self.t_last[i], self.t_update[i], self.p_update[i] = t_c, t_c, r_var
-        self.misses[i], self.ok[i], self.hold_until[i] = 0, True, -np.inf
+        self.misses[i], self.ok[i] = 0, True
+        self.t_update[i], self.p_update[i] = t_c, r_var
         self.relevels[i] += 1
 
     def _level(self, kf, zi: float, r_var: float) -> None:
@@ -253,22 +259,14 @@ class TrendBank:
                     # the window's span changed by more than SPAN_FACTOR: its stamp and memory moved, the jump
                     # from the last window's level is no rate (docstring, "A change of span"); the level's
                     # variance is the window's own (the gate's), so windows that straddle a later change fail
-                    kf.x = np.array([zi, kf.x[1]])
-                    kf.P = np.diag([g_std ** 2, kf.P[1, 1]])
-                    self.misses[i], self.ok[i] = 0, True
-                    self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
-                    self.relevels[i] += 1
+                    self._set_level(i, kf, t_c[i], zi, g_std ** 2)
                     self.span_hold_until[i] = t_c[i] + lead[i]
                 elif (good and self.relevel_gap and t_c[i] - self.t_update[i] > lead[i]
                       and (zi - kf.x[0]) ** 2 > self.gate * (self.p_update[i] + g_std ** 2)):
                     # no window determined the mode for more than half a window's span: the level is the
                     # window's, the rate the one held before the gap (spreading a jump over the gap as a rate
                     # overshoots)
-                    kf.x = np.array([zi, kf.x[1]])
-                    kf.P = np.diag([r_std ** 2, kf.P[1, 1]])
-                    self.misses[i], self.ok[i] = 0, True
-                    self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
-                    self.relevels[i] += 1
+                    self._set_level(i, kf, t_c[i], zi, r_std ** 2)
                     if self.restart_rate == "freeze" and not straddles:
                         self.hold_until[i] = t_c[i] + lead[i]      # the change lies before this window's end
                 elif good:
@@ -286,11 +284,7 @@ class TrendBank:
                         self.misses[i], self.ok[i] = 0, True
                         self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
                     elif closing:
-                        kf.x = np.array([zi, kf.x[1]])
-                        kf.P = np.diag([r_std ** 2, kf.P[1, 1]])
-                        self.misses[i], self.ok[i] = 0, True
-                        self.t_update[i], self.p_update[i] = t_c[i], kf.P[0, 0]
-                        self.relevels[i] += 1
+                        self._set_level(i, kf, t_c[i], zi, r_std ** 2)
                     else:
                         if self.misses[i] == 0:
                             self.first_miss_end[i] = t_c[i] + lead[i]
