@@ -270,17 +270,20 @@ def markdown(s: pd.DataFrame, command: str) -> str:
              "after the move); within 1 % = share of the track's times (laboratory: of the scored spans) with every "
              "mode within 1 %; re-converge: after the step, s, and in periods of the slowest mode (laboratory: "
              "median over the moves); × bound = the median of |error| over the unknown-force PCRB's std (white force "
-             "unknown, pulses known; an efficient tracker scores 0.67; none for the other rates).", "",
-             "| cell | tracker | error % of ω | × bound | within 1 % | ratio to next_era | late % | never | "
-             "re-converge s | periods | halves |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "unknown, pulses known; an efficient tracker scores 0.67; none for the other rates); × rate-unknown = the "
+             "same over the unknown-rate PCRB's, on a drift over the whole record only (the unknown-force bound "
+             "not told the drift's rate, which the schedule's walk of the other knows).", "",
+             "| cell | tracker | error % of ω | × bound | × rate-unknown | within 1 % | ratio to next_era | late % | "
+             "never | re-converge s | periods | halves |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in s.iterrows():
         if isinstance(r.get("refused"), str):
-            lines.append(f"| {r.cell} | {r.tracker} | refused: {r.refused} | | | | | | | | |")
+            lines.append(f"| {r.cell} | {r.tracker} | refused: {r.refused} | | | | | | | | | |")
             continue
         periods = r.get("reconverge_periods", np.nan)
         halves = "yes" if pd.notna(r.halves) and bool(r.halves) else "no"
         ufb = r.get("err_ufbound_median", np.nan)
-        lines.append(f"| {r.cell} | {r.tracker} | {100 * r.err_rel_median:.3f} | {ufb:.2f} | "
+        rb = r.get("err_rbound_median", np.nan)
+        lines.append(f"| {r.cell} | {r.tracker} | {100 * r.err_rel_median:.3f} | {ufb:.2f} | {rb:.2f} | "
                      f"{100 * r.share_within_1pct:.0f} % | "
                      f"{r.ratio:.2f} | {100 * r.err_rel_median_late:.3f} | {r.never_converged_rate:.2f} | "
                      f"{r.t_reconverge_s:.2f} | {periods:.1f} | {halves} |")

@@ -10,7 +10,8 @@ A track is the tracker's estimate ω̂ᵢ(t_j) at its own times t_j (each a samp
   instant. NaN when it never happens (reported as such, and counted).
 * **tracking error**: eᵢ(t) = |ω̂ᵢ − ωᵢ| after the first convergence, relative to ωᵢ and to the bounds
   (the PCRB std at that sample: ``err_bound_*`` the **genie** bound, every input known; ``err_ufbound_*``
-  the **unknown-force** bound, the white disturbance unknown); its median and 90th percentile over time and
+  the **unknown-force** bound, the white disturbance unknown; ``err_rbound_*`` on a drift cell the
+  **unknown-rate** bound, the unknown-force one not told the drift's rate); its median and 90th percentile over time and
   modes (empirical quantiles, no interpolation: a missing estimate counts as an infinite error). An
   efficient unbiased tracker's |e|/σ has median 0.67 (the half-normal's), so ``err_ufbound_median`` ≈ 0.67
   is at the bound and 1.35 is twice it.
@@ -152,8 +153,8 @@ def _tail_verdicts(t_s: np.ndarray, rel: np.ndarray, converged, tol: float) -> d
 
 def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray, dt_s: float, *,
                 bound: np.ndarray | None = None, bound_unknown_force: np.ndarray | None = None,
-                step_time_s: float | None = None, drift_span_s=None, tol: float = TOL,
-                hold_s: float = HOLD_S) -> dict:
+                bound_unknown_rate: np.ndarray | None = None, step_time_s: float | None = None, drift_span_s=None,
+                tol: float = TOL, hold_s: float = HOLD_S) -> dict:
     """The scores of one track against the truth of its record (module docstring).
 
     Parameters
@@ -167,6 +168,8 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
         The genie PCRB std at every sample (rad/s): ``err_bound_*``.
     bound_unknown_force : ndarray, shape (N, m), optional
         The unknown-force PCRB std at every sample (rad/s): ``err_ufbound_*``.
+    bound_unknown_rate : ndarray, shape (N, m), optional
+        The unknown-rate PCRB std (a line's rate not told; drift cells only): ``err_rbound_*``.
 
     Returns
     -------
@@ -180,7 +183,8 @@ def score_track(t_s, frequencies, converged, runtime_s: float, truth: np.ndarray
     after = t_s >= t_conv if math.isfinite(t_conv) else np.zeros(t_s.size, bool)
     for name, q in (("median", 50), ("p90", 90)):
         out[f"err_rel_{name}"] = _percentile(rel[after], q) if after.any() else math.nan
-        for key, b in (("err_bound", bound), ("err_ufbound", bound_unknown_force)):
+        for key, b in (("err_bound", bound), ("err_ufbound", bound_unknown_force),
+                       ("err_rbound", bound_unknown_rate)):
             if b is not None and after.any():
                 ratio = err[after] / np.asarray(b)[k][after]
                 ratio = np.where(np.isfinite(ratio), ratio, np.inf)     # a missing estimate is no small error
@@ -249,6 +253,7 @@ def score_dwells(t_s, frequencies, converged, runtime_s: float, truth: np.ndarra
         out[f"err_rel_{name}"] = _percentile(rel[scored], q) if scored.any() else math.nan
         out[f"err_bound_{name}"] = math.nan
         out[f"err_ufbound_{name}"] = math.nan                # no bound is computed for a laboratory record
+        out[f"err_rbound_{name}"] = math.nan
     late = _late(t_s)
     out["err_rel_median_late"] = _percentile(rel[late], 50)
     out["err_rel_p90_late"] = _percentile(rel[late], 90)
@@ -280,12 +285,15 @@ def score_record(t_s, frequencies, converged, runtime_s: float, cell: dict, r: i
                        bound=cell["pcrb_std_rad_s"][r] if "pcrb_std_rad_s" in cell else None,
                        bound_unknown_force=(cell["pcrb_unknown_force_std_rad_s"][r]
                                             if "pcrb_unknown_force_std_rad_s" in cell else None),
+                       bound_unknown_rate=(cell["pcrb_unknown_rate_std_rad_s"][r]
+                                           if "pcrb_unknown_rate_std_rad_s" in cell else None),
                        step_time_s=step if np.isfinite(step) else None,
                        drift_span_s=span if np.all(np.isfinite(span)) else None)
 
 
 SUMMARY_MEDIANS = ("t_converge_s", "t_reconverge_s", "err_rel_median", "err_rel_p90", "err_bound_median",
-                   "err_bound_p90", "err_ufbound_median", "err_ufbound_p90", "err_rel_median_late", "err_rel_p90_late",
+                   "err_bound_p90", "err_ufbound_median", "err_ufbound_p90", "err_rbound_median", "err_rel_median_late",
+                   "err_rel_p90_late",
                    "err_ufbound_median_late", "share_within_1pct", "lag_s", "cpu_per_sample_s", "reconverge_periods",
                    "reconverged_share")
 

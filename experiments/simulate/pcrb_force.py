@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from experiments.simulate.pcrb import jacobians, matched_walk_q, pcrb_covariance, prior_covariance
+from experiments.simulate.pcrb import RW_FLOOR_REL, jacobians, matched_walk_q, pcrb_covariance, prior_covariance
 from experiments.simulate.timevarying import INPUTS, ModalModel, oscillator_transition
 
 __all__ = ["force_noise", "unknown_force_pcrb"]
@@ -87,7 +87,8 @@ def force_noise(model: ModalModel, w, dt_s: float, force_std_n: float, force_inp
 
 def unknown_force_pcrb(model: ModalModel, w, x, dt_s: float, noise_std: float, prior, *, force_std_n: float,
                        force_input: str = "force_body_y", u=None, rw_q=None,
-                       prior_rel_std: float | None = None, damping: bool = True, P0=None) -> np.ndarray:
+                       prior_rel_std: float | None = None, damping: bool = True, P0=None,
+                       rate_std=None) -> np.ndarray:
     """The **unknown-force** PCRB std (rad/s) of every frequency at every sample, per replicate.
 
     The white force on ``force_input`` (1σ ``force_std_n`` per sample) is unknown to the bound and enters as
@@ -116,6 +117,14 @@ def unknown_force_pcrb(model: ModalModel, w, x, dt_s: float, noise_std: float, p
         The walk's per-sample variance (rad²/s²), constant or per sample, instead of the schedule's.
     P0 : ndarray, shape (d, d), optional
         The prior covariance of z_0 instead of ``pcrb.prior_covariance`` (e.g. the oscillators' stationary one).
+    rate_std : array_like, shape (m,) or scalar, optional
+        The **unknown-rate** bound: each frequency is a line, ω_{k+1} = ω_k + Δt ω̇, its rate ω̇ an unknown
+        constant with prior N(0, rate_std²) (rad/s per s), appended to the state; the default walk is then
+        the floor alone, (RW_FLOOR_REL·ω)²/N per sample (the line moves the frequency, not a walk). The
+        schedule's walk knows how fast a drift moves (its steps have the drift's size), so on a drift it is
+        the bound of a tracker told the rate; this one is the bound of one that is not (an estimate of the
+        level at the end of a line: about twice the std of a constant's from the same samples). Meaningful
+        where the truth is a line (drifts, a constant); ``P0``, if given, covers the appended rates too.
 
     Returns
     -------
@@ -124,14 +133,39 @@ def unknown_force_pcrb(model: ModalModel, w, x, dt_s: float, noise_std: float, p
     w = np.asarray(w, dtype=float)
     x = np.asarray(x, dtype=float)
     m = x.shape[2]
+    if rate_std is not None:
+        rate_std = np.broadcast_to(np.asarray(rate_std, dtype=float), (m,))
+        if not np.all(np.isfinite(rate_std) & (rate_std > 0)):
+            raise ValueError(f"rate_std = {rate_std.tolist()} must be finite numbers > 0 (rad/s per s)")
     F, H = jacobians(model, w, x, dt_s, u, damping=damping)
     d = F.shape[-1]
     Qf, S, direct_var = force_noise(model, w, dt_s, force_std_n, force_input, damping=damping)
-    q = matched_walk_q(w) if rw_q is None else np.broadcast_to(rw_q, w.shape)
+    if rw_q is None:
+        rw_q = matched_walk_q(w) if rate_std is None else (RW_FLOOR_REL * w[0]) ** 2 / w.shape[0]
+    q = np.broadcast_to(rw_q, w.shape)
     Qf[:, np.arange(2 * m, 3 * m), np.arange(2 * m, 3 * m)] += q
     if P0 is None:
-        P0 = np.diag(prior_covariance(model, w, x, prior, prior_rel_std=prior_rel_std, damping=damping))
+        p0 = prior_covariance(model, w, x, prior, prior_rel_std=prior_rel_std, damping=damping)
+        if rate_std is not None:
+            p0 = np.concatenate([p0, rate_std**2])
+        P0 = np.diag(p0)
+    if rate_std is not None:       # the rates: d + m states, ω_{k+1} = ω_k + Δt ω̇, ω̇ constant
+        F, H, Qf, S = _with_rates(F, H, Qf, S, m, dt_s)
+        d += m
     if np.shape(P0) != (d, d):
         raise ValueError(f"P0 has shape {np.shape(P0)}; the bound's state has {d} entries")
     var = pcrb_covariance(F, H, Qf, noise_std**2 + direct_var, P0, cross=S if direct_var > 0 else None)
     return np.sqrt(np.maximum(var[:, :, 2 * m: 3 * m], 0.0))
+
+
+def _with_rates(F, H, Q, S, m: int, dt_s: float):
+    """The model with m rate states appended (ω_{k+1} = ω_k + Δt ω̇, ω̇ constant, no noise)."""
+    r, n, d, _ = F.shape
+    Fr = np.zeros((r, n, d + m, d + m))
+    Fr[:, :, :d, :d] = F
+    Fr[:, :, np.arange(2 * m, 3 * m), np.arange(d, d + m)] = dt_s
+    Fr[:, :, np.arange(d, d + m), np.arange(d, d + m)] = 1.0
+    Hr = np.concatenate([H, np.zeros((r, n, m))], axis=-1)
+    Qr = np.zeros((n, d + m, d + m))
+    Qr[:, :d, :d] = Q
+    return Fr, Hr, Qr, np.concatenate([S, np.zeros((n, m))], axis=-1)

@@ -32,12 +32,16 @@ File schema (plain arrays, ``experiments.io.read_npz`` verifies the checksum):
 | ``prior_rad_s`` | (R, m) | the prior the harness gives every tracker |
 | ``pcrb_std_rad_s`` | (R, N, m) | the **genie** posterior Cramér–Rao bound: every input known (``pcrb.cell_pcrb``) |
 | ``pcrb_unknown_force_std_rad_s`` | (R, N, m) | the **unknown-force** PCRB: white force unknown, pulses known |
+| ``pcrb_unknown_rate_std_rad_s`` | (R, N, m) | the **unknown-rate** PCRB, only where every frequency is a line |
 | ``window_bound_std_rad_s`` | (N, m) | the best sliding window's bound, NaN between its evaluation times |
 | ``dt_s``, ``noise_ug``, ``noise_std_m_s2``, ``seed`` | () | settings |
 | ``step_time_s`` | () | the step's instant, NaN without one |
 | ``drift_span_s`` | (2,) | the drifting span, NaN without one |
 | ``config_json`` | () str | the cell's config (schedule, excitation, plant) and the seed scheme |
 | ``checksum_sha256`` | () str | SHA-256 of the other entries |
+
+The unknown-rate bound (a drift over the whole record, or a constant) is the unknown-force one with each rate
+an unknown constant, prior N(0, (``RATE_PRIOR_REL_PER_S``·ω)²) per s, instead of the schedule's walk.
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ from experiments.simulate.timevarying import INPUTS, modal_model, simulate
 UG = 9.80665e-6
 STREAMS = {"noise": 0, "pulse_times": 1, "pulse_signs": 2, "disturbance": 3, "prior": 4}
 MIN_SAMPLES = 64
+RATE_PRIOR_REL_PER_S = 1e-3   # the unknown-rate bound's prior rate, 0.1 %/s of ω (the ambient trackers' stated rate)
 
 
 @dataclass
@@ -224,8 +229,21 @@ def make_cell(cfg: TrackingCellConfig, *, bounds: bool = True) -> dict[str, np.n
         else:                   # pulses only, known to both bounds: the unknown-force bound with no force
             out["pcrb_unknown_force_std_rad_s"] = pcrb_force.unknown_force_pcrb(
                 model, w, states, cfg.dt_s, sigma, prior, force_std_n=0.0, u=u)
+        if is_line(w):         # the schedule's walk knows a drift's rate; this bound is not told it
+            column = "force_body_y" if cfg.excitation.disturbance_at == "body" else "force_tip"
+            out["pcrb_unknown_rate_std_rad_s"] = pcrb_force.unknown_force_pcrb(
+                model, w, states, cfg.dt_s, sigma, prior, force_std_n=cfg.excitation.disturbance_force_n,
+                force_input=column, u=u, rate_std=RATE_PRIOR_REL_PER_S * w[0])
         out["window_bound_std_rad_s"] = pcrb.cell_window_bound(model, w, states, cfg.dt_s, sigma)
     return out
+
+
+def is_line(w: np.ndarray, rel: float = 1e-9) -> bool:
+    """Whether every frequency of ``w`` (N, m) is a line in time (within ``rel`` of ω): a drift over the whole
+    record or a constant, not a step, a slosh, a fuel burn or a drift that ends inside the record."""
+    w = np.asarray(w, dtype=float)
+    line = w[:1] + (w[-1:] - w[:1]) * np.linspace(0.0, 1.0, w.shape[0])[:, None]
+    return bool(np.all(np.abs(w - line) <= rel * np.abs(w[:1])))
 
 
 def write_cell(cfg: TrackingCellConfig, path) -> None:
@@ -241,4 +259,5 @@ def cell_name(schedule: str, excitation: str, noise_ug: float, duration_s: float
 
 
 __all__ = ["ExcitationConfig", "ScheduleConfig", "TrackingCellConfig", "cell_name", "cell_rng", "check_cell_config",
-           "check_replicates", "inputs", "make_cell", "replicate_priors", "write_cell"]
+           "check_replicates", "inputs", "is_line", "make_cell", "replicate_priors", "write_cell",
+           "RATE_PRIOR_REL_PER_S"]

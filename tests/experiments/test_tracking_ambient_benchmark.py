@@ -12,7 +12,8 @@ from experiments.benchmarks.tracking_ambient import summary
 
 def _row(cell, tracker, r, err_30, t_re, has_step):
     return {"cell": cell, "tracker": tracker, "r": r, "err": err_30, "err_30": err_30, "bound_30": 0.002,
-            "t_reconverge_s": t_re, "has_step": has_step, "cover_1sigma": 0.7, "us_per_sample": 100.0}
+            "rbound_30": 0.004 if cell == "drift" else math.nan, "t_reconverge_s": t_re, "has_step": has_step,
+            "cover_1sigma": 0.7, "us_per_sample": 100.0}
 
 
 def test_summary_ratios_and_a_never_reconverged_replicate():
@@ -26,3 +27,5 @@ def test_summary_ratios_and_a_never_reconverged_replicate():
     assert s.loc[("step", "next_era"), "t_reconverge_s"] == pytest.approx(35.0)
     assert s.loc[("step", "x"), "t_reconverge_s"] == math.inf       # 12 s and never: never, not 12 s
     assert np.isnan(s.loc[("drift", "x"), "t_reconverge_s"])        # no step: no re-convergence
+    assert s.loc[("drift", "x"), "x_rbound"] == pytest.approx(0.5)  # × the unknown-rate bound, drifts only
+    assert np.isnan(s.loc[("step", "x"), "x_rbound"])

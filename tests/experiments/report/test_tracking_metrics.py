@@ -42,14 +42,16 @@ def test_time_to_converge_from_a_prior_5_percent_off():
     assert s["err_bound_median"] == pytest.approx(2.0)          # 0.2 % error over a 0.1 % bound
 
 
-def test_error_is_scored_against_both_bounds_each_in_its_own_column():
+def test_error_is_scored_against_every_bound_each_in_its_own_column():
     truth = constant_truth()
     est = truth * 1.002
-    s = score(est, truth, bound=0.001 * truth, bound_unknown_force=0.004 * truth)
+    s = score(est, truth, bound=0.001 * truth, bound_unknown_force=0.004 * truth, bound_unknown_rate=0.008 * truth)
     assert s["err_bound_median"] == pytest.approx(2.0)          # × the genie bound
     assert s["err_ufbound_median"] == pytest.approx(0.5)        # × the unknown-force bound
+    assert s["err_rbound_median"] == pytest.approx(0.25)        # × the unknown-rate bound
     assert s["err_ufbound_median_late"] == pytest.approx(0.5)   # the second half, converged or not
-    assert np.isnan(score(est, truth, bound=0.001 * truth)["err_ufbound_median"])
+    alone = score(est, truth, bound=0.001 * truth)
+    assert np.isnan(alone["err_ufbound_median"]) and np.isnan(alone["err_rbound_median"])
 
 
 def test_a_short_visit_within_1_percent_is_not_convergence():

@@ -195,3 +195,80 @@ def test_pulses_are_known_to_both_bounds_so_a_pulse_cell_has_one_bound():
                              duration_s=10.0, replicates=2)
     cell = make_cell(cfg)
     np.testing.assert_allclose(cell["pcrb_unknown_force_std_rad_s"], cell["pcrb_std_rad_s"], rtol=1e-9)
+
+
+def line_record_covariance(theta, n, sigma, p_x0):
+    """The covariance of y_0…y_{N−1} when the frequency is a line, ω_k = ω₀ + kΔt·ω̇ (the system frozen at
+    ω_k over sample k, each sample's matrices from scipy's zero-order hold), x_0 ~ N(0, p_x0) fixed."""
+    w0, zeta, rate = theta
+    mats = [discrete(w0 + k * DT * rate, zeta) for k in range(n)]
+    obs, lower = np.empty((n, 2)), np.zeros((n, n))
+    to_k = np.eye(2)                                   # A_{k−1}⋯A_0
+    for k in range(n):
+        _, _, cd, dd = mats[k]
+        obs[k] = (cd @ to_k)[0]
+        lower[k, k] = dd[0, 0]
+        after = cd.copy()                              # C_k A_{k−1}⋯A_{j+1}
+        for j in range(k - 1, -1, -1):
+            lower[k, j] = (after @ mats[j][1])[0, 0]
+            after = after @ mats[j][0]
+        to_k = mats[k][0] @ to_k
+    return obs @ p_x0 @ obs.T + FORCE**2 * lower @ lower.T + sigma**2 * np.eye(n)
+
+
+@pytest.mark.parametrize("rate_std", [0.3, 3.0])
+def test_unknown_rate_bound_equals_exact_fisher_information_of_a_line(rate_std):
+    # θ = (ω₀, ζ, ω̇), the truth ω̇ = 0; the level at the last sample, ω₀ + (N−1)Δt ω̇, has the variance
+    # gᵀ(I + I_prior)⁻¹g. 2.4 s, 400 replicates: 0.99 and 0.98 of it (seed 5); without the rate the bound's
+    # information is 1.4× and 4.4× higher, so the check sees the rate
+    n, sigma = 120, 1e-4
+    model, x, u = stationary_records(n, 400, seed=5)
+    ad, bd, _, _ = discrete(W0, ZETA)
+    p_x0 = scipy.linalg.solve_discrete_lyapunov(ad, FORCE**2 * bd @ bd.T)
+    prior_var = np.array([(0.1 * W0) ** 2, (0.5 * ZETA) ** 2, rate_std**2])
+    std = unknown_force_pcrb(model, np.full((n, 1), W0), x, DT, sigma, np.array([W0]), force_std_n=FORCE, u=u,
+                             rw_q=np.zeros(1), P0=scipy.linalg.block_diag(p_x0, np.diag(prior_var)),
+                             rate_std=rate_std)
+    theta, scale = np.array([W0, ZETA, 0.0]), np.array([W0, ZETA, 1.0])
+    c_inv = np.linalg.inv(line_record_covariance(theta, n, sigma, p_x0))
+    dc = []
+    for i in range(3):
+        h = np.zeros(3)
+        h[i] = 1e-6 * scale[i]
+        dc.append((line_record_covariance(theta + h, n, sigma, p_x0)
+                   - line_record_covariance(theta - h, n, sigma, p_x0)) / (2 * h[i]))
+    info = np.array([[0.5 * np.trace(c_inv @ a @ c_inv @ b) for b in dc] for a in dc]) + np.diag(1 / prior_var)
+    g = np.array([1.0, 0.0, (n - 1) * DT])
+    assert np.mean(1.0 / std[:, -1, 0] ** 2) == pytest.approx(1.0 / (g @ np.linalg.solve(info, g)), rel=0.08)
+
+
+def test_unknown_rate_bound_is_about_twice_the_constants_on_a_long_record_and_refuses_a_bad_rate():
+    # a diffuse rate over 60 s (60 correlation times): a line's end point from N equally informative samples
+    # has (4N − 2)/(N + 1) ≈ 4 times a constant's variance; 1.84–2.25 in std here, median 1.95
+    n = 3000
+    model, x, u = stationary_records(n, 4, seed=3)
+    w, prior = np.full((n, 1), W0), np.array([W0])
+    const = unknown_force_pcrb(model, w, x, DT, 1e-4, prior, force_std_n=FORCE, u=u, rw_q=np.zeros(1))
+    line = unknown_force_pcrb(model, w, x, DT, 1e-4, prior, force_std_n=FORCE, u=u, rw_q=np.zeros(1),
+                              rate_std=10.0)
+    assert np.median(line[:, -1, 0] / const[:, -1, 0]) == pytest.approx(2.0, rel=0.08)
+    with pytest.raises(ValueError, match=r"rate_std = \[-1.0\] must be finite numbers > 0"):
+        unknown_force_pcrb(model, w, x, DT, 1e-4, prior, force_std_n=FORCE, u=u, rate_std=-1.0)
+
+
+def test_a_drift_over_the_whole_record_carries_the_unknown_rate_bound_and_a_step_does_not():
+    from experiments.simulate.tracking_data import TrackingCellConfig, is_line, make_cell
+
+    drift = make_cell(TrackingCellConfig(schedule={"drift": 0.05}, excitation={"disturbance_force_n": 5.0},
+                                         noise_ug=300.0, duration_s=20.0, replicates=2))
+    line, walk = drift["pcrb_unknown_rate_std_rad_s"], drift["pcrb_unknown_force_std_rad_s"]
+    assert line.shape == walk.shape == (2, 1000, 4)
+    # not told the rate, the level is less certain than with the schedule's walk, which knows it
+    assert np.median(line[:, 500:] / walk[:, 500:]) > 1.2           # 1.37 on this 20 s cell
+    step = make_cell(TrackingCellConfig(schedule={"step": [0.0, 0.0, 0.05, 0.0], "step_time_s": 10.0},
+                                        excitation={"disturbance_force_n": 5.0}, noise_ug=300.0, duration_s=20.0,
+                                        replicates=1))
+    assert "pcrb_unknown_rate_std_rad_s" not in step
+    t = np.arange(100.0)[:, None]
+    assert is_line(20.0 + 0.01 * t) and is_line(np.full((100, 2), 3.0))
+    assert not is_line(20.0 + 0.01 * np.minimum(t, 50.0)) and not is_line(20.0 * (1 + 0.02 * np.sin(0.1 * t)))
