@@ -53,6 +53,8 @@ def test_baseline_ratio_and_the_bound_stand_beside_the_error():
     summary = add_baseline_ratio(pd.DataFrame(rows))
     assert summary["x_next_era"].tolist() == [0.4, 1.0]
     assert "(1.3× the unknown-force bound)" in verdict(summary)[0]
+    summary["err_rbound_median"] = [0.6, 1.5]                       # a drift cell: the bound not told the rate
+    assert "(1.3× the unknown-force bound, 0.6× the one not told the drift's rate)" in verdict(summary)[0]
 
 
 def lab_row(tracker, err, share, periods):
