@@ -81,6 +81,7 @@ def estimates_vs_truth(tracks: dict[str, dict], t_s: np.ndarray, truth: np.ndarr
 
 
 BOUND_STYLES = {"unknown-force bound": {"color": "0.55", "ls": "-", "lw": 1.2},
+                "rate-unknown bound": {"color": "0.3", "ls": "-.", "lw": 1.2},
                 "genie bound": {"color": "0.45", "ls": ":", "lw": 1.4}}
 SHADED_BOUND = "unknown-force bound"      # drawn as a grey floor: no tracker can be expected below it
 
@@ -160,9 +161,11 @@ def error_vs_time(panels: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]], s
         ax.set_axis_off()
     _side_legend(fig, {label: _legend_line(h) for label, h in handles.items()})
     bold_note = f"bold: each panel's {BOLD} most accurate over its second half and {BASELINE}"
-    fig.suptitle(f"Tracking error against time (median over replicates and modes; dashed: 1 %; {bold_note}; grey "
-                 "floor: the bound that does not know the force, dotted: the genie's)" if bounds else
-                 f"Tracking error against time (median over replicates and modes; dashed: 1 %; {bold_note})",
+    rate = any("rate-unknown bound" in b for b in (bounds or {}).values())
+    head = f"Tracking error against time (median over replicates and modes; dashed: 1 %; {bold_note}"
+    floor = ("; grey floor: the bound that does not know the force, "
+             + ("dash-dot: the same not told a drift's rate, " if rate else "") + "dotted: the genie's)")
+    fig.suptitle(head + (floor if bounds else ")"),
                  fontsize=10, wrap=True)
     return _save(fig, stem)
 

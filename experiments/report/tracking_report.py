@@ -169,7 +169,8 @@ def _errors(folders: list[Path], cell: str, truth: np.ndarray, dt: float) -> tup
 def _bounds(data: dict) -> dict:
     truth = data["truth_freq_rad_s"]
     return {label: (data["t_s"], data[key] / truth[None]) for label, key in
-            (("unknown-force bound", "pcrb_unknown_force_std_rad_s"), ("genie bound", "pcrb_std_rad_s"))
+            (("unknown-force bound", "pcrb_unknown_force_std_rad_s"),
+             ("rate-unknown bound", "pcrb_unknown_rate_std_rad_s"), ("genie bound", "pcrb_std_rad_s"))
             if key in data}
 
 
