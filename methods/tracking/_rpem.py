@@ -85,6 +85,13 @@ the first look at which the reset gate opens (a record that never changes keeps 
 same), and is in the variant ``rpem_ambient:two`` (configs/tracker/rpem_ambient_two.yaml); the default stays
 ``"off"``.
 
+Each mode's own gate (``mode_gate``, with ``score_reset``). Λ_W pools every mode's evidence: once one mode is reset,
+its share leaves the window's ratio, and another mode may lose the gate it waited for. With ``mode_gate`` a mode is
+also reset (as a score reset is) when its own gain over the last window, the whole-record recursion's
+log-likelihood change of moving ωᵢ alone to ω̂ᵢ', Gᵢ = δᵢsᵢ − ½δᵢ²Iᵢ to second order (:func:`_mode_gains`), exceeds
+``restart_gate``²/2, the window's gate open or shut. Off by default; on the design seeds it did not cut the
+re-convergence after a step (docs/measured/tracking.md).
+
 A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
 but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
 16–155 nats over 10 s, on its drifts by at most 4.2 (design seeds 7 and 11, docs/measured/tracking.md). filterpy's

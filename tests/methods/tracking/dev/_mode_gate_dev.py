@@ -1,7 +1,7 @@
 """``rpem_ambient:two`` after a step, look by look — a development table, not a test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_mode_gate_dev.py SEED [--set ambient|unseen] [--cells "issue: −7"]
-        [--replicates 2] [--extra "+mode_gate=true"]
+        [--replicates 2] [--extra "+mode_gate=true"] [--trace MODE]
 
 On the step cells of ``tracking_ambient`` (``--set ambient``) or ``tracking_unseen``'s white-force step (``--set
 unseen``) whose label holds one of ``--cells``, per replicate, for the row ``rpem_ambient:two`` (its options spelled
@@ -16,7 +16,11 @@ out) plus ``--extra``:
   the one beside the reported recursion): each mode's own re-convergence;
 * the first look after the step at which the whole window's Λ_W opens the reset gate (> ``restart_gate``²/2), and
   per mode the first at which its own gain Gᵢ (``_rpem._mode_gains``) does;
-* every reset after the step: time, mode, the error of the value it took (the window recursion's ω̂ᵢ', %).
+* every reset after the step: time, mode, the error of the value it took (the window recursion's ω̂ᵢ', %);
+* per mode, the share of the time beyond 1 % from 10 s after the step to the re-convergence (or 30 s), for the
+  reported and the window recursion;
+* ``--trace MODE``: that mode at each look 0–30 s after the step: Λ_W, the look's peak, the window recursion's
+  and the whole-record recursion's error (%, before this look's reset), the whole-record score zᵢ (σ) and Gᵢ.
 """
 
 import argparse
@@ -58,7 +62,7 @@ def main() -> None:
     ap.add_argument("--cells", default="issue: −7")
     ap.add_argument("--replicates", type=int, default=2)
     ap.add_argument("--extra", default="")
-    ap.add_argument("--trace", type=int, default=0, help="a mode (1…m): its numbers at every look 0–30 s after the step")
+    ap.add_argument("--trace", type=int, default=0, help="a mode (1…m): its numbers at each look 0–30 s after the step")
     args = ap.parse_args()
     if args.set == "ambient":
         from experiments.benchmarks.tracking_ambient import configs
