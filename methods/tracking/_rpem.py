@@ -85,6 +85,13 @@ the first look at which the reset gate opens (a record that never changes keeps 
 same), and is in the variant ``rpem_ambient:two`` (configs/tracker/rpem_ambient_two.yaml); the default stays
 ``"off"``.
 
+Each mode's own gate (``mode_gate``, with ``score_reset``). Λ_W pools every mode's evidence: once one mode is reset,
+its share leaves the window's ratio, and another mode may lose the gate it waited for. With ``mode_gate`` a mode is
+also reset (as a score reset is) when its own gain over the last window, the whole-record recursion's
+log-likelihood change of moving ωᵢ alone to ω̂ᵢ', Gᵢ = δᵢsᵢ − ½δᵢ²Iᵢ to second order (:func:`_mode_gains`), exceeds
+``restart_gate``²/2, the window's gate open or shut. Off by default; on the design seeds it did not cut the
+re-convergence after a step (docs/measured/tracking.md).
+
 A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
 but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
 16–155 nats over 10 s, on its drifts by at most 4.2 (design seeds 7 and 11, docs/measured/tracking.md). filterpy's
@@ -168,6 +175,12 @@ class Options(_ambient.SharedOptions):
         ``"mode"``, from the first look at which the last window's likelihood ratio opens the reset gate (Λ_W >
         ``restart_gate``²/2: the record has changed, so every mode's rate since the start is in doubt), the
         whole-record recursion's ω̂ before it — a record that never opens the gate keeps its rates.
+    mode_gate : bool
+        ``score_reset``: each mode also has its own gate, the whole-record recursion's log-likelihood gain over
+        the last window (since that mode's last reset) of moving its ωᵢ alone to the window recursion's ω̂ᵢ',
+        to second order from its score and information, Gᵢ = δᵢ sᵢ − ½ δᵢ² Iᵢ (δᵢ = ω̂ᵢ' − ω̂ᵢ, sᵢ = Σ ψᵢe/S,
+        Iᵢ = Σ ψᵢ²/S); a mode whose Gᵢ exceeds ``restart_gate``²/2 is reset as a score reset is, whether or
+        not the whole window's Λ_W has opened the gate (:func:`_mode_gains`).
     """
 
     estimate_damping: bool = True
@@ -179,12 +192,13 @@ class Options(_ambient.SharedOptions):
     pair_peaks: bool = False
     reset_peak: bool = False
     rate_test: str = "off"
+    mode_gate: bool = False
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = make_options(Options, options, name)
     _ambient.check_shared(name, opts, prior, dt, n_samples)
-    for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak"):
+    for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak", "mode_gate"):
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
@@ -193,6 +207,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
         raise ValueError(f"{name}: reset_peak = true needs score_reset = true (got {opts.score_reset!r})")
+    if opts.mode_gate and not opts.score_reset:
+        raise ValueError(f"{name}: mode_gate = true needs score_reset = true (got {opts.score_reset!r})")
     if opts.rate_test != "off" and not opts.score_reset:
         raise ValueError(f"{name}: rate_test = {opts.rate_test!r} needs score_reset = true (got {opts.score_reset!r})")
     if opts.score_reset and opts.recursions != "two":
@@ -418,9 +434,23 @@ def _zero_rate_average(w, v, a, v_wa, v_aa, prior_var, joint: bool = False):
     return w_bar, mu0 * (v0 + (w0 - w_bar) ** 2) + (1 - mu0) * (v + (w - w_bar) ** 2)
 
 
+def _mode_gains(w_long: np.ndarray, w_win: np.ndarray, score: np.ndarray, info: np.ndarray) -> np.ndarray:
+    """``mode_gate``: per mode, the whole-record recursion's log-likelihood gain over the last window of moving its
+    ωᵢ alone from ω̂ᵢ to the window recursion's ω̂ᵢ', to second order: the window's log-likelihood of the
+    innovation form, expanded about ω̂ᵢ with its gradient sᵢ = Σ ψᵢe/S and its Gauss–Newton (Fisher) curvature
+    Iᵢ = Σ ψᵢ²/S (Ljung & Söderström 1983, §3.4), Gᵢ = δᵢsᵢ − ½δᵢ²Iᵢ with δᵢ = ω̂ᵢ' − ω̂ᵢ. It is the score test's
+    likelihood ratio of a point alternative: Gᵢ ≤ zᵢ²/2 (zᵢ = sᵢ/√Iᵢ, the score in σ), equal when ω̂ᵢ' sits at the
+    score's own optimum ω̂ᵢ + sᵢ/Iᵢ, and ≤ 0 when ω̂ᵢ' lies on the other side or beyond twice that step. A
+    per-mode part of the window's Λ_W: one mode's evidence, which another mode's reset does not take away
+    (docs/measured/tracking.md, ``score_alone``). Written by hand: four numbers per mode."""
+    d = np.asarray(w_win, dtype=float) - np.asarray(w_long, dtype=float)
+    return d * np.asarray(score, dtype=float) - 0.5 * d * d * np.asarray(info, dtype=float)
+
+
 def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts,
                        z_score: np.ndarray | None = None, rate_var: np.ndarray | None = None,
-                       peak: np.ndarray | None = None, W_win: np.ndarray | None = None) -> np.ndarray:
+                       peak: np.ndarray | None = None, W_win: np.ndarray | None = None,
+                       mode_gain: np.ndarray | None = None) -> np.ndarray:
     """``recursions="two"``: modes of the whole-record recursion ``long`` ([θ, P, x̂, W, Λ], changed in place)
     start again from the window-memory recursion's (θ, P) when the window recursion predicts the last window
     better, by a log-likelihood ratio ``gain`` = Σ (ℓ_long − ℓ_window) > ``restart_gate``²/2 (its signed root,
@@ -437,14 +467,20 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
     still on its way after a step — first restarts in the window recursion (``theta``, ``P`` and its
     sensitivities ``W_win``, changed in place) at the peak, with the variance Pᵢ' + (peak − ω̂ᵢ')² (the mean
     square error of either being right) and its rate at 0 ± the stated rate; the whole-record one then takes
-    that. Returns the modes reset."""
-    if not gain > 0.5 * opts.restart_gate ** 2:
-        return np.arange(0)
+    that. ``mode_gain`` (``mode_gate``, each mode's own gain :func:`_mode_gains`, nats): a mode whose gain
+    exceeds ``restart_gate``²/2 is reset as a score reset is, with the window's gate open or shut. Returns the
+    modes reset."""
     th_l, P_l, W_l = long[0], long[1], long[3]
     gap = th_l[iw] - theta[iw]
-    far = np.abs(gap) > opts.reset_gate * np.sqrt(np.diag(P_l)[iw] + np.diag(P)[iw])
-    if z_score is not None:
-        far |= (np.abs(z_score) > opts.reset_gate) & (z_score * gap < 0)
+    own = (np.asarray(mode_gain) > 0.5 * opts.restart_gate ** 2 if mode_gain is not None
+           else np.zeros(iw.size, dtype=bool))
+    if gain > 0.5 * opts.restart_gate ** 2:
+        far = np.abs(gap) > opts.reset_gate * np.sqrt(np.diag(P_l)[iw] + np.diag(P)[iw])
+        if z_score is not None:
+            far |= (np.abs(z_score) > opts.reset_gate) & (z_score * gap < 0)
+        far |= own
+    else:
+        far = own
     modes = np.flatnonzero(far)
     for i in modes:
         j = np.array([iw[i], ia[i]])
@@ -620,13 +656,15 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 Wm[:] = 0.0
             if two:
                 gain = float(odds[-1])
-                z_score = None
+                z_score = m_gain = None
                 if opts.score_reset:    # each ω's score over the last window (since its last reset), in σ
                     a = np.maximum(since, k + 1 - W_len)
                     info = cum_i[k + 1] - cum_i[a, iw]
-                    z_score = (cum_s[k + 1] - cum_s[a, iw]) / np.sqrt(np.where(info > 0, info, np.inf))
+                    s_sum = cum_s[k + 1] - cum_s[a, iw]
+                    z_score = s_sum / np.sqrt(np.where(info > 0, info, np.inf))
+                    m_gain = _mode_gains(long[0][iw], theta[iw], s_sum, info)     # (``mode_gate``; cheap)
                 nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var,
-                                        peak if opts.reset_peak else None, Wm)
+                                        peak if opts.reset_peak else None, Wm, m_gain if opts.mode_gate else None)
                 since[nr] = k + 1
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]

@@ -50,6 +50,10 @@ BAD = [
      "rate_test = 'all' needs score_reset = true"),
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "rate_test": "after_change"},
      "rate_test = 'after_change' needs score_reset = true"),
+    ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "score_reset": True, "mode_gate": 1},
+     "mode_gate = 1"),
+    ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "mode_gate": True},
+     "mode_gate = true needs score_reset = true"),
 ]
 
 
@@ -350,6 +354,61 @@ def test_score_reset_also_resets_a_mode_whose_score_points_to_the_window_estimat
     # without the scores (score_reset off) the same gaps reset nothing
     long, *_ = _two_memories([0.5, 0.5, 0.5])
     assert _rpem._reset_from_window(long, th_w, P_w, iw, ia, 8.1, opts).size == 0
+
+
+def test_mode_gains_are_the_exact_log_likelihood_gain_of_a_linear_gaussian_model():
+    """``mode_gate``'s gain against the log-likelihood computed directly (``scipy.stats.norm.logpdf``): per mode a
+    linear-Gaussian model y = ψ ω + e, e ~ N(0, S), whose log-likelihood is exactly quadratic in ω, so the gain
+    of moving ω from ω̂ to ω̂' is δ Σψe/S − ½ δ² Σψ²/S with e the residuals at ω̂. Three modes: ω̂' at the score's
+    optimum (the gain is z²/2), halfway there, and on the other side (a loss)."""
+    import scipy.stats
+
+    from methods.tracking import _rpem
+
+    rng = np.random.default_rng(3)
+    n, S = 200, np.array([0.5, 2.0, 1.0])
+    psi = rng.normal(size=(n, 3))
+    w_true = np.array([1.0, 2.0, 3.0])
+    y = psi * w_true + rng.normal(size=(n, 3)) * np.sqrt(S)
+    w_long = np.array([0.9, 2.1, 2.95])
+    e = y - psi * w_long
+    score, info = np.sum(psi * e / S, axis=0), np.sum(psi ** 2 / S, axis=0)
+    w_opt = w_long + score / info
+    w_win = np.array([w_opt[0], w_long[1] + 0.5 * (w_opt[1] - w_long[1]), w_long[2] - (w_opt[2] - w_long[2])])
+
+    def loglik(w):
+        return np.sum(scipy.stats.norm.logpdf(y, psi * w, np.sqrt(S)), axis=0)
+
+    gain = _rpem._mode_gains(w_long, w_win, score, info)
+    np.testing.assert_allclose(gain, loglik(w_win) - loglik(w_long), rtol=1e-6, atol=1e-6)
+    assert gain[0] == pytest.approx(0.5 * score[0] ** 2 / info[0], rel=1e-6)
+    assert gain[1] > 0 > gain[2]
+
+
+def test_mode_gate_resets_a_mode_by_its_own_gain_with_the_window_gate_shut():
+    """``mode_gate``, by hand: gaps of 0.5σ, scores 0; the window's Λ_W 0 (its gate shut). A mode whose own gain
+    exceeds restart_gate²/2 = 8 nats (mode 1, 8.5) is reset as a score reset is — the window recursion's ω and
+    its variance, its rate 0 ± ``rate_var`` — and the others (7.5, −3) are not; without the gains nothing moves."""
+    from methods.estimate import make_options
+    from methods.tracking import _rpem
+
+    opts = make_options(_rpem.Options, TWO | {"score_reset": True, "mode_gate": True}, "rpem_ambient")
+    long, th_w, P_w, iw, ia = _two_memories([0.5, 0.5, 0.5])
+    z = np.zeros(3)
+    rate_var = np.array([1e-6, 2e-6, 3e-6])
+    before = [np.copy(v) for v in long]
+    assert _rpem._reset_from_window(long, th_w, P_w, iw, ia, 0.0, opts, z, rate_var).size == 0
+    for a, b in zip(long, before, strict=True):
+        np.testing.assert_array_equal(a, b)
+    modes = _rpem._reset_from_window(long, th_w, P_w, iw, ia, 0.0, opts, z, rate_var,
+                                     mode_gain=np.array([7.5, 8.5, -3.0]))
+    assert list(modes) == [1]
+    th, P, _, W, _ = long
+    assert th[1] == th_w[1] and th[13] == 0.0
+    np.testing.assert_array_equal(P[np.ix_([1, 13], [1, 13])], [[3e-4, 0.0], [0.0, 2e-6]])
+    kept = np.setdiff1d(np.arange(15), [1, 13])
+    np.testing.assert_array_equal(th[kept], before[0][kept])
+    assert not W[:, [1, 13]].any() and (W[:, kept] == 1).all()
 
 
 def test_reset_peak_starts_a_reset_mode_at_a_peak_beyond_the_walking_window_estimate():

@@ -46,7 +46,10 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+rateall": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                     "pair_peaks": True, "rate_test": "all"},
            "rpem_ambient+ratechange": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                       "pair_peaks": True, "rate_test": "after_change"}}
+                                       "pair_peaks": True, "rate_test": "after_change"},
+           # each mode's own gate, from the whole-record recursion's scores over the last window
+           "rpem_ambient+modegate": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                     "pair_peaks": True, "rate_test": "after_change", "mode_gate": True}}
 
 
 def _options(name):

@@ -1,0 +1,163 @@
+"""``rpem_ambient:two`` after a step, look by look — a development table, not a test (pytest does not collect it).
+
+    python tests/methods/tracking/dev/_mode_gate_dev.py SEED [--set ambient|unseen] [--cells "issue: −7"]
+        [--replicates 2] [--extra "+mode_gate=true"] [--trace MODE]
+
+On the step cells of ``tracking_ambient`` (``--set ambient``) or ``tracking_unseen``'s white-force step (``--set
+unseen``) whose label holds one of ``--cells``, per replicate, for the row ``rpem_ambient:two`` (its options spelled
+out) plus ``--extra``:
+
+* the re-convergence (s after the step until every mode holds 1 % for 2 s, ``score_track``) and each mode's own
+  (the same rule on that mode alone): the largest is the mode that holds the record;
+* what the record allows: the window (five periods of the slowest prior mode) and, per mode, the first look after
+  the step from which three looks in a row (about 2 s) have their periodogram peak (``pair_peaks``, as the
+  tracker's looks) within 1 % of the truth at the look;
+* the window-memory recursion alone (``rpem_ambient:frequency_model=trend+pair_peaks=true``, the same arithmetic as
+  the one beside the reported recursion): each mode's own re-convergence;
+* the first look after the step at which the whole window's Λ_W opens the reset gate (> ``restart_gate``²/2), and
+  per mode the first at which its own gain Gᵢ (``_rpem._mode_gains``) does;
+* every reset after the step: time, mode, the error of the value it took (the window recursion's ω̂ᵢ', %);
+* per mode, the share of the time beyond 1 % from 10 s after the step to the re-convergence (or 30 s), for the
+  reported and the window recursion;
+* ``--trace MODE``: that mode at each look 0–30 s after the step: Λ_W, the look's peak, the window recursion's
+  and the whole-record recursion's error (%, before this look's reset), the whole-record score zᵢ (σ) and Gᵢ.
+"""
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
+
+import numpy as np  # noqa: E402
+
+import methods  # noqa: E402
+from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
+from experiments.report.tracking_metrics import score_track  # noqa: E402
+from experiments.simulate.tracking_data import make_cell  # noqa: E402
+from methods.tracking import _ambient, _rpem  # noqa: E402
+
+TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
+WINDOW = "rpem_ambient:frequency_model=trend+pair_peaks=true"
+
+
+def _reconv(t, f, truth, dt, st) -> float:
+    return score_track(t, f, np.ones(f.shape, bool), 1.0, truth, dt, step_time_s=st)["t_reconverge_s"]
+
+
+def _per_mode(t, f, truth, dt, st) -> list[float]:
+    return [_reconv(t, f[:, [i]], truth[:, [i]], dt, st) for i in range(f.shape[1])]
+
+
+def _fmt(xs) -> str:
+    return "/".join("—" if not np.isfinite(x) else f"{x:.1f}" for x in xs)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("seed", type=int)
+    ap.add_argument("--set", default="ambient", choices=("ambient", "unseen"))
+    ap.add_argument("--cells", default="issue: −7")
+    ap.add_argument("--replicates", type=int, default=2)
+    ap.add_argument("--extra", default="")
+    ap.add_argument("--trace", type=int, default=0, help="a mode (1…m): its numbers at each look 0–30 s after the step")
+    args = ap.parse_args()
+    if args.set == "ambient":
+        from experiments.benchmarks.tracking_ambient import configs
+        cfgs = configs(args.seed, args.replicates)
+    else:
+        from experiments.benchmarks.tracking_unseen import configs
+        cfgs = configs(args.seed, args.replicates, records="ambient")
+    name, opts = parse_row(TWO + args.extra)
+    wname, wopts = parse_row(WINDOW)
+    looks: list = []
+    orig_look, orig_reset, orig_gain = _ambient.periodogram_look, _rpem._reset_from_window, _rpem._mode_gains
+
+    def look(seg, dt, ref, *a, **kw):
+        out = orig_look(seg, dt, ref, *a, **kw)
+        if seg.size > 8 and kw.get("pair_edges") is not None:
+            looks.append({"peak": out[0].copy()})
+        return out
+
+    def gains(w_long, w_win, s, info):
+        g = orig_gain(w_long, w_win, s, info)
+        looks[-1]["G"] = g.copy()
+        return g
+
+    def reset(long, theta, P, iw, ia, gain, o, *a, **kw):
+        looks[-1]["L"] = gain
+        looks[-1]["w_win"] = theta[iw].copy()
+        looks[-1]["w_long"] = long[0][iw].copy()
+        looks[-1]["z"] = a[0].copy() if a and a[0] is not None else np.full(iw.size, np.nan)
+        modes = orig_reset(long, theta, P, iw, ia, gain, o, *a, **kw)
+        looks[-1]["reset"] = [(int(i), float(long[0][iw[i]])) for i in modes]
+        return modes
+
+    _ambient.periodogram_look, _rpem._reset_from_window, _rpem._mode_gains = look, reset, gains
+    thr = 0.5 * 4.0 ** 2
+    for label, cfg in cfgs.items():
+        if not any(c in label for c in args.cells.split(",")):
+            continue
+        cell = make_cell(cfg)
+        dt, st, truth = float(cell["dt_s"]), float(cell["step_time_s"]), cell["truth_freq_rad_s"]
+        if not np.isfinite(st):
+            continue
+        for r in range(args.replicates):
+            prior = cell["prior_rad_s"][r]
+            W_len, hop = _ambient._window_samples(_rpem.Options(), dt, prior)
+            looks.clear()
+            tr = methods.track(name, cell["accel_m_s2"][r], dt, prior, **opts)
+            trace = list(looks)
+            looks.clear()
+            tw = methods.track(wname, cell["accel_m_s2"][r], dt, prior, **wopts)
+            rc = _reconv(tr.t_s, tr.frequencies, truth, dt, st)
+            own = _per_mode(tr.t_s, tr.frequencies, truth, dt, st)
+            win = _per_mode(tw.t_s, tw.frequencies, truth, dt, st)
+            # the looks after the start's: the j-th (from 0) ends at sample W − 1 + (j + 1)·hop
+            kl = np.array([W_len - 1 + (j + 1) * hop for j in range(len(trace))])
+            tl = kl * dt
+            after = tl >= st
+            m = truth.shape[1]
+            peak_ok = []
+            for i in range(m):      # three looks in a row within 1 % (about 2 s)
+                ok = np.array([abs(trace[j]["peak"][i] / truth[kl[j], i] - 1) <= 0.01
+                               for j in range(kl.size)]) & after
+                run3 = np.flatnonzero(ok[:-2] & ok[1:-1] & ok[2:])
+                peak_ok.append(tl[run3[0]] - st if run3.size else np.nan)
+            L = np.array([trace[j].get("L", np.nan) for j in range(kl.size)])
+            G = np.array([trace[j].get("G", np.full(m, np.nan)) for j in range(kl.size)])
+            gate = np.flatnonzero(after & (L > thr))
+            g_first = [np.flatnonzero(after & (G[:, i] > thr)) for i in range(m)]
+            print(f"{args.seed} | {label} | r{r} | re-conv. {_fmt([rc])} s, per mode {_fmt(own)} | window "
+                  f"{W_len * dt:.1f} s, peaks within 1 % from {_fmt(peak_ok)} | window recursion {_fmt(win)} | "
+                  f"Λ_W open {_fmt([tl[gate[0]] - st] if gate.size else [np.nan])} | Gᵢ open "
+                  + _fmt([tl[g[0]] - st if g.size else np.nan for g in g_first]), flush=True)
+            rs = []
+            for j in np.flatnonzero(after):
+                for i, w in trace[j].get("reset", []):
+                    rs.append(f"{tl[j] - st:.1f}/m{i + 1} {100 * (w / truth[kl[j], i] - 1):+.1f}%")
+            print("     resets (s after the step/mode, its new ω's error): " + " ".join(rs))
+            for lab, t_, f_ in (("reported", tr.t_s, tr.frequencies), ("window recursion", tw.t_s, tw.frequencies)):
+                kk = np.round(t_ / dt).astype(int)
+                end = st + (rc if np.isfinite(rc) else 30.0)
+                h = (t_ >= st + 10) & (t_ < max(end, st + 10.5))
+                print(f"     {lab}: share beyond 1 % per mode from 10 s after the step to the re-convergence (or 30 s) "
+                      + "/".join(f"{v:.2f}" for v in np.mean(np.abs(f_[h] / truth[kk[h]] - 1) > 0.01, axis=0)))
+            print(f"     {tr.message}")
+            if args.trace:
+                i = args.trace - 1
+                for j in np.flatnonzero(after & (tl < st + 30)):
+                    c = trace[j]
+                    tv = truth[kl[j], i]
+                    print(f"     {tl[j] - st:5.1f} s Λ_W {c.get('L', np.nan):7.1f} | peak "
+                          f"{100 * (c['peak'][i] / tv - 1):+6.2f} | window "
+                          f"{100 * (c['w_win'][i] / tv - 1):+6.2f} | whole (before reset) "
+                          f"{100 * (c['w_long'][i] / tv - 1):+6.2f} | z {c['z'][i]:+5.1f} | G {c['G'][i]:7.1f}"
+                          + (" reset" if any(q == i for q, _ in c.get("reset", [])) else ""))
+    _ambient.periodogram_look, _rpem._reset_from_window, _rpem._mode_gains = orig_look, orig_reset, orig_gain
+
+
+if __name__ == "__main__":
+    main()
