@@ -501,6 +501,8 @@ _FOLLOW, _FOLLOW_W = "off", 1.0
 _K_SCALE = 1.0
 _K_START = "diagonal"
 _START_W = 0.0
+_PAIR_SIGMA = 0.0
+_PAIR_NOPEAK = 0
 _WHOLE_RATE = "zero"    # dev switch: "zero" (0 ± the stated rate) or "window" (the window recursion's)
 
 
@@ -575,6 +577,14 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     # the first window's peak is as uncertain as akf_ambient's start says: 1σ max(1 % ω, resolution/4), the
     # window's Fourier resolution 2π/T (a fifth of the slowest mode's ω at five of its periods)
     P[iw, iw] = np.maximum(0.01 * w0, START_RESOLUTION_SHARE * 2 * math.pi / (W_len * dt)) ** 2
+    if _PAIR_SIGMA > 0:     # a pair whose Hann main lobes (±2 bins) overlap in the first window
+        gap = np.diff(prior)
+        near = np.zeros(m, dtype=bool)
+        near[:-1] |= gap < 4 * 2 * math.pi / (W_len * dt)
+        near[1:] |= gap < 4 * 2 * math.pi / (W_len * dt)
+        if _PAIR_NOPEAK:
+            near |= ~np.isfinite(peak)
+        P[iw[near], iw[near]] = np.maximum(P[iw[near], iw[near]], (_PAIR_SIGMA * 2 * math.pi / (W_len * dt)) ** 2)
     if est_z:
         P[iz, iz] = (0.5 * z0) ** 2
     P[ik, ik] = np.maximum(0.3 * np.abs(theta[ik]), 0.05) ** 2
