@@ -223,7 +223,7 @@ def _bands(ref: np.ndarray, band: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def periodogram_look(seg: np.ndarray, dt: float, ref: np.ndarray, band: float, zeta: float,
-                     pair_edges: bool = False, capped_only: bool = False):
+                     pair_edges: bool = False):
     """Peaks, floor and per-mode acceleration variances from the Hann periodogram of ``seg``.
 
     Returns (peak rad/s (m,), r̂ (m/s²)², σ² (m,) (m/s²)², (f Hz, one-sided PSD)); a peak NaN where the band
@@ -256,7 +256,7 @@ def periodogram_look(seg: np.ndarray, dt: float, ref: np.ndarray, band: float, z
             continue
         peak[i] = _vertex(f, lp, j)
     if pair_edges:
-        peak = _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref, band if capped_only else None)
+        peak = _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref)
     return peak, r, var, (f, p)
 
 
@@ -268,7 +268,7 @@ def _vertex(f: np.ndarray, lp: np.ndarray, j: int) -> float:
     return 2 * math.pi * (f[j] + off * (f[1] - f[0]))
 
 
-def _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref, capped_band: float | None = None) -> np.ndarray:
+def _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref) -> np.ndarray:
     """Peaks of a close pair assigned together: a mode whose band's maximum lies on its edge toward a neighbour
     (the geometric midpoint of the two estimates) takes the largest local maximum of the periodogram between
     the neighbour's own (interior) peak and the mode's far edge, other than the neighbour's.
@@ -290,13 +290,9 @@ def _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref, capped_band: float | None =
         if sel.size < 3:
             continue
         j = sel[np.argmax(p[sel])]
-        if capped_band is not None:     # only an edge that is the midpoint to the neighbour (the band capped)
-            low_ok, high_ok = lo[i] > ref[i] / (1 + capped_band), hi[i] < ref[i] * (1 + capped_band)
-        else:
-            low_ok = high_ok = True
-        if j == sel[0] and i > 0 and low_ok and np.isfinite(peak[i - 1]):           # toward the lower neighbour
+        if j == sel[0] and i > 0 and np.isfinite(peak[i - 1]):           # toward the lower neighbour
             a, b = peak[i - 1], hi[i]
-        elif j == sel[-1] and i < m - 1 and high_ok and np.isfinite(peak[i + 1]):   # toward the upper neighbour
+        elif j == sel[-1] and i < m - 1 and np.isfinite(peak[i + 1]):   # toward the upper neighbour
             a, b = lo[i], peak[i + 1]
         else:
             continue

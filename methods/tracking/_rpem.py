@@ -39,7 +39,8 @@ floor (the window's resolution), so that a drift the filter follows is no disagr
 mode's rate. With ``pair_peaks`` a mode whose band's maximum lies on its edge toward a neighbour takes the
 largest other local maximum between the neighbour's peak and its far edge (the peaks of a close pair assigned
 together), so that a stepped mode of the pair whose new peak lies beyond the midpoint of the two estimates
-can still disagree and restart.
+can still disagree and restart. With ``unresolved_start`` a close pair that the first window cannot separate (its priors
+closer than the Hann main lobe, :func:`unresolved_pairs`) starts with 1σ one bin of that window, 2π/T.
 
 Two memories (``recursions="two"``, with the rate). A walk of ω over a horizon is a memory of that horizon: it lags
 a drift less than a window does, but it forgets; a constant rate (ω's walk over one sample, Δt, and no walk
@@ -168,6 +169,14 @@ class Options(_ambient.SharedOptions):
         ``"mode"``, from the first look at which the last window's likelihood ratio opens the reset gate (Λ_W >
         ``restart_gate``²/2: the record has changed, so every mode's rate since the start is in doubt), the
         whole-record recursion's ω̂ before it — a record that never opens the gate keeps its rates.
+    unresolved_start : bool
+        The start (the first look) of a close pair that the first window cannot separate — two neighbouring
+        priors closer than the Hann main lobe, 4 bins of its resolution 2π/T (:func:`unresolved_pairs`) —
+        gives each of its modes a 1σ of one bin, 2π/T, instead of max(1 % ω, a quarter bin): the merged lobe
+        starts them 0.2–5.8 % off (the benchmark's 20.2/22.0 rad/s pair, a 10 s window, design seeds 2, 7, 11;
+        a mode with no interior peak starts at its prior), and a whole-record recursion started 4–6σ off keeps
+        the error or learns it as a rate (docs/measured/tracking.md, "The close pair on a drift"). Off by
+        default.
     """
 
     estimate_damping: bool = True
@@ -179,14 +188,13 @@ class Options(_ambient.SharedOptions):
     pair_peaks: bool = False
     reset_peak: bool = False
     rate_test: str = "off"
-    whole_start: float = 0.0
-    pair_start: bool = False
+    unresolved_start: bool = False
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = make_options(Options, options, name)
     _ambient.check_shared(name, opts, prior, dt, n_samples)
-    for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak", "pair_start"):
+    for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak", "unresolved_start"):
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
@@ -204,11 +212,6 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     g = opts.reset_gate
     if isinstance(g, bool) or not (isinstance(g, (int, float)) and math.isfinite(g) and g > 0):
         raise ValueError(f"{name}: reset_gate = {g!r} must be a positive number")
-    ws = opts.whole_start
-    if isinstance(ws, bool) or not (isinstance(ws, (int, float)) and math.isfinite(ws) and ws >= 0):
-        raise ValueError(f"{name}: whole_start = {ws!r} must be a number of windows ≥ 0")
-    if ws > 0 and opts.recursions != "two":
-        raise ValueError(f"{name}: whole_start = {ws!r} needs recursions = 'two' (got {opts.recursions!r})")
     h = opts.trend_horizon_s
     if h is not None and not (isinstance(h, (int, float)) and math.isfinite(h) and h >= dt):
         raise ValueError(f"{name}: trend_horizon_s = {h!r} must be None or at least one sample ({dt} s)")
@@ -218,6 +221,24 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
 # The starting 1σ of each ω, as a share of the first window's Fourier resolution (``akf_ambient``'s start and
 # restarts, :func:`methods.tracking._ambient._restart`).
 START_RESOLUTION_SHARE = 0.25
+
+# A close pair in the first window: its Hann main lobes (±2 bins of 2π/T each) overlap when the two priors are
+# closer than the lobe's full width, 4 bins (``unresolved_start``).
+HANN_LOBE_BINS = 4
+
+
+def unresolved_pairs(prior: np.ndarray, window_s: float) -> np.ndarray:
+    """``unresolved_start``: per mode, whether a neighbouring prior lies closer than the Hann window's main-lobe
+    width, ``HANN_LOBE_BINS`` bins of the window's resolution 2π/T (T = ``window_s``). The two peaks then merge
+    in a window of that length: the first look places each mode of the pair to about a bin (0.63 rad/s, 3 % of ω, on
+    the benchmark's 20.2/22.0 rad/s pair with a 10 s window), not to a quarter of one."""
+    prior = np.asarray(prior, dtype=float)
+    close = np.diff(prior) < HANN_LOBE_BINS * 2 * math.pi / window_s
+    out = np.zeros(prior.size, dtype=bool)
+    out[:-1] |= close
+    out[1:] |= close
+    return out
+
 
 _H = 1e-20      # the complex step in ζ: f(ζ + ih) = f(ζ) + ih f'(ζ) + O(h²), exact to rounding at this h
 
@@ -249,26 +270,6 @@ def _steady_gain(w, z, dt, q, r):
         C[0, 2 * i:2 * i + 2] = [-w[i] ** 2, -2 * z[i] * w[i]]
     P = scipy.linalg.solve_discrete_are(F.T, C.T, Q + 1e-30 * np.eye(2 * m), np.array([[r]]))
     return (F @ P @ C.T / (C @ P @ C.T + r)).ravel()
-
-
-def _single_gain(w, z, dt, b, d, r_v):
-    """Steady predictor gain of one white force u (variance 1) behind every mode: x(k+1) = Φx + Σᵢ Γᵢbᵢ u,
-    y = Cx + d u + v (E v² = r_v); the force's direct term correlates the drive and the measurement noise
-    (the cross term of ``scipy.linalg.solve_discrete_are``), (2m,)."""
-    m = w.size
-    F = np.zeros((2 * m, 2 * m))
-    g = np.zeros(2 * m)
-    C = np.zeros((1, 2 * m))
-    for i in range(m):
-        ph, _ = modal_transition(w[i:i + 1], float(z[i]), dt)
-        F[2 * i:2 * i + 2, 2 * i:2 * i + 2] = ph[0]
-        g[2 * i:2 * i + 2] = _ambient._gamma(ph, w[i:i + 1], float(z[i]))[0] * b[i]
-        C[0, 2 * i:2 * i + 2] = [-w[i] ** 2, -2 * z[i] * w[i]]
-    Q = np.outer(g, g) + 1e-30 * np.eye(2 * m)
-    S = (g * d)[:, None]
-    R = np.array([[d * d + r_v]])
-    P = scipy.linalg.solve_discrete_are(F.T, C.T, Q, R, s=S)
-    return ((F @ P @ C.T + S) / (C @ P @ C.T + R)).ravel()
 
 
 def _sx_transition(w, z, dt):
@@ -373,7 +374,6 @@ class _Run(_ambient._Run):
     damping: np.ndarray = None
     n_resets: int = 0
     reset_times_s: tuple = ()
-    followed: int = 0
 
 
 def _advance(m: int, est_z: bool, trend: bool, filt, y_seg: np.ndarray, const: np.ndarray):
@@ -448,8 +448,7 @@ def _zero_rate_average(w, v, a, v_wa, v_aa, prior_var, joint: bool = False):
 
 def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts,
                        z_score: np.ndarray | None = None, rate_var: np.ndarray | None = None,
-                       peak: np.ndarray | None = None, W_win: np.ndarray | None = None,
-                       threshold: float | None = None) -> np.ndarray:
+                       peak: np.ndarray | None = None, W_win: np.ndarray | None = None) -> np.ndarray:
     """``recursions="two"``: modes of the whole-record recursion ``long`` ([θ, P, x̂, W, Λ], changed in place)
     start again from the window-memory recursion's (θ, P) when the window recursion predicts the last window
     better, by a log-likelihood ratio ``gain`` = Σ (ℓ_long − ℓ_window) > ``restart_gate``²/2 (its signed root,
@@ -467,7 +466,7 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
     sensitivities ``W_win``, changed in place) at the peak, with the variance Pᵢ' + (peak − ω̂ᵢ')² (the mean
     square error of either being right) and its rate at 0 ± the stated rate; the whole-record one then takes
     that. Returns the modes reset."""
-    if not gain > (0.5 * opts.restart_gate ** 2 if threshold is None else threshold):
+    if not gain > 0.5 * opts.restart_gate ** 2:
         return np.arange(0)
     th_l, P_l, W_l = long[0], long[1], long[3]
     gap = th_l[iw] - theta[iw]
@@ -495,28 +494,6 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
             P_l[iw[i], iw[i]] = P[iw[i], iw[i]]
             P_l[ia[i], ia[i]] = rate_var[i]
     return modes
-
-
-_FOLLOW, _FOLLOW_W = "off", 1.0
-_K_SCALE = 1.0
-_K_START = "diagonal"
-_START_W = 0.0
-_PAIR_SIGMA = 0.0
-_PAIR_NOPEAK = 0
-_WHOLE_RATE = "zero"    # dev switch: "zero" (0 ± the stated rate) or "window" (the window recursion's)
-
-
-def _whole_from_window(theta: np.ndarray, P: np.ndarray, x: np.ndarray, Wm: np.ndarray, lam: float, ia: np.ndarray,
-                       rate_var: np.ndarray) -> list:
-    """``whole_start``: the whole-record recursion's start [θ, P, x̂, W, Λ], a copy of the window recursion's
-    state with each rate at 0 ± the stated rate (as a restart's)."""
-    th, Pw = theta.copy(), P.copy()
-    if ia.size and _WHOLE_RATE == "zero":
-        th[ia] = 0.0
-        Pw[ia, :] = 0.0
-        Pw[:, ia] = 0.0
-        Pw[ia, ia] = rate_var
-    return [th, Pw, x.copy(), Wm.copy(), lam]
 
 
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
@@ -557,8 +534,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
 
     # start: the first window's periodogram
     seg = y[:W_len]
-    peak, r0, v0, spec0 = _ambient.periodogram_look(seg, dt, prior, opts.band, opts.damping_ratio,
-                                                    pair_edges=opts.pair_start, capped_only=True)
+    peak, r0, v0, _ = _ambient.periodogram_look(seg, dt, prior, opts.band, opts.damping_ratio)
     seen_now = np.isfinite(peak) & _ambient.visible(v0, r0, prior, opts.band, dt)
     w0 = np.where(np.isfinite(peak), peak, prior)
     if np.any(np.diff(w0) <= 0):
@@ -567,9 +543,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     q0 = np.maximum(4 * z0 * v0 / (w0 * dt), 1e-12 * max(r0, 1e-30))
     try:
         K0 = _steady_gain(w0, z0, dt, q0, max(r0, 1e-30))
-        if _K_START == "single":
-            b, d, r_v = _ambient.fit_single_force(spec0, w0, opts.damping_ratio, dt, v0, max(r0, 1e-30))
-            K0 = _single_gain(w0, z0, dt, b, d, r_v)
     except (ValueError, np.linalg.LinAlgError):     # nothing to learn from (a flat window): the gain starts at 0
         K0 = np.zeros(2 * m)
     theta = np.concatenate([w0, z0 if est_z else [], K0 / kscale, np.zeros(ia.size)])
@@ -577,22 +550,15 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     # the first window's peak is as uncertain as akf_ambient's start says: 1σ max(1 % ω, resolution/4), the
     # window's Fourier resolution 2π/T (a fifth of the slowest mode's ω at five of its periods)
     P[iw, iw] = np.maximum(0.01 * w0, START_RESOLUTION_SHARE * 2 * math.pi / (W_len * dt)) ** 2
-    if _PAIR_SIGMA > 0:     # a pair whose Hann main lobes (±2 bins) overlap in the first window
-        gap = np.diff(prior)
-        near = np.zeros(m, dtype=bool)
-        near[:-1] |= gap < 4 * 2 * math.pi / (W_len * dt)
-        near[1:] |= gap < 4 * 2 * math.pi / (W_len * dt)
-        if _PAIR_NOPEAK:
-            near |= ~np.isfinite(peak)
-        P[iw[near], iw[near]] = np.maximum(P[iw[near], iw[near]], (_PAIR_SIGMA * 2 * math.pi / (W_len * dt)) ** 2)
+    if opts.unresolved_start:   # a close pair the first window cannot separate: located to one bin, not a quarter
+        near = unresolved_pairs(prior, W_len * dt)
+        P[iw[near], iw[near]] = np.maximum(P[iw[near], iw[near]], (2 * math.pi / (W_len * dt)) ** 2)
     if est_z:
         P[iz, iz] = (0.5 * z0) ** 2
     P[ik, ik] = np.maximum(0.3 * np.abs(theta[ik]), 0.05) ** 2
     Qth = np.zeros(p)
     Qth[iz] = (0.1 * 0.5 * z0) ** 2 / W_len if est_z else 0.0
     Qth[ik] = np.diag(P)[ik] * 0.01 / W_len
-    P[ik, ik] *= _K_SCALE
-    Qth[ik] *= _K_SCALE
     # the rate's prior spread is the stated rate; its walk lets it change by that much over the trend horizon
     rate_var = (opts.rate_rel_per_s * prior[:ia.size]) ** 2
     trend_h = opts.trend_horizon_s if opts.trend_horizon_s is not None else 10 * W_len * dt
@@ -618,8 +584,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     cum_s = np.zeros((n + 1, m)) if two else None     # the whole-record recursion's Σ ψᵢe/S and Σ ψᵢ²/S
     cum_i = np.zeros((n + 1, m)) if two else None
     since = np.full(m, W_len)                         # its modes' last reset (sample)
-    since_start = W_len                               # the whole-record recursion's start (sample)
-    followed = 0
     tested = opts.rate_test in ("mode", "all")        # the rates tested (``"after_change"``: from a change on)
     if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
         q_long = q_fixed.copy()
@@ -628,17 +592,13 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         const_long[1] = opts.rate_rel_per_s ** 2 * dt
         const_long[5 + 2 * m:5 + 2 * m + p] = q_long
         long = [theta.copy(), P.copy(), x.copy(), Wm.copy(), lam]
-    # ``whole_start``: the whole-record recursion starts this many windows after the first look, from the window
-    # recursion's state (until then the window recursion is reported); 0: at the first look, from its peaks
-    long_from = W_len + int(round(opts.whole_start * W_len))
-    long_on = two and long_from <= W_len
     k0 = W_len
     while k0 < n:
         # the samples up to the next look (k + 1 − W a multiple of the hop), one mapaccum call
         k1 = min(n, k0 + (W_len - 1 - k0) % hop + 1)
         theta, P, x, Wm, lam, out = _advance(m, est_z, trend, (theta, P, x, Wm, lam), y[k0:k1], const)
         freq[k0:k1], var[k0:k1] = out[iw].T, out[m + iw].T
-        if long_on:     # the whole-record recursion over the same samples; it is the one reported
+        if two:     # the whole-record recursion over the same samples; it is the one reported
             ell_win = out[-2]
             *long, out = _advance(m, est_z, trend, long, y[k0:k1], const_long)
             cum[k0 + 1:k1 + 1] = cum[k0] + np.cumsum(out[-2] - ell_win)
@@ -646,7 +606,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             cum_s[k0 + 1:k1 + 1] = cum_s[k0] + np.cumsum(out[j0:j0 + m].T, axis=0)
             cum_i[k0 + 1:k1 + 1] = cum_i[k0] + np.cumsum(out[j0 + m:j0 + 2 * m].T, axis=0)
             ks = np.arange(k0 + 1, k1 + 1)
-            odds = cum[ks] - cum[np.maximum(ks - W_len, since_start)]     # over the last window
+            odds = cum[ks] - cum[np.maximum(ks - W_len, W_len)]          # over the last window
             w_l, v_l = out[iw].T, out[m + iw].T
             if tested:
                 j1 = j0 + 2 * m
@@ -686,33 +646,18 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     P[:, ia[i]] = 0.0
                     P[ia[i], ia[i]] = rate_var[i]
                 n_restarts += 1
-                if long_on and (_FOLLOW == "all" or (_FOLLOW == "start" and k + 1 < since_start + _FOLLOW_W * W_len)):
-                    j = np.array([iw[i], ia[i]])
-                    long[0][j] = theta[j]
-                    long[1][j, :] = 0.0
-                    long[1][:, j] = 0.0
-                    long[1][np.ix_(j, j)] = P[np.ix_(j, j)]
-                    long[3][:, j] = 0.0
-                    since[i] = k + 1
-                    followed += 1
             if unstable:
                 theta[ik] = K0 / kscale
                 Wm[:] = 0.0
-            if two and not long_on and k + 1 >= long_from:     # ``whole_start``: from the window recursion
-                long = _whole_from_window(theta, P, x, Wm, lam, ia, rate_var)
-                long_on, since_start = True, k + 1
-                since[:] = k + 1
-                odds = np.zeros(1)
-            if long_on:
+            if two:
                 gain = float(odds[-1])
                 z_score = None
                 if opts.score_reset:    # each ω's score over the last window (since its last reset), in σ
                     a = np.maximum(since, k + 1 - W_len)
                     info = cum_i[k + 1] - cum_i[a, iw]
                     z_score = (cum_s[k + 1] - cum_s[a, iw]) / np.sqrt(np.where(info > 0, info, np.inf))
-                thr = 0.0 if k + 1 < since_start + _START_W * W_len else None
                 nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var,
-                                        peak if opts.reset_peak else None, Wm, thr)
+                                        peak if opts.reset_peak else None, Wm)
                 since[nr] = k + 1
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]
@@ -721,7 +666,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     long[3][:] = 0.0
             seen[k] = seen_now
             freq[k], var[k] = theta[iw], np.diag(P)[iw]
-            if long_on:
+            if two:
                 w_l, v_l = long[0][iw], np.diag(long[1])[iw]
                 if opts.rate_test == "after_change" and gain > 0.5 * opts.restart_gate ** 2:
                     tested = True       # from this look on
@@ -730,10 +675,10 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                                                   long[1][np.ix_(ia, ia)], rate_var, opts.rate_test == "all")
                 var[k] = _variance_two(w_l, v_l, freq[k], var[k], gain)
                 freq[k] = w_l
-            th_out = long[0] if long_on else theta
+            th_out = long[0] if two else theta
             damp[k] = th_out[iz] if est_z else opts.damping_ratio
     return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets,
-                reset_times_s=tuple(reset_times), followed=followed)
+                reset_times_s=tuple(reset_times))
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
@@ -742,6 +687,6 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     k = np.flatnonzero(out.started)
     std = np.sqrt(np.clip(out.var[k], 0.0, None))
     return Track(k * dt, out.freq[k], std, out.seen[k] & (std <= _ambient.DETERMINED_REL_STD * out.freq[k]),
-                 message=f"{name}: {out.n_restarts} restarts, {out.followed} followed, {out.n_resets} resets, {out.n_pulses} pulse samples",
+                 message=f"{name}: {out.n_restarts} restarts, {out.n_resets} resets, {out.n_pulses} pulse samples",
                  extra={"n_restarts": out.n_restarts, "n_resets": out.n_resets, "reset_times_s": out.reset_times_s,
                         "n_pulses": out.n_pulses, "damping": out.damping[k]})

@@ -46,7 +46,10 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            "rpem_ambient+rateall": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                     "pair_peaks": True, "rate_test": "all"},
            "rpem_ambient+ratechange": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                       "pair_peaks": True, "rate_test": "after_change"}}
+                                       "pair_peaks": True, "rate_test": "after_change"},
+           # a close pair the first window cannot separate starts with one bin's σ
+           "rpem_ambient+unresolved": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                       "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True}}
 
 
 def _options(name):

@@ -3,12 +3,14 @@ test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_close_pair_dev.py SEED [--set ambient|unseen] [--replicates 2]
         [--rows base,+opt=value,...] [--match TEXT] [--cache DIR] [--marks] [--switch NAME=VALUE,...]
+        [--oracle-start]
 
 On ``tracking_ambient``'s (``--set ambient``) or ``tracking_unseen``'s (``--set unseen``) white-force drift records
 (those whose label contains ``--match``), per replicate and row (``base`` = ``rpem_ambient:two`` as
 configs/tracker/rpem_ambient_two.yaml; ``+opt=value…`` = it with those options; ``window`` = its window recursion
 alone): × the unknown-rate bound (median |e| after 30 s over the bound's median 1σ after 30 s) and per mode;
 ``--marks`` adds each mode's signed error (%) at 20…120 s, the bound's 1σ there and the resets.
+``--oracle-start`` starts both recursions at the true ω (the first look's peaks replaced by the truth).
 ``--cache`` keeps the simulated cells (with their bounds) as pickles. ``--switch`` sets module switches of
 ``methods.tracking._rpem`` (the diagnosis's one-factor switches, at the commit that had them).
 """
@@ -25,14 +27,27 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 import numpy as np  # noqa: E402
 
 import methods  # noqa: E402
-from methods.tracking import _rpem  # noqa: E402
 from experiments.benchmarks import tracking_ambient, tracking_unseen  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
 from experiments.simulate.tracking_data import make_cell  # noqa: E402
+from methods.tracking import _ambient, _rpem  # noqa: E402
 
 BASE = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
 WINDOW = "rpem_ambient:frequency_model=trend+pair_peaks=true"
 MARKS = (20, 30, 45, 60, 75, 90, 105, 120)
+LOOK = _ambient.periodogram_look
+
+
+def _oracle_first_look(truth: np.ndarray):
+    """``--oracle-start``: the tracker's first look (its start) returns the true ω at the window's end as its peaks;
+    every later look is the tracker's own. A diagnosis (the truth is the simulator's), never a method."""
+    calls = []
+
+    def look(seg, dt, ref, band, zeta, **kw):
+        out = LOOK(seg, dt, ref, band, zeta, **kw)
+        calls.append(1)
+        return (truth[seg.size - 1].copy(),) + tuple(out[1:]) if len(calls) == 1 else out
+    return look
 
 
 def cells(which: str, seed: int, replicates: int, match: str, cache: str | None):
@@ -63,6 +78,7 @@ def main() -> None:
     ap.add_argument("--cache", default=None)
     ap.add_argument("--marks", action="store_true")
     ap.add_argument("--switch", default="", help="NAME=VALUE,…: module switches of methods.tracking._rpem (diagnosis)")
+    ap.add_argument("--oracle-start", action="store_true", help="the first look's peaks are the true ω (diagnosis)")
     args = ap.parse_args()
     for item in filter(None, args.switch.split(",")):
         key, value = item.split("=")
@@ -78,7 +94,12 @@ def main() -> None:
             name, opts = parse_row(spec)
             xs, per = [], []
             for r in range(args.replicates):
-                tr = methods.track(name, cell["accel_m_s2"][r], dt, cell["prior_rad_s"][r], **opts)
+                if args.oracle_start:
+                    _ambient.periodogram_look = _oracle_first_look(truth)
+                try:
+                    tr = methods.track(name, cell["accel_m_s2"][r], dt, cell["prior_rad_s"][r], **opts)
+                finally:
+                    _ambient.periodogram_look = LOOK
                 k = np.round(tr.t_s / dt).astype(int)
                 e = (tr.frequencies - truth[k]) / truth[k]
                 b = cell["pcrb_unknown_rate_std_rad_s"][r][k] / truth[k]
