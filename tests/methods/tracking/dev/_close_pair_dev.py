@@ -3,14 +3,16 @@ test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_close_pair_dev.py SEED [--set ambient|unseen] [--replicates 2]
         [--rows base,+opt=value,...] [--match TEXT] [--cache DIR] [--marks] [--switch NAME=VALUE,...]
-        [--oracle-start]
+        [--oracle-start] [--slosh]
 
 On ``tracking_ambient``'s (``--set ambient``) or ``tracking_unseen``'s (``--set unseen``) white-force drift records
 (those whose label contains ``--match``), per replicate and row (``base`` = ``rpem_ambient:two`` as
 configs/tracker/rpem_ambient_two.yaml; ``+opt=value…`` = it with those options; ``window`` = its window recursion
 alone): × the unknown-rate bound (median |e| after 30 s over the bound's median 1σ after 30 s) and per mode;
 ``--marks`` adds each mode's signed error (%) at 20…120 s, the bound's 1σ there and the resets.
-``--oracle-start`` starts both recursions at the true ω (the first look's peaks replaced by the truth).
+``--slosh`` takes the slosh records instead (× the unknown-force bound: they have no rate-unknown one; the
+column still says "line"). ``--oracle-start`` starts both recursions at the true ω (the first look's peaks
+replaced by the truth).
 ``--cache`` keeps the simulated cells (with their bounds) as pickles. ``--switch`` sets module switches of
 ``methods.tracking._rpem`` (the diagnosis's one-factor switches, at the commit that had them).
 """
@@ -50,12 +52,13 @@ def _oracle_first_look(truth: np.ndarray):
     return look
 
 
-def cells(which: str, seed: int, replicates: int, match: str, cache: str | None):
+def cells(which: str, seed: int, replicates: int, match: str, cache: str | None, slosh: bool = False):
     cfgs = (tracking_ambient.configs(seed, replicates) if which == "ambient"
             else tracking_unseen.configs(seed, replicates, records="ambient"))
     for i, (label, cfg) in enumerate(cfgs.items()):
-        if not (cfg.schedule.drift is not None and not cfg.schedule.slosh and cfg.excitation.disturbance_force_n > 0
-                and cfg.excitation.thruster_torque_n_m == 0) or match not in label:
+        drift = (cfg.schedule.drift is not None and not cfg.schedule.slosh and cfg.excitation.disturbance_force_n > 0
+                 and cfg.excitation.thruster_torque_n_m == 0)
+        if not (bool(cfg.schedule.slosh) if slosh else drift) or match not in label:
             continue
         path = Path(cache) / f"{which}_{seed}_{replicates}_{i}.pkl" if cache else None
         if path is not None and path.exists():
@@ -78,6 +81,8 @@ def main() -> None:
     ap.add_argument("--cache", default=None)
     ap.add_argument("--marks", action="store_true")
     ap.add_argument("--switch", default="", help="NAME=VALUE,…: module switches of methods.tracking._rpem (diagnosis)")
+    ap.add_argument("--slosh", action="store_true",
+                    help="the slosh records instead, × the unknown-force bound (no rate-unknown bound there)")
     ap.add_argument("--oracle-start", action="store_true", help="the first look's peaks are the true ω (diagnosis)")
     args = ap.parse_args()
     for item in filter(None, args.switch.split(",")):
@@ -87,7 +92,8 @@ def main() -> None:
     rows = {}
     for spec in args.rows.split(","):
         rows[spec] = BASE if spec == "base" else WINDOW if spec == "window" else BASE + spec
-    for label, cell in cells(args.set, args.seed, args.replicates, args.match, args.cache):
+    key = "pcrb_unknown_force_std_rad_s" if args.slosh else "pcrb_unknown_rate_std_rad_s"
+    for label, cell in cells(args.set, args.seed, args.replicates, args.match, args.cache, args.slosh):
         dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
         print(f"## {args.seed} | {label}", flush=True)
         for row, spec in rows.items():
@@ -102,7 +108,7 @@ def main() -> None:
                     _ambient.periodogram_look = LOOK
                 k = np.round(tr.t_s / dt).astype(int)
                 e = (tr.frequencies - truth[k]) / truth[k]
-                b = cell["pcrb_unknown_rate_std_rad_s"][r][k] / truth[k]
+                b = cell[key][r][k] / truth[k]
                 on = tr.t_s >= 30.0
                 xs.append(np.nanmedian(np.abs(e[on])) / np.median(b[on]))
                 per.append(np.nanmedian(np.abs(e[on]), axis=0) / np.median(b[on], axis=0))
