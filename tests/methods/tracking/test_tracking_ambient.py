@@ -12,7 +12,7 @@ import scipy.signal
 from _tracking_signals import DT, driven_modes, schedule
 
 import methods
-from methods.tracking import _ambient
+from methods.tracking import _ambient, _rpem
 
 PRIOR = [3.8, 16.0, 26.0, 46.0]
 Y = np.cos(3.3 * DT * np.arange(1000)) + 0.5 * np.cos(20.3 * DT * np.arange(1000))
@@ -54,6 +54,7 @@ BAD = [
      "mode_gate = 1"),
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "mode_gate": True},
      "mode_gate = true needs score_reset = true"),
+    ("rpem_ambient", {"unresolved_start": "yes"}, "unresolved_start = 'yes'"),
 ]
 
 
@@ -649,3 +650,35 @@ def test_rpem_start_std_is_sized_to_the_first_windows_resolution():
         tr = methods.track("rpem_ambient", y, dt, np.array([1.03 * w]))
         within += abs(tr.frequencies[0, 0] - w) <= 3 * tr.std[0, 0]
     assert within >= 16
+
+
+@pytest.mark.parametrize("window_s, flagged", [(5 * 2 * np.pi / 3.2, [False, True, True, False]),
+                                               (20.0, [False, False, False, False])])
+def test_unresolved_pairs_are_closer_than_the_hann_main_lobe(window_s, flagged):
+    """``unresolved_start``'s pairs, by hand: the grid's 3.2/20.2/22.0/40 rad/s with a 10 s window (a bin of
+    2π/T = 0.64 rad/s, a Hann main lobe of 4 bins = 2.56 rad/s > the pair's 1.8) flags modes 2 and 3; a 20 s
+    window (lobe 1.26 rad/s) none."""
+    assert _rpem.unresolved_pairs(np.array([3.2, 20.2, 22.0, 40.0]), window_s).tolist() == flagged
+
+
+def test_unresolved_start_std_is_one_bin_of_the_first_window():
+    """With ``unresolved_start`` the close pair's first estimates state about one bin of the first window (2π/T,
+    T five periods of the slowest prior mode: 0.64 rad/s), the other mode keeps its start (1 % of ω); without
+    it the pair states max(1 % ω, a quarter bin) = 0.20–0.22 rad/s. A white force behind three modes
+    (3.2, 20.2, 22.0 rad/s), simulated here by ``scipy.signal``'s zero-order hold."""
+    w, z, dt = np.array([3.2, 20.2, 22.0]), 0.005, 0.02
+    rng = np.random.default_rng(3)
+    n = int(20 / dt)
+    y = np.zeros(n)
+    for wi in w:
+        a = np.array([[0.0, 1.0], [-wi * wi, -2 * z * wi]])
+        sysd = scipy.signal.cont2discrete((a, np.array([[0.0], [1.0]]), a[1:], np.array([[1.0]])), dt, method="zoh")
+        y += scipy.signal.dlsim(sysd, rng.standard_normal(n))[1][:, 0]
+    y += 0.05 * np.std(y) * rng.standard_normal(n)
+    opts = {"frequency_model": "trend"}
+    off = methods.track("rpem_ambient", y, dt, w, **opts)
+    on = methods.track("rpem_ambient", y, dt, w, unresolved_start=True, **opts)
+    bin_w = 2 * np.pi / (5 * 2 * np.pi / 3.2)
+    np.testing.assert_allclose(off.std[0, 1:], np.maximum(0.01 * off.frequencies[0, 1:], bin_w / 4), rtol=0.25)
+    np.testing.assert_allclose(on.std[0, 1:], bin_w, rtol=0.25)
+    np.testing.assert_allclose(on.std[0, 0], off.std[0, 0], rtol=0.01)

@@ -49,7 +49,10 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
                                        "pair_peaks": True, "rate_test": "after_change"},
            # each mode's own gate, from the whole-record recursion's scores over the last window
            "rpem_ambient+modegate": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                     "pair_peaks": True, "rate_test": "after_change", "mode_gate": True}}
+                                     "pair_peaks": True, "rate_test": "after_change", "mode_gate": True},
+           # a close pair the first window cannot separate starts with one bin's σ
+           "rpem_ambient+unresolved": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                       "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True}}
 
 
 def _options(name):
