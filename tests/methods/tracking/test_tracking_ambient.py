@@ -126,6 +126,25 @@ def test_pair_peaks_assign_a_stepped_mode_beyond_the_midpoint(true_pair, ref_pai
     assert abs(plain[3 - moved] - true_pair[2 - moved]) < 0.25 * 2 * np.pi / (n * DT)
 
 
+def test_pair_peaks_act_only_on_an_edge_that_is_the_midpoint_to_a_neighbour():
+    """A periodogram rising through mode 1's whole band (3.2 rad/s ± 30 %, its upper edge 4.16 rad/s, far below
+    the midpoint 8 rad/s to mode 2) to a bump at 15 rad/s and mode 2's line at 20 rad/s: the band's maximum is
+    on its own edge, no neighbour's, so mode 1 keeps no peak instead of taking the bump (+370 %). Mode 3's
+    maximum on its lower edge, capped at the midpoint to mode 2, is paired: it takes the line at 20.7 rad/s
+    beside mode 2's."""
+    w = np.linspace(0.5, 80.0, 4000)
+    p = (np.exp(-0.5 * (w - 15.0) ** 2) + 5.0 * np.exp(-2.0 * (w - 20.0) ** 2) + 1e-3 * w
+         + 3.0 * np.exp(-0.5 * ((w - 20.7) / 0.1) ** 2))
+    ref = np.array([3.2, 20.0, 22.0, 55.0])
+    lo, hi = _ambient._bands(ref, 0.3)
+    peak = np.array([np.nan, 20.0, np.nan, 55.0])
+    sel = (w >= lo[0]) & (w <= hi[0])
+    assert np.argmax(p[sel]) == sel.sum() - 1 and hi[0] < np.sqrt(ref[0] * ref[1])
+    out = _ambient._pair_edge_peaks(w, w / (2 * np.pi), p, np.log(p), peak, lo, hi, ref)
+    assert np.isnan(out[0])
+    assert lo[2] == pytest.approx(np.sqrt(20.0 * 22.0)) and out[2] == pytest.approx(20.7, abs=0.02)
+
+
 @pytest.fixture(scope="module")
 def stationary():
     w = schedule(3000)
