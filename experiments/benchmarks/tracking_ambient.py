@@ -15,8 +15,8 @@ Per (tracker, cell), medians over replicates of: the error after the first conve
 time and modes, ``experiments.report.tracking_metrics``); the error after 30 s whether converged or not (%);
 that error × the cell's unknown-force PCRB (``pcrb_unknown_force_std_rad_s``, the bound that does not know
 the white force; NaN in a cell that does not carry it), × the unknown-rate PCRB on a drift over the whole
-record (``pcrb_unknown_rate_std_rad_s``: the same not told the drift's rate, which the first bound's walk
-matched to the schedule knows) and × ``next_era``'s; the re-convergence after a step
+record (``pcrb_unknown_rate_std_rad_s``: each frequency a line of unknown rate; under a white force the first
+bound's walk, matched to the schedule, acts as if told the rate) and × ``next_era``'s; the re-convergence after a step
 (s); the share of (time, mode) after 30 s whose error is within the tracker's own 1σ; CPU per sample (µs).
 Writes results/bench/tracking_ambient.md.
 """
@@ -120,8 +120,9 @@ def markdown(s: pd.DataFrame, seed: int, replicates: int, load: float) -> str:
              "figures noisy). err = error after the first convergence (every mode within 1 % for 2 s), % of ω; "
              f"err ≥{SETTLE_S:g} s = median error after {SETTLE_S:g} s, converged or not; × bound = that over the "
              "unknown-force PCRB's median 1σ (nan: the cell has no such bound); × rate-unknown = that over the "
-             "unknown-rate PCRB's (a drift over the whole record only: the unknown-force bound not told the drift's "
-             "rate, which the other's walk matched to the schedule knows); × next_era = that over "
+             "unknown-rate PCRB's (a drift over the whole record only: each frequency a line of unknown rate; under a "
+             "white force about twice the other, whose walk matched to the schedule acts as if told the rate); "
+             "× next_era = that over "
              "next_era's; re-conv. = s after the step until every mode holds 1 % for 2 s; 1σ cover = share of "
              "(time, mode) after 30 s within the tracker's own 1σ.", "",
              "| cell | tracker | err % | err ≥30 s % | bound % | × bound | × rate-unknown | × next_era | re-conv. s | "

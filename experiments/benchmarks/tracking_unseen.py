@@ -271,8 +271,9 @@ def markdown(s: pd.DataFrame, command: str) -> str:
              "mode within 1 %; re-converge: after the step, s, and in periods of the slowest mode (laboratory: "
              "median over the moves); × bound = the median of |error| over the unknown-force PCRB's std (white force "
              "unknown, pulses known; an efficient tracker scores 0.67; none for the other rates); × rate-unknown = the "
-             "same over the unknown-rate PCRB's, on a drift over the whole record only (the unknown-force bound "
-             "not told the drift's rate, which the schedule's walk of the other knows).", "",
+             "same over the unknown-rate PCRB's, on a drift over the whole record only (each frequency a line of "
+             "unknown rate; under a white force about twice the unknown-force bound, whose walk matched to the "
+             "schedule acts as if told the rate; docs/tracking.md §2).", "",
              "| cell | tracker | error % of ω | × bound | × rate-unknown | within 1 % | ratio to next_era | late % | "
              "never | re-converge s | periods | halves |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in s.iterrows():

@@ -121,10 +121,12 @@ def unknown_force_pcrb(model: ModalModel, w, x, dt_s: float, noise_std: float, p
         The **unknown-rate** bound: each frequency is a line, ω_{k+1} = ω_k + Δt ω̇, its rate ω̇ an unknown
         constant with prior N(0, rate_std²) (rad/s per s), appended to the state; the default walk is then
         the floor alone, (RW_FLOOR_REL·ω)²/N per sample (the line moves the frequency, not a walk). The
-        schedule's walk knows how fast a drift moves (its steps have the drift's size), so on a drift it is
-        the bound of a tracker told the rate; this one is the bound of one that is not (an estimate of the
-        level at the end of a line: about twice the std of a constant's from the same samples). Meaningful
-        where the truth is a line (drifts, a constant); ``P0``, if given, covers the appended rates too.
+        schedule's walk knows the size of a drift's every step, not its direction; where the record informs
+        slowly (a white force) it acts as the bound of a tracker told the rate, and this one, of a tracker
+        that is not, is about twice it (a line's end point: about twice a constant's std from the same
+        samples); where the record informs fast (known pulses) the walk's own spread dominates and this one is
+        the lower. Meaningful where the truth is a line (drifts, a constant); ``P0``, if given, covers the
+        appended rates too.
 
     Returns
     -------
