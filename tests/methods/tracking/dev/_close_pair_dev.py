@@ -19,7 +19,6 @@ replaced by the truth).
 
 import argparse
 import os
-import pickle
 import sys
 from pathlib import Path
 
@@ -27,11 +26,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
+from _cells import cached_cell, white_force_drift  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks import tracking_ambient, tracking_unseen  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
-from experiments.simulate.tracking_data import make_cell  # noqa: E402
 from methods.tracking import _ambient, _rpem  # noqa: E402
 
 BASE = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
@@ -56,19 +55,9 @@ def cells(which: str, seed: int, replicates: int, match: str, cache: str | None,
     cfgs = (tracking_ambient.configs(seed, replicates) if which == "ambient"
             else tracking_unseen.configs(seed, replicates, records="ambient"))
     for i, (label, cfg) in enumerate(cfgs.items()):
-        drift = (cfg.schedule.drift is not None and not cfg.schedule.slosh and cfg.excitation.disturbance_force_n > 0
-                 and cfg.excitation.thruster_torque_n_m == 0)
-        if not (bool(cfg.schedule.slosh) if slosh else drift) or match not in label:
+        if not (bool(cfg.schedule.slosh) if slosh else white_force_drift(cfg)) or match not in label:
             continue
-        path = Path(cache) / f"{which}_{seed}_{replicates}_{i}.pkl" if cache else None
-        if path is not None and path.exists():
-            cell = pickle.loads(path.read_bytes())
-        else:
-            cell = make_cell(cfg)
-            if path is not None:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_bytes(pickle.dumps(cell))
-        yield label, cell
+        yield label, cached_cell(cfg, cache, f"{which}_{seed}_{replicates}_{i}")
 
 
 def main() -> None:

@@ -23,6 +23,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
+from _cells import white_force_drift  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks import tracking_ambient, tracking_unseen  # noqa: E402
@@ -39,8 +40,7 @@ def drift_configs(which: str, seed: int, replicates: int):
     cfgs = (tracking_ambient.configs(seed, replicates) if which == "ambient"
             else tracking_unseen.configs(seed, replicates, records="ambient"))
     for label, cfg in cfgs.items():
-        if (cfg.schedule.drift is not None and not cfg.schedule.slosh and cfg.excitation.disturbance_force_n > 0
-                and cfg.excitation.thruster_torque_n_m == 0):
+        if white_force_drift(cfg):
             yield label, cfg
 
 

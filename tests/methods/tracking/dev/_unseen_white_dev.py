@@ -17,7 +17,6 @@ again.
 
 import argparse
 import os
-import pickle
 import sys
 from pathlib import Path
 
@@ -25,12 +24,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
+from _cells import cached_cell  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
 from experiments.benchmarks.tracking_unseen import configs  # noqa: E402
 from experiments.report.tracking_metrics import score_track  # noqa: E402
-from experiments.simulate.tracking_data import make_cell  # noqa: E402
 
 TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true"
 ROWS = {"window": "rpem_ambient:frequency_model=trend+pair_peaks=true", "reported": TWO}
@@ -41,15 +40,7 @@ def cells(seed: int, replicates: int, cache: str | None):
     for i, (label, cfg) in enumerate(configs(seed, replicates, records="ambient").items()):
         if "white force" not in label or "slosh" in label:
             continue
-        path = Path(cache) / f"unseen_{seed}_{replicates}_{i}.pkl" if cache else None
-        if path is not None and path.exists():
-            cell = pickle.loads(path.read_bytes())
-        else:
-            cell = make_cell(cfg)
-            if path is not None:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_bytes(pickle.dumps(cell))
-        yield label, cell
+        yield label, cached_cell(cfg, cache, f"unseen_{seed}_{replicates}_{i}")
 
 
 def main() -> None:
