@@ -221,19 +221,14 @@ def make_cell(cfg: TrackingCellConfig, *, bounds: bool = True) -> dict[str, np.n
     if bounds:
         out["pcrb_std_rad_s"] = pcrb.cell_pcrb(model, w, states, cfg.dt_s, sigma, prior,
                                                rw_rel=cfg.pcrb_rw_rel, u=u)
-        if cfg.excitation.disturbance_force_n > 0:
-            column = "force_body_y" if cfg.excitation.disturbance_at == "body" else "force_tip"
-            out["pcrb_unknown_force_std_rad_s"] = pcrb_force.unknown_force_pcrb(
-                model, w, states, cfg.dt_s, sigma, prior, force_std_n=cfg.excitation.disturbance_force_n,
-                force_input=column, u=u)
-        else:                   # pulses only, known to both bounds: the unknown-force bound with no force
-            out["pcrb_unknown_force_std_rad_s"] = pcrb_force.unknown_force_pcrb(
-                model, w, states, cfg.dt_s, sigma, prior, force_std_n=0.0, u=u)
-        if is_line(w):         # the schedule's walk knows a drift's rate; this bound is not told it
-            column = "force_body_y" if cfg.excitation.disturbance_at == "body" else "force_tip"
+        # the white force unknown (none: pulses only, known to both bounds, and this is the genie's bound)
+        unknown = {"force_std_n": cfg.excitation.disturbance_force_n, "u": u,
+                   "force_input": "force_body_y" if cfg.excitation.disturbance_at == "body" else "force_tip"}
+        out["pcrb_unknown_force_std_rad_s"] = pcrb_force.unknown_force_pcrb(model, w, states, cfg.dt_s, sigma,
+                                                                            prior, **unknown)
+        if is_line(w):         # and each frequency a line of unknown rate, not the schedule's walk
             out["pcrb_unknown_rate_std_rad_s"] = pcrb_force.unknown_force_pcrb(
-                model, w, states, cfg.dt_s, sigma, prior, force_std_n=cfg.excitation.disturbance_force_n,
-                force_input=column, u=u, rate_std=RATE_PRIOR_REL_PER_S * w[0])
+                model, w, states, cfg.dt_s, sigma, prior, rate_std=RATE_PRIOR_REL_PER_S * w[0], **unknown)
         out["window_bound_std_rad_s"] = pcrb.cell_window_bound(model, w, states, cfg.dt_s, sigma)
     return out
 

@@ -290,12 +290,11 @@ def _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref) -> np.ndarray:
         if sel.size < 3:
             continue
         j = sel[np.argmax(p[sel])]
-        # only an edge that is the midpoint to a neighbour (the band capped there): a maximum on a band's
-        # own ±band edge is a skirt of no neighbour's pair
-        if j == sel[0] and i > 0 and np.isfinite(peak[i - 1]) and _at_mid(lo[i], ref[i - 1], ref[i]):
+        # only an edge capped at the midpoint to a neighbour (`_bands` caps both sides of a pair or neither,
+        # so the band then meets the neighbour's): a maximum on a band's own ±band edge is no pair's
+        if j == sel[0] and i > 0 and np.isfinite(peak[i - 1]) and lo[i] == hi[i - 1]:
             a, b = peak[i - 1], hi[i]                                    # toward the lower neighbour
-        elif (j == sel[-1] and i < m - 1 and np.isfinite(peak[i + 1])
-              and _at_mid(hi[i], ref[i], ref[i + 1])):
+        elif j == sel[-1] and i < m - 1 and np.isfinite(peak[i + 1]) and hi[i] == lo[i + 1]:
             a, b = lo[i], peak[i + 1]                                    # toward the upper neighbour
         else:
             continue
@@ -307,11 +306,6 @@ def _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref) -> np.ndarray:
         if k.size:
             out[i] = _vertex(f, lp, int(k[np.argmax(p[k])]))
     return out
-
-
-def _at_mid(edge: float, w_a: float, w_b: float) -> bool:
-    """Whether a band's ``edge`` is the geometric midpoint of ``w_a`` and ``w_b`` (:func:`_bands`' cap)."""
-    return bool(math.isclose(edge, math.sqrt(w_a * w_b), rel_tol=1e-12))
 
 
 def visible(var: np.ndarray, r: float, ref: np.ndarray, band: float, dt: float) -> np.ndarray:

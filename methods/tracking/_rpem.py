@@ -693,9 +693,10 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     info = cum_i[k + 1] - cum_i[a, iw]
                     s_sum = cum_s[k + 1] - cum_s[a, iw]
                     z_score = s_sum / np.sqrt(np.where(info > 0, info, np.inf))
-                    m_gain = _mode_gains(long[0][iw], theta[iw], s_sum, info)     # (``mode_gate``; cheap)
+                    if opts.mode_gate:
+                        m_gain = _mode_gains(long[0][iw], theta[iw], s_sum, info)
                 nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var,
-                                        peak if opts.reset_peak else None, Wm, m_gain if opts.mode_gate else None)
+                                        peak if opts.reset_peak else None, Wm, m_gain)
                 since[nr] = k + 1
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]

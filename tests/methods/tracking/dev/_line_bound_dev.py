@@ -31,7 +31,7 @@ from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
 from experiments.simulate.pcrb_force import unknown_force_pcrb  # noqa: E402
 from experiments.simulate.plant import build_plant  # noqa: E402
 from experiments.simulate.timevarying import modal_model  # noqa: E402
-from experiments.simulate.tracking_data import make_cell  # noqa: E402
+from experiments.simulate.tracking_data import RATE_PRIOR_REL_PER_S, make_cell  # noqa: E402
 
 SETTLE_S = 30.0
 
@@ -45,6 +45,9 @@ def drift_configs(which: str, seed: int, replicates: int):
 
 
 def line_bound(cfg, cell, rate_rel: float) -> np.ndarray:
+    """The unknown-rate bound with the prior rate ``rate_rel``·ω per s: the cell's own at the stored rate."""
+    if rate_rel == RATE_PRIOR_REL_PER_S and "pcrb_unknown_rate_std_rad_s" in cell:
+        return cell["pcrb_unknown_rate_std_rad_s"]
     model = modal_model(build_plant(cfg.plant))
     w = cell["truth_freq_rad_s"]
     column = "force_body_y" if cfg.excitation.disturbance_at == "body" else "force_tip"
