@@ -93,6 +93,13 @@ log-likelihood change of moving ωᵢ alone to ω̂ᵢ', Gᵢ = δᵢsᵢ − ½
 ``restart_gate``²/2, the window's gate open or shut. Off by default; on the design seeds it did not cut the
 re-convergence after a step (docs/measured/tracking.md).
 
+Page's CUSUM as the gate (``gate="cusum"``). Λ_W counts one window: a change whose evidence builds up slowly
+(the window recursion itself converging after a step) may not fill one window past the threshold, or does so
+late. g = max(0, g + ℓ_whole − ℓ_window) per sample (:func:`_page_cusum`) is the same ratio maximised over the
+change time; the gate opens when Λ_W or g exceeds ``restart_gate``²/2, and g starts again at 0 after a look
+that resets a mode. Off by default; on the design seeds it opened earlier and reset to still-walking values
+(docs/measured/tracking.md).
+
 A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
 but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
 16–155 nats over 10 s, on its drifts by at most 4.2 (design seeds 7 and 11, docs/measured/tracking.md). filterpy's
@@ -182,6 +189,13 @@ class Options(_ambient.SharedOptions):
         to second order from its score and information, Gᵢ = δᵢ sᵢ − ½ δᵢ² Iᵢ (δᵢ = ω̂ᵢ' − ω̂ᵢ, sᵢ = Σ ψᵢe/S,
         Iᵢ = Σ ψᵢ²/S); a mode whose Gᵢ exceeds ``restart_gate``²/2 is reset as a score reset is, whether or
         not the whole window's Λ_W has opened the gate (:func:`_mode_gains`).
+    gate : str
+        ``recursions="two"``: what opens the reset gate. ``"window"`` (default): the last window's likelihood ratio
+        Λ_W = Σ (ℓ_whole − ℓ_window) over the window beyond ``restart_gate``²/2. ``"cusum"``: that, or Page's
+        cumulative sum of the same increments, g = max(0, g + ℓ_whole − ℓ_window) per sample (the likelihood
+        ratio maximised over the change time, :func:`_page_cusum`), beyond the same threshold; g starts again
+        at 0 after a look that resets a mode (Page's restart after an alarm). The window's sum forgets a
+        change's evidence one window after it arrives; g keeps it while the window recursion stays the better.
     unresolved_start : bool
         The start (the first look) of a close pair that the first window cannot separate — two neighbouring
         priors closer than the Hann main lobe, 4 bins of its resolution 2π/T (:func:`unresolved_pairs`) —
@@ -203,6 +217,7 @@ class Options(_ambient.SharedOptions):
     rate_test: str = "off"
     mode_gate: bool = False
     unresolved_start: bool = False
+    gate: str = "window"
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -212,7 +227,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
-                           ("rate_test", ("off", "mode", "all", "after_change"))):
+                           ("rate_test", ("off", "mode", "all", "after_change")), ("gate", ("window", "cusum"))):
         if getattr(opts, field) not in allowed:
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
@@ -221,6 +236,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: mode_gate = true needs score_reset = true (got {opts.score_reset!r})")
     if opts.rate_test != "off" and not opts.score_reset:
         raise ValueError(f"{name}: rate_test = {opts.rate_test!r} needs score_reset = true (got {opts.score_reset!r})")
+    if opts.gate != "window" and opts.recursions != "two":
+        raise ValueError(f"{name}: gate = {opts.gate!r} needs recursions = 'two' (got {opts.recursions!r})")
     if opts.score_reset and opts.recursions != "two":
         raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
@@ -390,6 +407,7 @@ class _Run(_ambient._Run):
     damping: np.ndarray = None
     n_resets: int = 0
     reset_times_s: tuple = ()
+    cusum_alarms_s: tuple = ()
 
 
 def _advance(m: int, est_z: bool, trend: bool, filt, y_seg: np.ndarray, const: np.ndarray):
@@ -473,6 +491,21 @@ def _mode_gains(w_long: np.ndarray, w_win: np.ndarray, score: np.ndarray, info: 
     (docs/measured/tracking.md, ``score_alone``). Written by hand: four numbers per mode."""
     d = np.asarray(w_win, dtype=float) - np.asarray(w_long, dtype=float)
     return d * np.asarray(score, dtype=float) - 0.5 * d * d * np.asarray(info, dtype=float)
+
+
+def _page_cusum(increments: np.ndarray, g0: float = 0.0) -> tuple[np.ndarray, int]:
+    """``gate="cusum"``: Page's cumulative sum (Biometrika 41, 1954; Basseville & Nikiforov 1993, §2.2) of the
+    per-sample log-likelihood increments xₖ = ℓ_whole,k − ℓ_window,k, gₖ = max(0, gₖ₋₁ + xₖ) from ``g0``: the
+    log-likelihood ratio of "the window recursion predicts better since some sample τ" maximised over τ,
+    gₖ = max(g0 + Σ₁ᵏ x, max_τ Σ_τᵏ x, 0). In closed form Sₖ − min(−g0, min_{j≤k} Sⱼ), S the running sum.
+    Returns g per sample and the last sample (index into ``increments``) at which g was 0, the change-time
+    estimate τ̂ − 1 (−1: none in these samples). Written by hand: two numpy lines, no maintained library has it
+    for a stream carried across calls."""
+    s = np.cumsum(np.asarray(increments, dtype=float))
+    low = np.minimum.accumulate(np.minimum(s, -float(g0)))
+    g = s - low
+    zero = np.flatnonzero(g <= 0.0)
+    return g, int(zero[-1]) if zero.size else -1
 
 
 def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gain: float, opts,
@@ -620,6 +653,8 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     cum_s = np.zeros((n + 1, m)) if two else None     # the whole-record recursion's Σ ψᵢe/S and Σ ψᵢ²/S
     cum_i = np.zeros((n + 1, m)) if two else None
     since = np.full(m, W_len)                         # its modes' last reset (sample)
+    cusum, tau = 0.0, W_len                           # ``gate="cusum"``: Page's g, the last sample it was 0
+    alarms: list[tuple[float, float]] = []            # (s of the look, s of τ̂) of each reset the CUSUM opened
     tested = opts.rate_test in ("mode", "all")        # the rates tested (``"after_change"``: from a change on)
     if two:     # the whole-record memory: ω walks over one sample, the rate does not walk
         q_long = q_fixed.copy()
@@ -638,6 +673,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             ell_win = out[-2]
             *long, out = _advance(m, est_z, trend, long, y[k0:k1], const_long)
             cum[k0 + 1:k1 + 1] = cum[k0] + np.cumsum(out[-2] - ell_win)
+            if opts.gate == "cusum":
+                g_seq, last0 = _page_cusum(out[-2] - ell_win, cusum)
+                cusum, tau = float(g_seq[-1]), (k0 + last0 + 1 if last0 >= 0 else tau)
             j0 = 2 * m + iz.size
             cum_s[k0 + 1:k1 + 1] = cum_s[k0] + np.cumsum(out[j0:j0 + m].T, axis=0)
             cum_i[k0 + 1:k1 + 1] = cum_i[k0] + np.cumsum(out[j0 + m:j0 + 2 * m].T, axis=0)
@@ -687,6 +725,8 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 Wm[:] = 0.0
             if two:
                 gain = float(odds[-1])
+                # the gate: the last window's ratio, or (``"cusum"``) Page's g since the change, whichever is larger
+                opened = max(gain, cusum) if opts.gate == "cusum" else gain
                 z_score = m_gain = None
                 if opts.score_reset:    # each ω's score over the last window (since its last reset), in σ
                     a = np.maximum(since, k + 1 - W_len)
@@ -695,8 +735,12 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     z_score = s_sum / np.sqrt(np.where(info > 0, info, np.inf))
                     if opts.mode_gate:
                         m_gain = _mode_gains(long[0][iw], theta[iw], s_sum, info)
-                nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var,
+                nr = _reset_from_window(long, theta, P, iw, ia, opened, opts, z_score, rate_var,
                                         peak if opts.reset_peak else None, Wm, m_gain)
+                if opts.gate == "cusum" and nr.size:      # Page's restart after an alarm that acted
+                    if cusum > gain:
+                        alarms.append((k * dt, tau * dt))
+                    cusum, tau = 0.0, k + 1
                 since[nr] = k + 1
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]
@@ -707,7 +751,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             freq[k], var[k] = theta[iw], np.diag(P)[iw]
             if two:
                 w_l, v_l = long[0][iw], np.diag(long[1])[iw]
-                if opts.rate_test == "after_change" and gain > 0.5 * opts.restart_gate ** 2:
+                if opts.rate_test == "after_change" and opened > 0.5 * opts.restart_gate ** 2:
                     tested = True       # from this look on
                 if tested:
                     w_l, v_l = _zero_rate_average(w_l, v_l, long[0][ia], long[1][np.ix_(iw, ia)],
@@ -717,7 +761,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             th_out = long[0] if two else theta
             damp[k] = th_out[iz] if est_z else opts.damping_ratio
     return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets,
-                reset_times_s=tuple(reset_times))
+                reset_times_s=tuple(reset_times), cusum_alarms_s=tuple(alarms))
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
@@ -728,4 +772,5 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     return Track(k * dt, out.freq[k], std, out.seen[k] & (std <= _ambient.DETERMINED_REL_STD * out.freq[k]),
                  message=f"{name}: {out.n_restarts} restarts, {out.n_resets} resets, {out.n_pulses} pulse samples",
                  extra={"n_restarts": out.n_restarts, "n_resets": out.n_resets, "reset_times_s": out.reset_times_s,
+                        "cusum_alarms_s": out.cusum_alarms_s,
                         "n_pulses": out.n_pulses, "damping": out.damping[k]})

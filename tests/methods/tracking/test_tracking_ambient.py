@@ -55,6 +55,8 @@ BAD = [
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "mode_gate": True},
      "mode_gate = true needs score_reset = true"),
     ("rpem_ambient", {"unresolved_start": "yes"}, "unresolved_start = 'yes'"),
+    ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "gate": "page"}, "gate = 'page'"),
+    ("rpem_ambient", {"frequency_model": "trend", "gate": "cusum"}, "gate = 'cusum' needs recursions = 'two'"),
 ]
 
 
@@ -403,6 +405,24 @@ def test_mode_gains_are_the_exact_log_likelihood_gain_of_a_linear_gaussian_model
     np.testing.assert_allclose(gain, loglik(w_win) - loglik(w_long), rtol=1e-6, atol=1e-6)
     assert gain[0] == pytest.approx(0.5 * score[0] ** 2 / info[0], rel=1e-6)
     assert gain[1] > 0 > gain[2]
+
+
+def test_page_cusum_is_the_likelihood_ratio_maximised_over_the_change_time():
+    """``gate="cusum"``'s statistic against its definition computed by brute force: after a carried-over g0, gₖ is
+    the largest of g0 + Σ₁ᵏ x, every Σ_τᵏ x (τ ≤ k) and 0; the change time is the last sample where that maximum
+    is 0. Increments with a negative mean (no change) for 300 samples, then a positive one (the window recursion
+    the better): g rises from the change and its last zero lies within a few samples of it."""
+    from methods.tracking import _rpem
+
+    rng = np.random.default_rng(11)
+    x = np.concatenate([rng.normal(-0.2, 0.4, 300), rng.normal(0.2, 0.4, 100)])
+    g0 = 1.5
+    g, last0 = _rpem._page_cusum(x, g0)
+    brute = np.array([max(0.0, g0 + x[:k + 1].sum(), *(x[t:k + 1].sum() for t in range(k + 1)))
+                      for k in range(x.size)])
+    np.testing.assert_allclose(g, brute, atol=1e-9)
+    assert last0 == np.flatnonzero(brute == 0.0)[-1] and 290 <= last0 <= 320
+    assert g[-1] > 10.0 and _rpem._page_cusum(np.full(5, 0.1))[1] == -1
 
 
 def test_mode_gate_resets_a_mode_by_its_own_gain_with_the_window_gate_shut():

@@ -50,6 +50,9 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            # each mode's own gate, from the whole-record recursion's scores over the last window
            "rpem_ambient+modegate": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                      "pair_peaks": True, "rate_test": "after_change", "mode_gate": True},
+           # the reset gate also opened by Page's CUSUM of the two recursions' log-likelihood increments
+           "rpem_ambient+cusum": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                  "pair_peaks": True, "rate_test": "after_change", "gate": "cusum"},
            # a close pair the first window cannot separate starts with one bin's σ
            "rpem_ambient+unresolved": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                        "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True}}
