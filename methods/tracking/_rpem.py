@@ -99,6 +99,22 @@ late. g = max(0, g + ℓ_whole − ℓ_window) per sample (:func:`_page_cusum`) 
 change time; the gate opens when Λ_W or g exceeds ``restart_gate``²/2, and g starts again at 0 after a look
 that resets a mode. Off by default; on the design seeds it opened earlier and reset to still-walking values
 (docs/measured/tracking.md).
+A reset back-dated to the change (``reset_from="change"``, with ``recursions="two"``; off by default). A reset
+copies the window recursion's ω̂ᵢ' at the look, still on its walk from the old value (its memory, a window, holds
+pre-change samples). Instead the look estimates the change time τ as the sample of the last window from which the
+whole-record recursion's log-likelihood excess Σ(ℓ_long − ℓ_window) up to the look is largest (the argmin of its
+running sum: the GLR estimate of a change's onset, Basseville & Nikiforov 1993, §2.2), takes the whole-record
+recursion back to its state at the last look at or before τ (a window's states are kept), starts the modes to
+reset there (and any mode reset since) at ω̂ᵢ' with 1σ its distance to the look's peak plus a quarter bin and
+their rates at 0 ± the stated rate, the other modes as they were, and runs it again over the buffered samples to
+the look: one more run over at most a window per reset. The window's Λ_W keeps the sums of the recursion as it
+ran (the scores' sums take the re-run's): with the re-run's ℓ in it, the first mode's re-run shut the gate that
+the others waited for (design seed 7, the issue's step, r0: modes 2 and 3 reset 13.9 s after it, 10.9 s with the
+sums kept). So Λ_W stays open for up to a window after a step, and a mode re-run less than a window ago is reset
+again only by its own score, not by its gap to a window recursion still on its walk (:func:`_keep_rerun_modes`).
+Not kept: on the design seeds it dates the change within −0.7…+1.6 s of the grid's steps and wins the issue's
+steps where a reset took a still-walking value, but loses two grid steps, a drift on which the gate opens and the
+slosh cells (docs/measured/tracking.md, "A reset back-dated to the change").
 
 A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
 but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
@@ -204,6 +220,14 @@ class Options(_ambient.SharedOptions):
         a mode with no interior peak starts at its prior), and a whole-record recursion started 4–6σ off keeps
         the error or learns it as a rate (docs/measured/tracking.md, "The close pair on a drift"). Off by
         default.
+    reset_from : str
+        ``recursions="two"``: ``"look"`` (default), a reset mode of the whole-record recursion starts again at the
+        look that resets it; ``"change"``, the reset is back-dated: the change time τ is estimated in the last
+        window (the CUSUM/GLR onset, :func:`_change_sample`), the whole-record recursion goes back to its state
+        at the last look at or before τ, the reset modes start there at the window recursion's ω̂ᵢ' (1σ its
+        distance to the look's peak plus a quarter bin, rate 0 ± the stated rate) and the recursion is run again
+        over the buffered samples from there (:func:`_restart_from_change`). Not kept: on the design seeds it
+        wins some steps and loses others and a drift (docs/measured/tracking.md).
     """
 
     estimate_damping: bool = True
@@ -218,6 +242,7 @@ class Options(_ambient.SharedOptions):
     mode_gate: bool = False
     unresolved_start: bool = False
     gate: str = "window"
+    reset_from: str = "look"
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -227,7 +252,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
-                           ("rate_test", ("off", "mode", "all", "after_change")), ("gate", ("window", "cusum"))):
+                           ("rate_test", ("off", "mode", "all", "after_change")), ("gate", ("window", "cusum")),
+                           ("reset_from", ("look", "change"))):
         if getattr(opts, field) not in allowed:
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
@@ -238,6 +264,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: rate_test = {opts.rate_test!r} needs score_reset = true (got {opts.score_reset!r})")
     if opts.gate != "window" and opts.recursions != "two":
         raise ValueError(f"{name}: gate = {opts.gate!r} needs recursions = 'two' (got {opts.recursions!r})")
+    if opts.reset_from == "change" and opts.recursions != "two":
+        raise ValueError(f"{name}: reset_from = 'change' needs recursions = 'two' (got {opts.recursions!r})")
     if opts.score_reset and opts.recursions != "two":
         raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
@@ -408,6 +436,7 @@ class _Run(_ambient._Run):
     n_resets: int = 0
     reset_times_s: tuple = ()
     cusum_alarms_s: tuple = ()
+    change_times_s: tuple = ()
 
 
 def _advance(m: int, est_z: bool, trend: bool, filt, y_seg: np.ndarray, const: np.ndarray):
@@ -565,6 +594,81 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
     return modes
 
 
+def _change_sample(cum: np.ndarray, k1: int, w_len: int, first: int) -> int:
+    """``reset_from="change"``: the change time estimated at a look that has seen the samples before ``k1``, the
+    sample τ of the last window [k1 − ``w_len``, k1] (none before ``first``) from which the whole-record
+    recursion's log-likelihood excess over the window recursion, Σ_{τ ≤ j < k1} (ℓ_long − ℓ_window), is largest:
+    the argmin over the window of its running sum ``cum`` (cum[j] = Σ_{i < j}), the maximum-likelihood onset of
+    a change (Page's CUSUM, the GLR test's change time: Basseville & Nikiforov 1993, §2.2). τ = k1: no sample
+    of the window favours the window recursion. Written by hand: one argmin."""
+    a = max(k1 - w_len, first)
+    return a + int(np.argmin(cum[a:k1 + 1]))
+
+
+def _restart_from_change(hist: list, modes, since: np.ndarray, theta: np.ndarray, P: np.ndarray,
+                         peak: np.ndarray, rate_var: np.ndarray, iw, ia, resolution: float, tau: int,
+                         y: np.ndarray, k1: int, run):
+    """``reset_from="change"``: a reset back-dated to the estimated change time ``tau``. The whole-record
+    recursion is taken back to its state at the last look at or before τ (``hist``: (sample, [θ, P, x̂, W, Λ]) at
+    the looks, oldest first, the state from which that sample on was run), the modes to reset (``modes``, and any
+    mode reset since that look, ``since``) start there at the window recursion's ω̂ᵢ' now (``theta``, ``P``),
+    their 1σ the distance to the look's peak (``peak``; where there is none, the window recursion's own 1σ) plus
+    a quarter of the window's resolution (``resolution``, as a start's), their rates at 0 ± the stated rate
+    (``rate_var``), their cross-covariances and sensitivities 0; the other modes as they were at that look. The
+    recursion is then run again (``run(filt, y_seg)`` → (filt, out)) over the buffered samples from that look to
+    ``k1`` (causal: samples already seen), look by look. The reset mode's estimate then rests on the samples
+    after the change alone, not on a walk still on its way from the old value nor on the pre-change samples.
+    Returns the new state, the sample h it was run from, the modes restarted, the per-sample outputs over
+    [h, k1) (columns) and the history with the re-run's looks in place of the old ones."""
+    j = max([i for i, (s, _) in enumerate(hist) if s <= tau] or [0])
+    h, start = hist[j]
+    filt = [a.copy() if isinstance(a, np.ndarray) else a for a in start]
+    th, Pl, Wl = filt[0], filt[1], filt[3]
+    restart = np.union1d(np.asarray(modes, dtype=int), np.flatnonzero(since > h)).astype(int)
+    for i in restart:
+        jj = np.array([iw[i], ia[i]])
+        w_i = theta[iw[i]]
+        far = abs(peak[i] - w_i) if np.isfinite(peak[i]) else math.sqrt(max(P[iw[i], iw[i]], 0.0))
+        th[jj] = w_i, 0.0
+        Pl[jj, :] = 0.0
+        Pl[:, jj] = 0.0
+        Pl[iw[i], iw[i]] = (far + START_RESOLUTION_SHARE * resolution) ** 2
+        Pl[ia[i], ia[i]] = rate_var[i]
+        Wl[:, jj] = 0.0
+    bounds = [s for s, _ in hist[j + 1:] if s < k1] + [k1]
+    kept, outs, s0 = hist[:j] + [(h, [a.copy() if isinstance(a, np.ndarray) else a for a in filt])], [], h
+    for s in bounds:
+        if s > s0:
+            *filt, out = run(filt, y[s0:s])
+            outs.append(out)
+        if s < k1:
+            kept.append((s, [a.copy() if isinstance(a, np.ndarray) else a for a in filt]))
+        s0 = s
+    return filt, h, restart, (np.concatenate(outs, axis=1) if outs else None), kept
+
+
+def _keep_rerun_modes(long: list, snap: list, modes: np.ndarray, z_score, protected: np.ndarray, iw, ia,
+                      gate: float) -> np.ndarray:
+    """``reset_from="change"``: a mode re-run from the change less than a window ago (``protected``) is reset
+    again only by its own score (beyond ``gate`` σ toward the window recursion's ω̂ᵢ'), not by the gap between
+    the two recursions: its estimate rests on the post-change samples, the window recursion's may still be on
+    its walk, and the window's Λ_W (the sums as they ran) stays open for up to a window after a step. The
+    entries of such a mode that ``_reset_from_window`` changed are put back from ``snap`` ([θ, P, W, gap]
+    before it); returns the modes reset."""
+    if z_score is None:
+        by_score = np.zeros(iw.size, dtype=bool)
+    else:
+        by_score = (np.abs(z_score) > gate) & (np.asarray(z_score) * snap[3] < 0)
+    back = [i for i in modes if protected[i] and not by_score[i]]
+    for i in back:
+        j = np.array([iw[i], ia[i]])
+        long[0][j] = snap[0][j]
+        long[1][j, :] = snap[1][j, :]
+        long[1][:, j] = snap[1][:, j]
+        long[3][:, j] = snap[2][:, j]
+    return np.array([i for i in modes if i not in back], dtype=int)
+
+
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
     """The recursion of the module docstring over the record."""
     m, n = prior.size, y.size
@@ -663,6 +767,11 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         const_long[1] = opts.rate_rel_per_s ** 2 * dt
         const_long[5 + 2 * m:5 + 2 * m + p] = q_long
         long = [theta.copy(), P.copy(), x.copy(), Wm.copy(), lam]
+    back = two and opts.reset_from == "change"
+    if back:    # the whole-record recursion's states at the looks of the last window
+        hist = [(W_len, [a.copy() if isinstance(a, np.ndarray) else a for a in long])]
+        rerun_at = np.full(m, -n)      # each mode's last back-dated restart (the look's sample)
+        change_times: list[tuple[float, float]] = []     # (s, s) the look and the change time it estimated
     k0 = W_len
     while k0 < n:
         # the samples up to the next look (k + 1 − W a multiple of the hop), one mapaccum call
@@ -735,15 +844,30 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     z_score = s_sum / np.sqrt(np.where(info > 0, info, np.inf))
                     if opts.mode_gate:
                         m_gain = _mode_gains(long[0][iw], theta[iw], s_sum, info)
+                snap = [long[0].copy(), long[1].copy(), long[3].copy(), long[0][iw] - theta[iw]] if back else None
                 nr = _reset_from_window(long, theta, P, iw, ia, opened, opts, z_score, rate_var,
                                         peak if opts.reset_peak else None, Wm, m_gain)
                 if opts.gate == "cusum" and nr.size:      # Page's restart after an alarm that acted
                     if cusum > gain:
                         alarms.append((k * dt, tau * dt))
                     cusum, tau = 0.0, k + 1
+                if back:
+                    nr = _keep_rerun_modes(long, snap, nr, z_score, k + 1 - rerun_at < W_len, iw, ia, opts.reset_gate)
                 since[nr] = k + 1
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]
+                if back and nr.size:
+                    tau_c = _change_sample(cum, k + 1, W_len, W_len)
+                    change_times.append((k * dt, tau_c * dt))
+                    long[:], h, again, out_r, hist = _restart_from_change(
+                        hist, nr, since, theta, P, peak, rate_var, iw, ia, 2 * math.pi / (W_len * dt), tau_c, y, k + 1,
+                        lambda f, seg: _advance(m, est_z, trend, f, seg, const_long))
+                    if out_r is not None:   # the scores' sums with the re-run's (Λ_W keeps its own: docstring)
+                        j0 = 2 * m + iz.size
+                        cum_s[h + 1:k + 2] = cum_s[h] + np.cumsum(out_r[j0:j0 + m].T, axis=0)
+                        cum_i[h + 1:k + 2] = cum_i[h] + np.cumsum(out_r[j0 + m:j0 + 2 * m].T, axis=0)
+                    since[again] = h
+                    rerun_at[again] = k + 1
                 if _unstable(unpack(long[0]), dt):
                     long[0][ik] = K0 / kscale
                     long[3][:] = 0.0
@@ -760,8 +884,12 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 freq[k] = w_l
             th_out = long[0] if two else theta
             damp[k] = th_out[iz] if est_z else opts.damping_ratio
+            if back:
+                hist.append((k + 1, [a.copy() if isinstance(a, np.ndarray) else a for a in long]))
+                hist = [hs for hs in hist if hs[0] >= k + 1 - W_len - hop]
     return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets,
-                reset_times_s=tuple(reset_times), cusum_alarms_s=tuple(alarms))
+                reset_times_s=tuple(reset_times), cusum_alarms_s=tuple(alarms),
+                change_times_s=tuple(change_times) if back else ())
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
@@ -773,4 +901,5 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
                  message=f"{name}: {out.n_restarts} restarts, {out.n_resets} resets, {out.n_pulses} pulse samples",
                  extra={"n_restarts": out.n_restarts, "n_resets": out.n_resets, "reset_times_s": out.reset_times_s,
                         "cusum_alarms_s": out.cusum_alarms_s,
+                        "change_times_s": out.change_times_s,
                         "n_pulses": out.n_pulses, "damping": out.damping[k]})

@@ -57,6 +57,9 @@ BAD = [
     ("rpem_ambient", {"unresolved_start": "yes"}, "unresolved_start = 'yes'"),
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "gate": "page"}, "gate = 'page'"),
     ("rpem_ambient", {"frequency_model": "trend", "gate": "cusum"}, "gate = 'cusum' needs recursions = 'two'"),
+    ("rpem_ambient", {"reset_from": "tau"}, "reset_from = 'tau'"),
+    ("rpem_ambient", {"frequency_model": "trend", "reset_from": "change"},
+     "reset_from = 'change' needs recursions = 'two'"),
 ]
 
 
@@ -721,3 +724,93 @@ def test_unresolved_start_std_is_one_bin_of_the_first_window():
     np.testing.assert_allclose(off.std[0, 1:], np.maximum(0.01 * off.frequencies[0, 1:], bin_w / 4), rtol=0.25)
     np.testing.assert_allclose(on.std[0, 1:], bin_w, rtol=0.25)
     np.testing.assert_allclose(on.std[0, 0], off.std[0, 0], rtol=0.01)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_change_sample_is_the_onset_of_a_likelihood_excess(seed):
+    """``reset_from="change"``'s change time: per-sample log-likelihood excesses ℓ_long − ℓ_window of mean −0.02
+    nats (the whole-record recursion the better: 0.1 nats per sample of spread) before a change at sample 700 and
+    +0.1 after (the window recursion the better after a step; the benchmark's steps give 16–155 nats over a
+    window), a look at sample 900 with a window of 500: the estimate lies within a tenth of the window of 700; a
+    look whose whole window precedes the change finds no onset before its end worth more than the scatter (the
+    estimated sample's excess over the rest of the window below 3σ of its sum)."""
+    from methods.tracking import _rpem
+
+    rng = np.random.default_rng(seed)
+    n, tau0, w_len = 1000, 700, 500
+    d = np.where(np.arange(n) < tau0, -0.02, 0.1) + 0.1 * rng.standard_normal(n)
+    cum = np.concatenate([[0.0], np.cumsum(d)])
+    tau = _rpem._change_sample(cum, 900, w_len, 100)
+    assert abs(tau - tau0) <= w_len // 10, tau
+    assert 400 <= _rpem._change_sample(cum, 900, w_len, 400) <= 900     # never before ``first``, never after k1
+    tau = _rpem._change_sample(cum, 650, w_len, 100)
+    assert cum[650] - cum[tau] < 3 * 0.1 * np.sqrt(650 - tau) + 1e-12, tau
+
+
+def test_restart_from_change_reruns_from_the_look_before_the_change():
+    """``reset_from="change"``, by hand: looks every 100 samples (states at 300, 400, 500, 600), a change at 450
+    and a look at 700 that resets mode 0. The re-run starts from the state at 400 (the last look at or before
+    450), with mode 0 at the window recursion's ω̂' and 1σ |peak − ω̂'| + a quarter bin, its rate 0 ± the stated
+    rate, its covariances and sensitivities 0; mode 2, reset at the look of 500 (since 501 > 400), restarts the
+    same way (no peak: its 1σ the window recursion's own); mode 1 is as it was at 400. The recursion then runs
+    over y[400:700] in the looks' pieces, and the history from 400 on is the re-run's."""
+    from methods.tracking import _rpem
+
+    long, th_w, P_w, iw, ia = _two_memories([10.0, 0.5, 3.5])
+    states = {s: [long[0] + s, long[1] * (1 + s / 1e3), long[2] + s, long[3] * s, float(s)]
+              for s in (300, 400, 500, 600)}
+    hist = [(s, states[s]) for s in (300, 400, 500, 600)]
+    y = np.arange(1000.0)
+    calls = []
+
+    def run(filt, seg):
+        calls.append((filt[0].copy(), filt[1].copy(), filt[3].copy(), seg.copy()))
+        return [filt[0] + 1.0, filt[1], filt[2], filt[3], filt[4] + seg.size, np.vstack([seg, -seg])]
+
+    since = np.array([300, 300, 501])
+    peak = np.array([th_w[0] + 0.05, np.nan, np.nan])
+    rate_var = np.array([4e-4, 5e-4, 6e-4])
+    res = 0.6
+    filt, h, again, out, kept = _rpem._restart_from_change(hist, np.array([0]), since, th_w, P_w, peak, rate_var,
+                                                             iw, ia, res, 450, y, 700, run)
+    assert h == 400 and list(again) == [0, 2]
+    assert [c[3][[0, -1]].tolist() for c in calls] == [[400, 499], [500, 599], [600, 699]]
+    th0, P0, W0 = calls[0][0], calls[0][1], calls[0][2]
+    ref = states[400]
+    for i, sig in ((0, 0.05 + res / 4), (2, np.sqrt(P_w[2, 2]) + res / 4)):
+        assert th0[iw[i]] == pytest.approx(th_w[iw[i]]) and th0[ia[i]] == 0.0
+        assert P0[iw[i], iw[i]] == pytest.approx(sig ** 2) and P0[ia[i], ia[i]] == pytest.approx(rate_var[i])
+        assert np.count_nonzero(P0[iw[i]]) == 1 and np.count_nonzero(P0[:, ia[i]]) == 1
+        assert not W0[:, [iw[i], ia[i]]].any()
+    assert th0[iw[1]] == ref[0][iw[1]] and th0[ia[1]] == ref[0][ia[1]] and P0[1, 1] == ref[1][1, 1]
+    assert filt[4] == pytest.approx(400.0 + 300) and out.shape == (2, 300) and out[0, 0] == 400.0
+    assert [s for s, _ in kept] == [300, 400, 500, 600]
+    assert kept[0][1] is states[300] and kept[1][1][0][0] == pytest.approx(th_w[0])
+    assert kept[2][1][0][0] == pytest.approx(th_w[0] + 1.0) and kept[3][1][0][0] == pytest.approx(th_w[0] + 2.0)
+
+
+def test_reset_from_change_leaves_a_record_without_a_reset_unchanged(stationary):
+    """A stationary white-force record on which the two memories never reset: ``reset_from="change"`` gives the
+    same track as ``"look"`` (nothing back-dated), and reports no change time."""
+    y, w0 = stationary
+    opts = TWO | {"score_reset": True}
+    a = methods.track("rpem_ambient", y, DT, w0 * 1.02, **opts)
+    b = methods.track("rpem_ambient", y, DT, w0 * 1.02, **opts, reset_from="change")
+    assert a.extra["n_resets"] == 0 and b.extra["change_times_s"] == ()
+    np.testing.assert_array_equal(a.frequencies, b.frequencies)
+
+
+def test_reset_from_change_dates_the_first_reset_after_a_step_near_the_step(grid_like):
+    """``reset_from="change"`` on the three white-force step records of seeds 3, 5 and 13, nine in all (the grid's
+    +6 %/−4 % step at 100 and 1000 µg, the issue's −7 % step of modes 2–4): the first back-dated reset after the
+    step puts the change within 0.4 of a window (five periods of the slowest prior mode, 9.3–10.2 s) of the true
+    step time (measured −3.1…+1.3 s, at most 0.31 of a window), though its look comes 2.0–8.1 s after the step."""
+    opts = TWO | {"score_reset": True, "pair_peaks": True, "rate_test": "after_change", "reset_from": "change"}
+    for (seed, label), cell in grid_like.items():
+        if "step" not in label:
+            continue
+        tr, _ = _track_cell(cell, **opts)
+        t_step = float(cell["step_time_s"])
+        window = 5 * 2 * np.pi / float(cell["prior_rad_s"][0][0])
+        after = [tau for look, tau in tr.extra["change_times_s"] if look >= t_step]
+        assert after and abs(after[0] - t_step) <= 0.4 * window, (seed, label, tr.extra["change_times_s"])

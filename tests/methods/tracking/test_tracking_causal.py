@@ -55,7 +55,10 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
                                   "pair_peaks": True, "rate_test": "after_change", "gate": "cusum"},
            # a close pair the first window cannot separate starts with one bin's σ
            "rpem_ambient+unresolved": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                       "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True}}
+                                       "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True},
+           # a reset back-dated to the estimated change: a re-run over buffered (past) samples only
+           "rpem_ambient+change": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                   "pair_peaks": True, "rate_test": "after_change", "reset_from": "change"}}
 
 
 def _options(name):

@@ -146,6 +146,9 @@ def main() -> None:
                 print(f"     {lab}: share beyond 1 % per mode from 10 s after the step to the re-convergence (or 30 s) "
                       + "/".join(f"{v:.2f}" for v in np.mean(np.abs(f_[h] / truth[kk[h]] - 1) > 0.01, axis=0)))
             print(f"     {tr.message}")
+            if tr.extra.get("change_times_s"):     # ``reset_from="change"``: each back-dated reset's change time
+                print("     back-dated resets (look/estimated change, s after the step): " + " ".join(
+                    f"{a - st:.1f}/{b - st:+.1f}" for a, b in tr.extra["change_times_s"] if a >= st))
             if args.trace:
                 i = args.trace - 1
                 for j in np.flatnonzero(after & (tl < st + 30)):
@@ -154,7 +157,8 @@ def main() -> None:
                     print(f"     {tl[j] - st:5.1f} s Λ_W {c.get('L', np.nan):7.1f} | peak "
                           f"{100 * (c['peak'][i] / tv - 1):+6.2f} | window "
                           f"{100 * (c['w_win'][i] / tv - 1):+6.2f} | whole (before reset) "
-                          f"{100 * (c['w_long'][i] / tv - 1):+6.2f} | z {c['z'][i]:+5.1f} | G {c['G'][i]:7.1f}"
+                          f"{100 * (c['w_long'][i] / tv - 1):+6.2f} | z {c['z'][i]:+5.1f} | "
+                          f"G {c.get('G', np.full(m, np.nan))[i]:7.1f}"
                           + (" reset" if any(q == i for q, _ in c.get("reset", [])) else ""))
     _ambient.periodogram_look, _rpem._reset_from_window, _rpem._mode_gains = orig_look, orig_reset, orig_gain
 
