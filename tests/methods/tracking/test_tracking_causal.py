@@ -52,7 +52,10 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
                                      "pair_peaks": True, "rate_test": "after_change", "mode_gate": True},
            # a close pair the first window cannot separate starts with one bin's σ
            "rpem_ambient+unresolved": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                       "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True}}
+                                       "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True},
+           # the whole-record recursion run again from its start, once, over the samples seen so far
+           "rpem_ambient+second": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                   "pair_peaks": True, "rate_test": "after_change", "second_pass": True}}
 
 
 def _options(name):
