@@ -192,14 +192,15 @@ class Options(_ambient.SharedOptions):
         default.
     second_pass : bool
         ``recursions="two"``: once the whole-record recursion has left its start (the first look
-        ``SECOND_PASS_WINDOWS`` windows after the start), it is run
-        again, once, from its start (sample W) over the samples seen so far, started at its present ω̂ carried
-        back to the start by its own rate (ω̂ − ω̇̂ (t − t₀)) with that estimate's variance inflated
-        ``SECOND_PASS_INFLATION``-fold (at most the start's), its rate at 0 ± the stated rate, K, ζ, x̂ as the
-        first pass started (:func:`_second_pass`). Initial values from a first pass over the first data (Ljung &
-        Söderström 1983, §6); the first window's periodogram cannot separate a close pair, and the recursion,
-        linearised far from the truth, keeps that error or learns it as a rate (docs/measured/tracking.md). Only
-        if no mode of it has been reset by then. Off by default.
+        ``SECOND_PASS_WINDOWS`` windows after the start), it is run again, once, from its start (sample W) over the
+        samples seen so far, started at its present ω̂ carried back to the start by its own rate (ω̂ − ω̇̂ (t − t₀))
+        with that estimate's variance inflated ``SECOND_PASS_INFLATION``-fold (at most the start's), its rate at
+        0 ± the stated rate, K, ζ, x̂ as the first pass started (:func:`_second_pass`); only if no mode of it has
+        been reset by then. Initial values from a first pass over the first data (Ljung & Söderström 1983, §6):
+        the first window's periodogram cannot separate a close pair, and the recursion, linearised far from the
+        truth, keeps that error or learns it as a rate. Off by default and not in the variant: on the design
+        seeds it helps most drifts a little but not the worst replicate, whose first pass has not left the
+        start by then (docs/measured/tracking.md, "A second pass over the start").
     """
 
     estimate_damping: bool = True
