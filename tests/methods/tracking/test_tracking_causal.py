@@ -53,9 +53,11 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            # a close pair the first window cannot separate starts with one bin's σ
            "rpem_ambient+unresolved": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                        "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True},
-           # the whole-record recursion run again from its start, once, over the samples seen so far
+           # the whole-record recursion run again from its start, once, over the samples seen so far (a 3 s
+           # window, so that it runs at 9 s, before the samples after K change)
            "rpem_ambient+second": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                   "pair_peaks": True, "rate_test": "after_change", "second_pass": True}}
+                                   "pair_peaks": True, "rate_test": "after_change", "second_pass": True,
+                                   "window_s": 3.0}}
 
 
 def _options(name):
@@ -105,5 +107,7 @@ def test_changing_later_samples_leaves_earlier_estimates_unchanged(name, records
     np.testing.assert_array_equal(a.converged[early], b.converged[early])
     later_a, later_b = a.frequencies[~early], b.frequencies[~early]
     assert not np.array_equal(later_a, later_b, equal_nan=True), f"{name}: later samples changed nothing"
+    if opts.get("second_pass"):                  # it ran before K
+        assert a.extra["second_pass_s"] is not None and a.extra["second_pass_s"] < K * DT, a.extra["second_pass_s"]
     if opts.get("memory"):                       # the change detector did restart the window in this record
         assert a.extra["memory_restart_samples"].size > 0, a.message
