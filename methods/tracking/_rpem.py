@@ -272,7 +272,7 @@ def unresolved_pairs(prior: np.ndarray, window_s: float) -> np.ndarray:
 
 
 # ``second_pass``: the whole-record recursion has left its start this many windows after it (its own 1σ hardly
-# shrinks there: the walk of ω and the rate's coupling keep it at 0.5–1.0 of the start's on design seed 7); the
+# shrinks there: the walk of ω and the rate's coupling keep it at 0.44–1.27 of the start's on design seed 7); the
 # second pass starts at the carried-back estimate with its variance this many times (the samples
 # are used twice: a second pass at the first pass's own variance would be over-confident).
 SECOND_PASS_WINDOWS = 2
