@@ -58,7 +58,12 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
                                        "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True},
            # a reset back-dated to the estimated change: a re-run over buffered (past) samples only
            "rpem_ambient+change": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
-                                   "pair_peaks": True, "rate_test": "after_change", "reset_from": "change"}}
+                                   "pair_peaks": True, "rate_test": "after_change", "reset_from": "change"},
+           # the whole-record recursion run again from its start, once, over the samples seen so far (a 3 s
+           # window, so that it runs at 9 s, before the samples after K change)
+           "rpem_ambient+second": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                   "pair_peaks": True, "rate_test": "after_change", "second_pass": True,
+                                   "window_s": 3.0}}
 
 
 def _options(name):
@@ -108,5 +113,7 @@ def test_changing_later_samples_leaves_earlier_estimates_unchanged(name, records
     np.testing.assert_array_equal(a.converged[early], b.converged[early])
     later_a, later_b = a.frequencies[~early], b.frequencies[~early]
     assert not np.array_equal(later_a, later_b, equal_nan=True), f"{name}: later samples changed nothing"
+    if opts.get("second_pass"):                  # it ran before K
+        assert a.extra["second_pass_s"] is not None and a.extra["second_pass_s"] < K * DT, a.extra["second_pass_s"]
     if opts.get("memory"):                       # the change detector did restart the window in this record
         assert a.extra["memory_restart_samples"].size > 0, a.message
