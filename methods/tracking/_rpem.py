@@ -85,6 +85,13 @@ wins the 100 µg steps and loses some drifts and the 1000 µg step. ``"after_cha
 the first look at which the reset gate opens (a record that never changes keeps its rates: every drift the
 same), and is in the variant ``rpem_ambient:two`` (configs/tracker/rpem_ambient_two.yaml); the default stays
 ``"off"``.
+With ``rate_zero="recursion"`` the rate-0 model is not the conditional but a third recursion beside the two: the
+whole-record memory with a constant frequency (the walk model's step with ω's walk over one sample, no rate state),
+reset at the same looks with the same modes and values as the whole-record line recursion; its ω̂ᵢ, Pᵢ enter the
+average, the Savage–Dickey weight still the line recursion's. Not kept (off): on the design seeds the two rate-0
+estimates agree to a fraction of their σ — the conditional does not carry the start — and the steps move by
+−0.07…+0.08× bound with no sign, at +40 µs per sample (docs/measured/tracking.md, "A third recursion with a
+constant frequency").
 
 Each mode's own gate (``mode_gate``, with ``score_reset``). Λ_W pools every mode's evidence: once one mode is reset,
 its share leaves the window's ratio, and another mode may lose the gate it waited for. With ``mode_gate`` a mode is
@@ -247,7 +254,8 @@ class Options(_ambient.SharedOptions):
         the same modes and values as the whole-record line recursion, whose ω̂ᵢ, Pᵢ are the rate-0 model
         (:func:`_constant_start`, :func:`_constant_reset`); the Savage–Dickey weight stays the line recursion's.
         A constant started off forgets its start as a running average does (1/t) instead of learning it as a
-        rate.
+        rate. Not kept: on the design seeds it agrees with the conditional to a fraction of its σ
+        (docs/measured/tracking.md, "A third recursion with a constant frequency").
     """
 
     estimate_damping: bool = True
