@@ -284,7 +284,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
                            ("rate_test", ("off", "mode", "all", "after_change")), ("gate", ("window", "cusum")),
-                           ("reset_from", ("look", "change")), ("rate_zero", ("conditional", "recursion", "evidence"))):
+                           ("reset_from", ("look", "change")), ("rate_zero", ("conditional", "recursion"))):
         if getattr(opts, field) not in allowed:
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
@@ -293,8 +293,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: mode_gate = true needs score_reset = true (got {opts.score_reset!r})")
     if opts.rate_test != "off" and not opts.score_reset:
         raise ValueError(f"{name}: rate_test = {opts.rate_test!r} needs score_reset = true (got {opts.score_reset!r})")
-    if opts.rate_zero != "conditional" and (opts.rate_test == "off" or opts.reset_from == "change" or opts.second_pass):
-        raise ValueError(f"{name}: rate_zero = {opts.rate_zero!r} needs rate_test != 'off', reset_from = 'look' and no "
+    if opts.rate_zero == "recursion" and (opts.rate_test == "off" or opts.reset_from == "change" or opts.second_pass):
+        raise ValueError(f"{name}: rate_zero = 'recursion' needs rate_test != 'off', reset_from = 'look' and no "
                          f"second_pass (got {opts.rate_test!r}, {opts.reset_from!r}, {opts.second_pass!r})")
     if opts.gate != "window" and opts.recursions != "two":
         raise ValueError(f"{name}: gate = {opts.gate!r} needs recursions = 'two' (got {opts.recursions!r})")
@@ -556,8 +556,6 @@ def _zero_rate_average(w, v, a, v_wa, v_aa, prior_var, joint: bool = False, zero
         v0 = v - d_wa * d_wa / d_aa
     if zero is not None:
         w0, v0 = np.asarray(zero[0], dtype=float), np.asarray(zero[1], dtype=float)
-        if len(zero) > 2:       # ``rate_zero="evidence"``: μ₀ from the two recursions' predictive likelihoods
-            mu0 = np.broadcast_to(np.asarray(zero[2], dtype=float)[..., None], np.shape(w0))
     v0 = np.maximum(v0, 0.0)
     w_bar = mu0 * w0 + (1 - mu0) * w
     return w_bar, mu0 * (v0 + (w0 - w_bar) ** 2) + (1 - mu0) * (v + (w - w_bar) ** 2)
@@ -871,8 +869,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         ell_win_all = np.zeros(n)                  # the window recursion's ℓ per sample (``second_pass``)
         second_done = not opts.second_pass
     cst = None          # ``rate_zero="recursion"``: the whole-record recursion with a constant frequency
-    ev = 0.0            # ``"evidence"``: Σ (ℓ_line − ℓ_constant) since the last reset of either
-    if two and opts.rate_zero in ("recursion", "evidence"):
+    if two and opts.rate_zero == "recursion":
         cst, const_c = _constant_start(theta, P, x, Wm, lam, const_long, ia.size)
     back = two and opts.reset_from == "change"
     if back:    # the whole-record recursion's states at the looks of the last window
@@ -893,10 +890,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             if cst is not None:
                 *cst, out_c = _advance(m, est_z, False, cst, y[k0:k1], const_c)
                 zero = (out_c[iw].T, out_c[m + iw].T)
-                if opts.rate_zero == "evidence":    # the prequential log Bayes factor of the constant model
-                    ev_seq = ev + np.cumsum(out[-2] - out_c[-2])
-                    ev = float(ev_seq[-1])
-                    zero = zero + (1.0 / (1.0 + np.exp(-np.clip(ev_seq, -50.0, 50.0))),)
             cum[k0 + 1:k1 + 1] = cum[k0] + np.cumsum(out[-2] - ell_win)
             if opts.gate == "cusum":
                 g_seq, last0 = _page_cusum(out[-2] - ell_win, cusum)
@@ -972,8 +965,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 since[nr] = k + 1
                 if cst is not None:
                     _constant_reset(cst, long, nr, iw)
-                    if nr.size:
-                        ev = 0.0
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]
                 if back and nr.size:
@@ -1013,9 +1004,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 if tested:
                     w_l, v_l = _zero_rate_average(w_l, v_l, long[0][ia], long[1][np.ix_(iw, ia)],
                                                   long[1][np.ix_(ia, ia)], rate_var, opts.rate_test == "all",
-                                                  None if cst is None else (cst[0][iw], np.diag(cst[1])[iw])
-                                                  + ((1.0 / (1.0 + np.exp(-np.clip(ev, -50.0, 50.0))),)
-                                                     if opts.rate_zero == "evidence" else ()))
+                                                  None if cst is None else (cst[0][iw], np.diag(cst[1])[iw]))
                 var[k] = _variance_two(w_l, v_l, freq[k], var[k], gain)
                 freq[k] = w_l
             th_out = long[0] if two else theta
