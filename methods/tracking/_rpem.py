@@ -85,6 +85,13 @@ wins the 100 µg steps and loses some drifts and the 1000 µg step. ``"after_cha
 the first look at which the reset gate opens (a record that never changes keeps its rates: every drift the
 same), and is in the variant ``rpem_ambient:two`` (configs/tracker/rpem_ambient_two.yaml); the default stays
 ``"off"``.
+With ``rate_zero="recursion"`` the rate-0 model is not the conditional but a third recursion beside the two: the
+whole-record memory with a constant frequency (the walk model's step with ω's walk over one sample, no rate state),
+reset at the same looks with the same modes and values as the whole-record line recursion; its ω̂ᵢ, Pᵢ enter the
+average, the Savage–Dickey weight still the line recursion's. Not kept (off): on the design seeds the two rate-0
+estimates agree to a fraction of their σ — the conditional does not carry the start — and the steps move by
+−0.07…+0.08× bound with no sign, at +40 µs per sample (docs/measured/tracking.md, "A third recursion with a
+constant frequency").
 
 Each mode's own gate (``mode_gate``, with ``score_reset``). Λ_W pools every mode's evidence: once one mode is reset,
 its share leaves the window's ratio, and another mode may lose the gate it waited for. With ``mode_gate`` a mode is
@@ -239,6 +246,16 @@ class Options(_ambient.SharedOptions):
         truth, keeps that error or learns it as a rate. Off by default and not in the variant: on the design
         seeds it helps most drifts a little but not the worst replicate, whose first pass has not left the
         start by then (docs/measured/tracking.md, "A second pass over the start").
+    rate_zero : str
+        ``rate_test``: the rate-0 model averaged in. ``"conditional"`` (default): the whole-record line recursion's
+        posterior conditioned on ω̇ = 0, ω̂ − (P_ωω̇/P_ω̇ω̇) ω̇̂, which keeps what the rate absorbed (the start's
+        transient); ``"recursion"``: a third recursion beside the two, the whole-record memory with a constant
+        frequency (no rate state: ``frequency_model="walk"``'s step with ω's walk over one sample), reset with
+        the same modes and values as the whole-record line recursion, whose ω̂ᵢ, Pᵢ are the rate-0 model
+        (:func:`_constant_start`, :func:`_constant_reset`); the Savage–Dickey weight stays the line recursion's.
+        A constant started off forgets its start as a running average does (1/t) instead of learning it as a
+        rate. Not kept: on the design seeds it agrees with the conditional to a fraction of its σ
+        (docs/measured/tracking.md, "A third recursion with a constant frequency").
     """
 
     estimate_damping: bool = True
@@ -255,6 +272,7 @@ class Options(_ambient.SharedOptions):
     gate: str = "window"
     reset_from: str = "look"
     second_pass: bool = False
+    rate_zero: str = "conditional"
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -266,7 +284,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
                            ("rate_test", ("off", "mode", "all", "after_change")), ("gate", ("window", "cusum")),
-                           ("reset_from", ("look", "change"))):
+                           ("reset_from", ("look", "change")), ("rate_zero", ("conditional", "recursion"))):
         if getattr(opts, field) not in allowed:
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
@@ -275,6 +293,9 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: mode_gate = true needs score_reset = true (got {opts.score_reset!r})")
     if opts.rate_test != "off" and not opts.score_reset:
         raise ValueError(f"{name}: rate_test = {opts.rate_test!r} needs score_reset = true (got {opts.score_reset!r})")
+    if opts.rate_zero == "recursion" and (opts.rate_test == "off" or opts.reset_from == "change" or opts.second_pass):
+        raise ValueError(f"{name}: rate_zero = 'recursion' needs rate_test != 'off', reset_from = 'look' and no "
+                         f"second_pass (got {opts.rate_test!r}, {opts.reset_from!r}, {opts.second_pass!r})")
     if opts.gate != "window" and opts.recursions != "two":
         raise ValueError(f"{name}: gate = {opts.gate!r} needs recursions = 'two' (got {opts.recursions!r})")
     if opts.reset_from == "change" and opts.recursions != "two":
@@ -497,7 +518,7 @@ def _variance_two(w_long, v_long, w_win, v_win, odds):
     return (1 - mu) * v_long + mu * (v_win + (w_long - w_win) ** 2)
 
 
-def _zero_rate_average(w, v, a, v_wa, v_aa, prior_var, joint: bool = False):
+def _zero_rate_average(w, v, a, v_wa, v_aa, prior_var, joint: bool = False, zero=None):
     """``rate_test``: the reported (ω̂, variance) of each mode averaged over two nested models, the rate free and
     the rate 0, from the rate model's Gaussian posterior: ω̂ and its variance ``v`` (…, m), the rates ``a``
     (…, m), the blocks P_ωω̇ ``v_wa`` and P_ω̇ω̇ ``v_aa`` (…, m, m), the rates' prior N(0, diag ``prior_var``).
@@ -509,7 +530,9 @@ def _zero_rate_average(w, v, a, v_wa, v_aa, prior_var, joint: bool = False):
     μ₀ = B/(1 + B), and the average is ω̄ = μ₀ω̂₀ + (1 − μ₀)ω̂ with the mixture's variance
     μ₀(V₀ + (ω̂₀ − ω̄)²) + (1 − μ₀)(P_ωω + (ω̂ − ω̄)²). Per mode (``joint`` False: each mode's own rate, the
     diagonals of the blocks) or every rate at once (``joint``: one B and μ₀ for all modes). A rate block that
-    is not positive definite leaves the modes as they are."""
+    is not positive definite leaves the modes as they are. ``zero`` (``rate_zero="recursion"``): (ω̂₀, V₀) of the
+    rate-0 model from its own recursion (the constant-frequency one), in place of the conditional; μ₀ unchanged."""
+
     a = np.asarray(a, dtype=float)
     v_wa, v_aa = np.asarray(v_wa, dtype=float), np.asarray(v_aa, dtype=float)
     if joint:
@@ -531,6 +554,8 @@ def _zero_rate_average(w, v, a, v_wa, v_aa, prior_var, joint: bool = False):
         mu0 = np.where(ok, 1.0 / (1.0 + np.exp(-np.clip(log_b, -50.0, 50.0))), 0.0)
         w0 = w - d_wa / d_aa * a
         v0 = v - d_wa * d_wa / d_aa
+    if zero is not None:
+        w0, v0 = np.asarray(zero[0], dtype=float), np.asarray(zero[1], dtype=float)
     v0 = np.maximum(v0, 0.0)
     w_bar = mu0 * w0 + (1 - mu0) * w
     return w_bar, mu0 * (v0 + (w0 - w_bar) ** 2) + (1 - mu0) * (v + (w - w_bar) ** 2)
@@ -714,6 +739,33 @@ def _second_pass(m: int, est_z: bool, start: list, long: list, y_seen: np.ndarra
     return _advance(m, est_z, True, (theta, P, x0.copy(), W0.copy(), lam0), y_seen, const_long)
 
 
+def _constant_start(theta: np.ndarray, P: np.ndarray, x: np.ndarray, Wm: np.ndarray, lam: float, const_long: np.ndarray,
+                    n_rate: int) -> tuple[list, np.ndarray]:
+    """``rate_zero="recursion"``: the constant-frequency whole-record recursion's start and constants from the line
+    recursion's (θ, P, x̂, W, Λ and ``const_long``): the same θ and covariance without the ``n_rate`` rates (the
+    last entries of θ), ω's walk over one sample, the other walks as the line recursion's. Its step is the
+    walk model's (:func:`_step_function` without the rate): ω̂ₖ₊₁ = ω̂ₖ + L e — with no rate, an error at the
+    start decays as the innovations average it out instead of being learned as a climb."""
+    p = theta.size - n_rate
+    m2 = x.size                                  # 2m
+    const = np.concatenate([const_long[:5 + m2], const_long[5 + m2:5 + m2 + p], const_long[5 + m2 + theta.size:]])
+    return [theta[:p].copy(), P[:p, :p].copy(), x.copy(), Wm[:, :p].copy(), lam], const
+
+
+def _constant_reset(const_filt: list, long: list, modes, iw) -> None:
+    """``rate_zero="recursion"``: the modes ``modes`` just reset in the whole-record line recursion ``long`` start
+    again in the constant-frequency one (``const_filt``, changed in place) at the same ω̂ᵢ and variance, their
+    cross-covariances and sensitivities 0 (a reset is a change: both memories start again there)."""
+    th, Pc, Wc = const_filt[0], const_filt[1], const_filt[3]
+    for i in modes:
+        j = iw[i]
+        th[j] = long[0][j]
+        Pc[j, :] = 0.0
+        Pc[:, j] = 0.0
+        Pc[j, j] = long[1][j, j]
+        Wc[:, j] = 0.0
+
+
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
     """The recursion of the module docstring over the record."""
     m, n = prior.size, y.size
@@ -816,6 +868,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         start = [theta.copy(), P.copy(), x.copy(), Wm.copy(), lam]
         ell_win_all = np.zeros(n)                  # the window recursion's ℓ per sample (``second_pass``)
         second_done = not opts.second_pass
+    cst = None          # ``rate_zero="recursion"``: the whole-record recursion with a constant frequency
+    if two and opts.rate_zero == "recursion":
+        cst, const_c = _constant_start(theta, P, x, Wm, lam, const_long, ia.size)
     back = two and opts.reset_from == "change"
     if back:    # the whole-record recursion's states at the looks of the last window
         hist = [(W_len, [a.copy() if isinstance(a, np.ndarray) else a for a in long])]
@@ -831,6 +886,10 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             ell_win = out[-2]
             ell_win_all[k0:k1] = ell_win
             *long, out = _advance(m, est_z, trend, long, y[k0:k1], const_long)
+            zero = None
+            if cst is not None:
+                *cst, out_c = _advance(m, est_z, False, cst, y[k0:k1], const_c)
+                zero = (out_c[iw].T, out_c[m + iw].T)
             cum[k0 + 1:k1 + 1] = cum[k0] + np.cumsum(out[-2] - ell_win)
             if opts.gate == "cusum":
                 g_seq, last0 = _page_cusum(out[-2] - ell_win, cusum)
@@ -845,7 +904,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 j1 = j0 + 2 * m
                 blocks = out[j1 + m:j1 + m + 2 * m * m].T.reshape(-1, 2, m, m).swapaxes(-1, -2)   # column-major
                 w_l, v_l = _zero_rate_average(w_l, v_l, out[j1:j1 + m].T, blocks[:, 0], blocks[:, 1], rate_var,
-                                              opts.rate_test == "all")
+                                              opts.rate_test == "all", zero)
             var[k0:k1] = _variance_two(w_l, v_l, freq[k0:k1], var[k0:k1], odds)
             freq[k0:k1] = w_l
         damp[k0:k1] = out[2 * m + iw].T if est_z else opts.damping_ratio
@@ -904,6 +963,8 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 if back:
                     nr = _keep_rerun_modes(long, snap, nr, z_score, k + 1 - rerun_at < W_len, iw, ia, opts.reset_gate)
                 since[nr] = k + 1
+                if cst is not None:
+                    _constant_reset(cst, long, nr, iw)
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]
                 if back and nr.size:
@@ -931,6 +992,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                 if _unstable(unpack(long[0]), dt):
                     long[0][ik] = K0 / kscale
                     long[3][:] = 0.0
+                if cst is not None and _unstable(unpack(cst[0]), dt):
+                    cst[0][ik] = K0 / kscale
+                    cst[3][:] = 0.0
             seen[k] = seen_now
             freq[k], var[k] = theta[iw], np.diag(P)[iw]
             if two:
@@ -939,7 +1003,8 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     tested = True       # from this look on
                 if tested:
                     w_l, v_l = _zero_rate_average(w_l, v_l, long[0][ia], long[1][np.ix_(iw, ia)],
-                                                  long[1][np.ix_(ia, ia)], rate_var, opts.rate_test == "all")
+                                                  long[1][np.ix_(ia, ia)], rate_var, opts.rate_test == "all",
+                                                  None if cst is None else (cst[0][iw], np.diag(cst[1])[iw]))
                 var[k] = _variance_two(w_l, v_l, freq[k], var[k], gain)
                 freq[k] = w_l
             th_out = long[0] if two else theta

@@ -56,6 +56,9 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            # a close pair the first window cannot separate starts with one bin's σ
            "rpem_ambient+unresolved": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                        "pair_peaks": True, "rate_test": "after_change", "unresolved_start": True},
+           # the rate-0 model from a third, constant-frequency recursion reset with the whole-record one
+           "rpem_ambient+ratezero": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                     "pair_peaks": True, "rate_test": "after_change", "rate_zero": "recursion"},
            # a reset back-dated to the estimated change: a re-run over buffered (past) samples only
            "rpem_ambient+change": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                    "pair_peaks": True, "rate_test": "after_change", "reset_from": "change"},
