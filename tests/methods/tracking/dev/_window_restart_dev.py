@@ -5,7 +5,8 @@
 
 On the step cells whose label holds one of ``--cells``, per replicate, the window-memory recursion
 (``rpem_ambient:frequency_model=trend+pair_peaks=true`` plus ``--extra``, the arithmetic beside the reported
-recursion of ``rpem_ambient:two``): each mode's own re-convergence, and for the ``--trace`` modes at each look
+recursion of ``rpem_ambient:two``): each mode's own re-convergence, its restarts 0–25 s after the step (the
+peak's error, σ, and the nearest true mode where it is a neighbour's), and for the ``--trace`` modes at each look
 0–25 s after the step: the look's peak and the recursion's ω̂ (carried to the window's middle) as errors against
 the truth at the look (%), the restart threshold max(restart_gate·sᵢ·ω̂, resolution) in %, the strikes, and a
 restart with the 1σ it took (%).
@@ -94,6 +95,19 @@ def main() -> None:
                 kmid = kl - (W_len - 1) // 2
                 tl = kl * dt
                 kk = np.round(tw.t_s / dt).astype(int)
+                rs = []
+                for j in np.flatnonzero((tl >= st) & (tl < st + 25)):
+                    for i, si in looks[j]["restarts"]:
+                        pk = looks[j]["mid"][i] + looks[j]["dev"][i]
+                        own = truth[kmid[j], i]
+                        now = truth[kl[j], i]
+                        near = int(np.argmin(np.abs(truth[kl[j]] - pk)))
+                        rs.append(f"{tl[j] - st:.1f}/m{i + 1} {100 * (pk / own - 1):+.1f}% "
+                                  f"({100 * (pk / now - 1):+.1f}%) σ {100 * si:.2f}%"
+                                  + (f" (nearest m{near + 1})" if near != i else ""))
+                print("     restarts 0–25 s after the step (s/mode, the peak's error against the truth at the "
+                      "window's middle (at the look), σ; the nearest true mode at the look if another): "
+                      + ", ".join(rs))
                 for i in trace:
                     for j in np.flatnonzero((tl >= st) & (tl < st + 25)):
                         c = looks[j]
