@@ -322,9 +322,10 @@ def modes_to_restart(modes, deviation: np.ndarray, scale, floor: float, d_log: n
     A mode's disagreement with the window's peak is judged against its running robust scale
     s_i = median|d| / 0.6745 of its last 30 agreeing looks' log-ratios d = ln(peak / ω̂) (∞ before three):
     mode i disagrees when |deviation_i| > max(restart_gate · s_i · scale_i, floor) (``akf_ambient``: the
-    deviation in rad/s, scale ω̂, floor the window's resolution; ``rpem_ambient``: d itself, scale 1, no
-    floor). A disagreement is a strike, an agreement clears the strikes and joins the history;
-    ``restart_after`` strikes in a row restart the mode. ``strikes`` and ``hist_d`` are updated in place.
+    deviation in rad/s, scale ω̂, floor the window's resolution; ``rpem_ambient``: the same, ω̂ carried back to
+    the window's middle by its rate, the floor 2π/T with a rate in θ, else none). A disagreement is a strike,
+    an agreement clears the strikes and joins the history; ``restart_after`` strikes in a row restart the
+    mode. ``strikes`` and ``hist_d`` are updated in place.
     ``trim`` (``rpem_ambient``'s ``restart_scale="trimmed"``): an agreement joins the history only when it lies
     within half the gate, |deviation_i| ≤ ½ restart_gate · s_i · scale_i (:func:`joins_scale`), so that the
     climb of a step, a run of disagreements each below the gate, does not inflate the scale that gates it.
@@ -358,8 +359,8 @@ def joins_scale(deviation: float, s_i: float, scale: float, gate: float) -> bool
     estimate by 1, 2, 3 % over a window, each below a gate of 4 s_i, and each widens s_i, until the gate (at
     4 s_i, 3–10 % of ω on the close pair) has outrun the step it should have caught. Trimmed at half the gate
     (2σ of a normal disagreement), the median of |d| of a stationary history is 0.64σ instead of 0.6745σ: the
-    scale reads 5 % low, and a scale that is too small still grows, by half again for every history it
-    replaces (the share of a normal law of 2 s_i within ±2 s_i when its σ is larger). Written by hand: a
+    scale reads 5 % low, and a scale that is too small still grows as it replaces its history (about ×1.5 per
+    history when the disagreements' σ is twice it: their median within ±2 s_i). Written by hand: a
     trimmed median of a 30-look history (no kept library updates a running scale with a rejection band)."""
     return not math.isfinite(s_i) or abs(deviation) <= 0.5 * gate * s_i * scale
 

@@ -9,7 +9,7 @@ recursion of ``rpem_ambient:two``): each mode's own re-convergence, its restarts
 peak's error, σ, and the nearest true mode where it is a neighbour's), and for the ``--trace`` modes at each look
 0–25 s after the step: the look's peak and the recursion's ω̂ (carried to the window's middle) as errors against
 the truth at the look (%), the restart threshold max(restart_gate·sᵢ·ω̂, resolution) in %, the strikes, and a
-restart with the 1σ it took (%).
+restart with its running scale sᵢ (%; the 1σ it starts with unless ``restart_sigma="start"`` raises it).
 """
 
 import argparse
