@@ -256,6 +256,18 @@ class Options(_ambient.SharedOptions):
         A constant started off forgets its start as a running average does (1/t) instead of learning it as a
         rate. Not kept: on the design seeds it agrees with the conditional to a fraction of its σ
         (docs/measured/tracking.md, "A third recursion with a constant frequency").
+    restart_scale : str
+        The window-memory recursion's restarts at the looks' peaks
+        (:func:`methods.tracking._ambient.modes_to_restart`): ``"all"`` (default), the running robust scale of a
+        mode's disagreement learns from every look below the gate; ``"trimmed"``, only from looks within half of
+        it (:func:`methods.tracking._ambient.joins_scale`). After a step the climb of the peaks away from the
+        recursion, each look below the gate, otherwise widens the scale and the gate with it, and the stepped
+        mode of a close pair is not restarted; it walks there at the recursion's own rate.
+    restart_sigma : str
+        The 1σ of ω at such a restart: ``"scale"`` (default), the running robust scale sᵢ × the peak;
+        ``"start"``, at least the start's, max(1 % ω, a quarter of the window's resolution 2π/T)
+        (:func:`_restart_variance`): a restart takes one look's peak, no better located than the first one, and
+        after a step its window still holds samples from before it.
     """
 
     estimate_damping: bool = True
@@ -273,6 +285,8 @@ class Options(_ambient.SharedOptions):
     reset_from: str = "look"
     second_pass: bool = False
     rate_zero: str = "conditional"
+    restart_scale: str = "all"
+    restart_sigma: str = "scale"
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -284,7 +298,8 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
                            ("rate_test", ("off", "mode", "all", "after_change")), ("gate", ("window", "cusum")),
-                           ("reset_from", ("look", "change")), ("rate_zero", ("conditional", "recursion"))):
+                           ("reset_from", ("look", "change")), ("rate_zero", ("conditional", "recursion")),
+                           ("restart_scale", ("all", "trimmed")), ("restart_sigma", ("scale", "start"))):
         if getattr(opts, field) not in allowed:
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.reset_peak and not opts.score_reset:
@@ -325,6 +340,20 @@ START_RESOLUTION_SHARE = 0.25
 # A close pair in the first window: its Hann main lobes (±2 bins of 2π/T each) overlap when the two priors are
 # closer than the lobe's full width, 4 bins (``unresolved_start``).
 HANN_LOBE_BINS = 4
+
+
+def _restart_variance(s_i: float, peak: float, window_s: float, rule: str) -> float:
+    """The variance of ω at a restart of the window-memory recursion at a look's peak (``restart_sigma``).
+
+    ``"scale"``: (sᵢ · peak)², the running robust scale of the mode's agreeing disagreements. ``"start"``: at
+    least the start's, max(sᵢ · peak, 1 % · peak, ``START_RESOLUTION_SHARE`` · 2π/T)²: the agreements' scale
+    says how far a look's peak wanders while the window recursion is right; a restart's peak, after a step, is
+    that of a window that straddles it, and at 1000 µg the scale is 0.1 % of ω while that peak lies 2–4 % off.
+    """
+    sd = s_i * peak
+    if rule == "start":
+        sd = max(sd, 0.01 * peak, START_RESOLUTION_SHARE * 2 * math.pi / window_s)
+    return sd * sd
 
 
 def unresolved_pairs(prior: np.ndarray, window_s: float) -> np.ndarray:
@@ -926,11 +955,12 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             at_mid = theta[iw] - theta[ia] * (W_len - 1) * dt / 2 if trend else theta[iw]
             d = np.log(peak / at_mid)
             for i, s_i in _ambient.modes_to_restart(np.flatnonzero(np.isfinite(d)), peak - at_mid, at_mid,
-                                                    resolution, d, strikes, hist_d, opts):
+                                                    resolution, d, strikes, hist_d, opts,
+                                                    trim=opts.restart_scale == "trimmed"):
                 theta[iw[i]] = peak[i]
                 P[iw[i], :] = 0.0
                 P[:, iw[i]] = 0.0
-                P[iw[i], iw[i]] = (s_i * peak[i]) ** 2
+                P[iw[i], iw[i]] = _restart_variance(s_i, peak[i], W_len * dt, opts.restart_sigma)
                 Wm[:, iw[i]] = 0.0
                 if trend:                  # its rate starts again at 0 ± the stated rate
                     theta[ia[i]] = 0.0

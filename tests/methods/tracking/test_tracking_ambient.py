@@ -9,6 +9,7 @@ state and accumulated single-force fit. The coverage of the reported 1σ on the 
 import numpy as np
 import pytest
 import scipy.signal
+import scipy.stats
 from _tracking_signals import DT, driven_modes, schedule
 
 import methods
@@ -67,6 +68,8 @@ BAD = [
     ("rpem_ambient", {"frequency_model": "trend", "second_pass": True}, "second_pass = true needs recursions"),
     ("rpem_ambient", {"frequency_model": "trend", "recursions": "two", "second_pass": True, "reset_from": "change"},
      "second_pass = true and reset_from = 'change' do not combine"),
+    ("rpem_ambient", {"restart_scale": "median"}, "restart_scale = 'median'"),
+    ("rpem_ambient", {"restart_sigma": "peak"}, "restart_sigma = 'peak'"),
 ]
 
 
@@ -915,3 +918,62 @@ def test_rate_zero_recursion_is_the_conditional_and_near_the_batch_pem(monkeypat
             assert abs(const[0] - est.frequencies[0]) <= 4 * np.sqrt(v_const[0] + est.std[0] ** 2), (seed, off)
             assert abs(const[0] - cond[0]) <= 0.2 * np.sqrt(v_const[0]), (seed, off, const, cond)
             assert v_const[0] < 0.5 * v_line[0]
+
+
+def _scales_of_a_stream(dev: np.ndarray, trim: bool) -> np.ndarray:
+    """Feed ``modes_to_restart`` one mode's disagreements (scale 1, no floor) and return its running s_i."""
+    opts = _rpem.Options()
+    strikes, hist = np.zeros(1, dtype=int), [[]]
+    out = []
+    for d in dev:
+        _ambient.modes_to_restart([0], np.array([d]), np.ones(1), 0.0, np.array([d]), strikes, hist, opts, trim=trim)
+        out.append(np.median(np.abs(hist[0])) / 0.6745 if len(hist[0]) >= 3 else np.nan)
+    return np.array(out)
+
+
+def test_trimmed_scale_reads_the_truncated_normal_median_on_a_stationary_stream():
+    """On normal disagreements of σ = 1 % the trimmed scale (a look joins only within half the gate, 2 s_i)
+    settles near the median of |d| of a normal law truncated at ±2σ, over 0.6745: the a with
+    P(|x| < a) = ½ P(|x| < 2σ) (scipy.stats.norm, independent of the code), 0.95σ. The untrimmed one near σ."""
+    rng = np.random.default_rng(3)
+    dev = 0.01 * rng.standard_normal(6000)
+    a = scipy.stats.norm.ppf(0.5 + 0.5 * (scipy.stats.norm.cdf(2.0) - 0.5))
+    expect = 0.01 * a / 0.6745
+    trimmed = np.nanmean(_scales_of_a_stream(dev, True)[500:])
+    full = np.nanmean(_scales_of_a_stream(dev, False)[500:])
+    assert trimmed == pytest.approx(expect, rel=0.08)
+    assert full == pytest.approx(0.01, rel=0.08)
+    assert expect < 0.0097
+
+
+def test_trimmed_scale_does_not_learn_a_steps_climb():
+    """A climb of the disagreement over 30 looks (0 → 3.5 %, each look below the gate of 4 s_i as it then is)
+    after 60 stationary looks of σ = 0.5 %: the untrimmed scale learns the climb (its gate outruns it, no
+    restart), the trimmed one stays near 0.5 % and the climb strikes its gate."""
+    rng = np.random.default_rng(5)
+    dev = np.concatenate([0.005 * rng.standard_normal(60), np.linspace(0.0, 0.035, 30)])
+    full = _scales_of_a_stream(dev, False)
+    trimmed = _scales_of_a_stream(dev, True)
+    assert full[-1] > 2.0 * full[59]
+    assert trimmed[-1] < 1.3 * trimmed[59]
+    opts = _rpem.Options()
+    for trim, restarted in ((False, False), (True, True)):
+        strikes, hist, got = np.zeros(1, dtype=int), [[]], []
+        for d in dev:
+            got += _ambient.modes_to_restart([0], np.array([d]), np.ones(1), 0.0, np.array([d]), strikes, hist, opts,
+                                             trim=trim)
+        assert bool(got) is restarted
+
+
+def test_joins_scale_by_hand():
+    assert _ambient.joins_scale(0.019, 0.01, 1.0, 4.0) and not _ambient.joins_scale(0.021, 0.01, 1.0, 4.0)
+    assert _ambient.joins_scale(-0.39, 0.01, 20.0, 4.0) and not _ambient.joins_scale(-0.41, 0.01, 20.0, 4.0)
+    assert _ambient.joins_scale(5.0, np.inf, 1.0, 4.0)
+
+
+def test_restart_variance_by_hand():
+    """``restart_sigma``: (s·peak)², or at least the start's 1σ, max(1 % ω, a quarter of 2π/T)."""
+    assert _rpem._restart_variance(0.001, 20.0, 10.0, "scale") == pytest.approx(0.02 ** 2)
+    assert _rpem._restart_variance(0.001, 10.0, 10.0, "start") == pytest.approx((0.25 * 2 * np.pi / 10.0) ** 2)
+    assert _rpem._restart_variance(0.001, 20.0, 100.0, "start") == pytest.approx(0.2 ** 2)
+    assert _rpem._restart_variance(0.03, 20.0, 10.0, "start") == pytest.approx(0.6 ** 2)

@@ -66,7 +66,11 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            # window, so that it runs at 9 s, before the samples after K change)
            "rpem_ambient+second": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                    "pair_peaks": True, "rate_test": "after_change", "second_pass": True,
-                                   "window_s": 3.0}}
+                                   "window_s": 3.0},
+           # the window recursion's restarts: a scale trimmed at half the gate, a restart's σ at least the start's
+           "rpem_ambient+trimmed": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                    "pair_peaks": True, "rate_test": "after_change", "restart_scale": "trimmed",
+                                    "restart_sigma": "start"}}
 
 
 def _options(name):
