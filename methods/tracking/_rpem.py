@@ -148,9 +148,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+import methods
 from methods.estimate import make_options
 from methods.kalman import modal_transition
-from methods.tracking import _ambient
+from methods.tracking import _ambient, _next_era
 from methods.tracking._track import Track
 
 
@@ -273,6 +274,7 @@ class Options(_ambient.SharedOptions):
     reset_from: str = "look"
     second_pass: bool = False
     rate_zero: str = "conditional"
+    start_look: str = "periodogram"
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
@@ -284,9 +286,12 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
                            ("rate_test", ("off", "mode", "all", "after_change")), ("gate", ("window", "cusum")),
-                           ("reset_from", ("look", "change")), ("rate_zero", ("conditional", "recursion"))):
+                           ("reset_from", ("look", "change")), ("rate_zero", ("conditional", "recursion")),
+                           ("start_look", ("periodogram", "era"))):
         if getattr(opts, field) not in allowed:
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
+    if opts.start_look == "era":
+        methods.require("era")          # python-control, the optional extra .[peers]
     if opts.reset_peak and not opts.score_reset:
         raise ValueError(f"{name}: reset_peak = true needs score_reset = true (got {opts.score_reset!r})")
     if opts.mode_gate and not opts.score_reset:
@@ -766,6 +771,23 @@ def _constant_reset(const_filt: list, long: list, modes, iw) -> None:
         Wc[:, j] = 0.0
 
 
+def _era_start(seg: np.ndarray, dt: float, prior: np.ndarray, band: float, peak: np.ndarray):
+    """``start_look="era"``: the first window's modes by NExT + ERA (:func:`methods.tracking._next_era.era_look`,
+    ``next_era``'s look on the same window) inside the periodogram's main lobe, and the start's 1σ floor.
+
+    Each mode takes ERA's pole where it lies within half the Hann main lobe (2 bins of 2π/T) of the mode's
+    periodogram ``peak``, or where the periodogram has no peak in the band; else the peak. The periodogram locates a
+    mode to its lobe; inside it the parametric look is not limited by the resolution, and a pole further away is
+    a spurious one matched in the mode's place (design seed 7, 1000 µg: ERA's merged pair and a pole at −10 %).
+    The 1σ floor is |ERA − peak| where both looked and ERA was taken: two estimates of the same window that
+    disagree say how far either may be off (each is the worse about half the time on the design seeds)."""
+    era = _next_era.era_look(seg, dt, prior, band)
+    half_lobe = 0.5 * HANN_LOBE_BINS * 2 * math.pi / (seg.size * dt)
+    both = np.isfinite(era) & np.isfinite(peak)
+    take = np.isfinite(era) & ~(both & (np.abs(era - peak) > half_lobe))
+    return np.where(take, era, peak), np.where(take & both, np.abs(era - np.where(both, peak, 0.0)), 0.0)
+
+
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
     """The recursion of the module docstring over the record."""
     m, n = prior.size, y.size
@@ -807,9 +829,12 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     seg = y[:W_len]
     peak, r0, v0, _ = _ambient.periodogram_look(seg, dt, prior, opts.band, opts.damping_ratio)
     seen_now = np.isfinite(peak) & _ambient.visible(v0, r0, prior, opts.band, dt)
+    spread = np.zeros(m)
+    if opts.start_look == "era":
+        peak, spread = _era_start(seg, dt, prior, opts.band, peak)
     w0 = np.where(np.isfinite(peak), peak, prior)
     if np.any(np.diff(w0) <= 0):
-        w0 = prior.copy()
+        w0, spread = prior.copy(), np.zeros(m)
     z0 = np.full(m, opts.damping_ratio)
     q0 = np.maximum(4 * z0 * v0 / (w0 * dt), 1e-12 * max(r0, 1e-30))
     try:
@@ -820,7 +845,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     P = np.zeros((p, p))
     # the first window's peak is as uncertain as akf_ambient's start says: 1σ max(1 % ω, resolution/4), the
     # window's Fourier resolution 2π/T (a fifth of the slowest mode's ω at five of its periods)
-    P[iw, iw] = np.maximum(0.01 * w0, START_RESOLUTION_SHARE * 2 * math.pi / (W_len * dt)) ** 2
+    P[iw, iw] = np.maximum(np.maximum(0.01 * w0, START_RESOLUTION_SHARE * 2 * math.pi / (W_len * dt)), spread) ** 2
     if opts.unresolved_start:   # a close pair the first window cannot separate: located to one bin, not a quarter
         near = unresolved_pairs(prior, W_len * dt)
         P[iw[near], iw[near]] = np.maximum(P[iw[near], iw[near]], (2 * math.pi / (W_len * dt)) ** 2)
