@@ -776,16 +776,17 @@ def _era_start(seg: np.ndarray, dt: float, prior: np.ndarray, band: float, peak:
     ``next_era``'s look on the same window) inside the periodogram's main lobe, and the start's 1σ floor.
 
     Each mode takes ERA's pole where it lies within half the Hann main lobe (2 bins of 2π/T) of the mode's
-    periodogram ``peak``, or where the periodogram has no peak in the band; else the peak. The periodogram locates a
-    mode to its lobe; inside it the parametric look is not limited by the resolution, and a pole further away is
-    a spurious one matched in the mode's place (design seed 7, 1000 µg: ERA's merged pair and a pole at −10 %).
+    periodogram ``peak``; else the peak (NaN where the periodogram has none: the mode starts at its prior, as
+    without this option). The periodogram locates a mode to its lobe; inside it the parametric look is not limited
+    by the resolution, and a pole further away is a spurious one matched in the mode's place (design seed 7,
+    1000 µg: ERA's merged pair and a pole at −10 %; seed 11: a pole at +8.6 % where the periodogram had no peak).
     The 1σ floor is |ERA − peak| where both looked and ERA was taken: two estimates of the same window that
     disagree say how far either may be off (each is the worse about half the time on the design seeds)."""
     era = _next_era.era_look(seg, dt, prior, band)
     half_lobe = 0.5 * HANN_LOBE_BINS * 2 * math.pi / (seg.size * dt)
     both = np.isfinite(era) & np.isfinite(peak)
-    take = np.isfinite(era) & ~(both & (np.abs(era - peak) > half_lobe))
-    return np.where(take, era, peak), np.where(take & both, np.abs(era - np.where(both, peak, 0.0)), 0.0)
+    take = both & (np.abs(era - np.where(both, peak, 0.0)) <= half_lobe)
+    return np.where(take, era, peak), np.where(take, np.abs(era - np.where(both, peak, 0.0)), 0.0)
 
 
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
