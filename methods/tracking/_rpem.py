@@ -265,7 +265,7 @@ class Options(_ambient.SharedOptions):
         periodogram peak, with the distance between the two as a floor of its 1σ (:func:`_era_start`): the
         periodogram cannot separate a pair closer than its lobe, ERA is not limited by the resolution but matches
         spurious poles. Once per record (no cost per sample). Not kept: on the design seeds the two looks are
-        equally far from the truth on the pair (median 1.2 %, the bound's 1σ at 10 s 0.6–1.4 %), the drifts are
+        equally far from the truth on the pair (median 1.2 %, the bound's 1σ at 10 s 0.8 % median), the drifts are
         unchanged and one step never re-converges (docs/measured/tracking.md, "The close pair from a parametric
         look").
     """
