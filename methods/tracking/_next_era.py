@@ -79,16 +79,45 @@ def resolve(opts: Options, name: str, prior, dt: float, n_samples: int | None = 
     return dataclasses.replace(opts, window_samples=W, hop_samples=H, window_s=None, hop_s=None, hop_fraction=None)
 
 
-def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
+def era_poles(seg: np.ndarray, dt: float, lags: int, order: int, max_damping: float) -> np.ndarray:
+    """NExT + ERA on one window: the physical modes' ω (rad/s, ascending) of an order-``order`` realisation of the
+    window's biased autocorrelation R(0 … lags − 1) (steps 1–2 of the module docstring; ω_d > 0, below Nyquist,
+    damping in [0, ``max_damping``])."""
     import control  # optional extra .[peers]
 
+    W = seg.size
+    seg = seg - seg.mean()
+    r = scipy.signal.correlate(seg, seg, mode="full", method="fft")[W - 1: W - 1 + lags] / W
+    usable = lags - 1                        # control.era drops the first Markov parameter (feedthrough)
+    rows = usable // 2
+    sysd, _ = control.era(r, order, m=rows, n=usable - rows, dt=dt)
+    z = np.linalg.eigvals(sysd.A)
+    z = z[np.abs(z) > 0]
+    s = np.log(z) / dt
+    w = np.abs(s)
+    keep = (s.imag > 0) & (w < np.pi / dt) & (-s.real <= max_damping * w) & (s.real <= 0)
+    return np.sort(w[keep])
+
+
+def match(cand: np.ndarray, ref_log: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Candidates ``cand`` (rad/s) matched to the references ``ref_log`` (ln rad/s) by ``linear_sum_assignment`` on
+    |ln ω − ln ω_ref| within ``limit``: (candidate indices, reference indices)."""
+    if cand.size == 0:
+        return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
+    dist = np.abs(np.log(cand)[:, None] - ref_log[None, :])
+    cost = np.where(dist <= limit, dist, 1e6)
+    rr, cc = scipy.optimize.linear_sum_assignment(cost)
+    hit = cost[rr, cc] < 1e6
+    return rr[hit], cc[hit]
+
+
+def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
+    methods.require("era")          # python-control, the optional extra .[peers]
     opts = resolve(make_options(Options, options, name), name, prior, dt)
     W, H = opts.window_samples, opts.hop_samples
     ends = window_ends(y.size, W, H)
     m = prior.size
     lags = int(opts.lags_fraction * W)
-    usable = lags - 1                        # control.era drops the first Markov parameter (feedthrough)
-    rows = usable // 2
     order = 2 * m + 1 + opts.extra_order
     freq = np.full((ends.size, m), np.nan)
     found = np.zeros((ends.size, m), dtype=bool)
@@ -98,26 +127,32 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
         seg = y[e - W + 1: e + 1]
         if flat_record(seg):
             continue
-        seg = seg - seg.mean()
-        r = scipy.signal.correlate(seg, seg, mode="full", method="fft")[W - 1: W - 1 + lags] / W
-        sysd, _ = control.era(r, order, m=rows, n=usable - rows, dt=dt)
-        z = np.linalg.eigvals(sysd.A)
-        z = z[np.abs(z) > 0]
-        s = np.log(z) / dt
-        w = np.abs(s)
-        keep = (s.imag > 0) & (w < np.pi / dt) & (-s.real <= opts.max_damping * w) & (s.real <= 0)
-        cand = np.sort(np.log(w[keep]))
-        if cand.size == 0:
-            continue
-        dist = np.abs(cand[:, None] - ref[None, :])
-        cost = np.where(dist <= limit, dist, 1e6)
-        rr, cc = scipy.optimize.linear_sum_assignment(cost)
-        hit = cost[rr, cc] < 1e6
-        rr, cc = rr[hit], cc[hit]
-        freq[j, cc] = np.exp(cand[rr])
+        cand = era_poles(seg, dt, lags, order, opts.max_damping)
+        rr, cc = match(cand, ref, limit)
+        freq[j, cc] = cand[rr]
         found[j, cc] = True
         ref = ref.copy()
-        ref[cc] = cand[rr]
+        ref[cc] = np.log(cand[rr])
     return Track(ends * dt, freq, np.nan, found,
                  message=f"NExT-ERA (order {order}, {lags} lags) on {ends.size} windows of {W} samples every {H}",
                  extra={"window_end_sample": ends, "order": order})
+
+
+def era_look(seg: np.ndarray, dt: float, ref: np.ndarray, band: float, max_damping: float = 0.2,
+             extra_order: int = 3, lags_fraction: float = 0.5) -> np.ndarray:
+    """One window's modes by NExT + ERA, matched to ``ref`` (rad/s, (m,)) within ±``band`` (relative): ω rad/s (m,),
+    NaN where no pole matched. ``next_era``'s look at one window, with its defaults (order 2m + 1 +
+    ``extra_order``, L = ``lags_fraction``·W lags); ``rpem_ambient``'s ``look="era"`` starts from it.
+
+    A parametric look is not limited by the periodogram's resolution: two modes closer than the Hann main lobe
+    (4 bins of 2π/T) merge into one peak there, while ERA's realisation of the correlation separates them."""
+    m = np.size(ref)
+    lags = int(lags_fraction * seg.size)
+    order = 2 * m + 1 + extra_order
+    out = np.full(m, np.nan)
+    if lags - 1 < 2 * order or flat_record(seg):
+        return out
+    cand = era_poles(seg, dt, lags, order, max_damping)
+    rr, cc = match(cand, np.log(np.asarray(ref, float)), float(np.log1p(band)))
+    out[cc] = cand[rr]
+    return out

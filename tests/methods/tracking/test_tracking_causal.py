@@ -59,6 +59,9 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            # the rate-0 model from a third, constant-frequency recursion reset with the whole-record one
            "rpem_ambient+ratezero": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                      "pair_peaks": True, "rate_test": "after_change", "rate_zero": "recursion"},
+           # the start's close pair from NExT + ERA on the first window, inside the periodogram's lobe
+           "rpem_ambient+eralook": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                    "pair_peaks": True, "rate_test": "after_change", "start_look": "era"},
            # a reset back-dated to the estimated change: a re-run over buffered (past) samples only
            "rpem_ambient+change": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                    "pair_peaks": True, "rate_test": "after_change", "reset_from": "change"},
