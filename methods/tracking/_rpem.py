@@ -269,6 +269,13 @@ class Options(_ambient.SharedOptions):
         ``"start"``, at least the start's, max(1 % ω, a quarter of the window's resolution 2π/T)
         (:func:`_restart_variance`): a restart takes one look's peak, no better located than the first one, and
         after a step its window still holds samples from before it.
+    restart_confirm : bool
+        A confirming restart (:func:`confirms_restart`): for one window after a restart of the window-memory
+        recursion (whose look's window straddled the change), the mode restarts again at the look's peak when its
+        last ``restart_after`` peaks agree with each other within a quarter of a bin of 2π/T and each disagrees
+        with ω̂ by more than the restart's own 1σ (at least a quarter bin) — below the one-bin floor of the gate;
+        once per restart. Not kept: the window recursion re-converges faster on the design steps, the reported
+        one does not, and the restarts on drifts double (docs/measured/tracking.md, "A confirming restart").
     start_look : str
         Where both recursions start. ``"periodogram"`` (default): the first window's Hann periodogram peaks (a mode
         with no interior peak at its prior), 1σ max(1 % ω, a quarter bin of 2π/T). ``"era"``: a parametric look
@@ -299,6 +306,7 @@ class Options(_ambient.SharedOptions):
     rate_zero: str = "conditional"
     restart_scale: str = "all"
     restart_sigma: str = "scale"
+    restart_confirm: bool = False
     start_look: str = "periodogram"
 
 
@@ -306,7 +314,7 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
     opts = make_options(Options, options, name)
     _ambient.check_shared(name, opts, prior, dt, n_samples)
     for field in ("estimate_damping", "score_reset", "pair_peaks", "reset_peak", "mode_gate", "unresolved_start",
-                  "second_pass"):
+                  "second_pass", "restart_confirm"):
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
@@ -370,6 +378,22 @@ def _restart_variance(s_i: float, peak: float, window_s: float, rule: str) -> fl
     if rule == "start":
         sd = max(sd, 0.01 * peak, START_RESOLUTION_SHARE * 2 * math.pi / window_s)
     return sd * sd
+
+
+def confirms_restart(peaks: list[float], at_mid: float, sd: float, window_s: float, n: int) -> bool:
+    """``restart_confirm``: whether a mode restarted within the last window restarts again at its look's peak.
+
+    A restart after a step takes the peak of a window that still holds samples from before it; the later
+    windows' peaks sit on the new frequency, but their disagreement with the restarted ω̂ (1–2 % of ω) lies
+    under the gate's floor, one bin 2π/T. Here the last ``n`` ``peaks`` (rad/s) must agree with each other,
+    max − min ≤ ``START_RESOLUTION_SHARE`` · 2π/T (T = ``window_s``), and each lie farther from ω̂ carried to
+    the window's middle (``at_mid``) than the restart's own 1σ ``sd`` and a quarter bin. Written by hand: a
+    comparison of a few numbers."""
+    if len(peaks) < n:
+        return False
+    p = np.asarray(peaks[-n:], dtype=float)
+    quarter = START_RESOLUTION_SHARE * 2 * math.pi / window_s
+    return bool(p.max() - p.min() <= quarter and np.all(np.abs(p - at_mid) > max(sd, quarter)))
 
 
 def unresolved_pairs(prior: np.ndarray, window_s: float) -> np.ndarray:
@@ -853,6 +877,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     nyq = math.pi / dt
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
+    # restart_confirm: looks left in the window after a restart, its peaks since, its 1σ (rad/s) and sᵢ
+    conf_left, conf_peaks = np.zeros(m, dtype=int), [[] for _ in range(m)]
+    conf_sd, conf_s = np.zeros(m), np.zeros(m)
     n_restarts = n_pulses = n_resets = 0
     second_pass_s = None
     reset_times: list[tuple[float, int]] = []      # (s, mode) of each reset of the whole-record recursion
@@ -991,9 +1018,23 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             # (ω̂ − ω̇ (W − 1)Δt/2), so that a drift it follows is no disagreement
             at_mid = theta[iw] - theta[ia] * (W_len - 1) * dt / 2 if trend else theta[iw]
             d = np.log(peak / at_mid)
-            for i, s_i in _ambient.modes_to_restart(np.flatnonzero(np.isfinite(d)), peak - at_mid, at_mid,
-                                                    resolution, d, strikes, hist_d, opts,
-                                                    trim=opts.restart_scale == "trimmed"):
+            todo = _ambient.modes_to_restart(np.flatnonzero(np.isfinite(d)), peak - at_mid, at_mid,
+                                             resolution, d, strikes, hist_d, opts,
+                                             trim=opts.restart_scale == "trimmed")
+            confirmed = set()
+            if opts.restart_confirm:       # a second restart, for one window after a restart (once)
+                done = {i for i, _ in todo}
+                for i in range(m):
+                    conf_left[i] -= 1
+                    if conf_left[i] < 0 or i in done or not np.isfinite(peak[i]):
+                        conf_peaks[i] = []
+                        continue
+                    conf_peaks[i] = (conf_peaks[i] + [float(peak[i])])[-opts.restart_after:]
+                    if confirms_restart(conf_peaks[i], float(at_mid[i]), conf_sd[i], W_len * dt,
+                                        opts.restart_after):
+                        todo.append((i, conf_s[i]))
+                        confirmed.add(i)
+            for i, s_i in todo:
                 theta[iw[i]] = peak[i]
                 P[iw[i], :] = 0.0
                 P[:, iw[i]] = 0.0
@@ -1005,6 +1046,9 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     P[:, ia[i]] = 0.0
                     P[ia[i], ia[i]] = rate_var[i]
                 n_restarts += 1
+                # a gate's restart opens one window for a confirming one; a confirming one closes it
+                conf_left[i], conf_peaks[i] = (-1 if i in confirmed else -(-W_len // hop)), []
+                conf_sd[i], conf_s[i] = math.sqrt(P[iw[i], iw[i]]), s_i
             if unstable:
                 theta[ik] = K0 / kscale
                 Wm[:] = 0.0

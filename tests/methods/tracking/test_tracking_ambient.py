@@ -71,6 +71,7 @@ BAD = [
      "second_pass = true and reset_from = 'change' do not combine"),
     ("rpem_ambient", {"restart_scale": "median"}, "restart_scale = 'median'"),
     ("rpem_ambient", {"restart_sigma": "peak"}, "restart_sigma = 'peak'"),
+    ("rpem_ambient", {"restart_confirm": "yes"}, "restart_confirm = 'yes'"),
 ]
 
 
@@ -1014,3 +1015,14 @@ def test_restart_variance_by_hand():
     assert _rpem._restart_variance(0.001, 10.0, 10.0, "start") == pytest.approx((0.25 * 2 * np.pi / 10.0) ** 2)
     assert _rpem._restart_variance(0.001, 20.0, 100.0, "start") == pytest.approx(0.2 ** 2)
     assert _rpem._restart_variance(0.03, 20.0, 10.0, "start") == pytest.approx(0.6 ** 2)
+
+
+def test_confirms_restart_by_hand():
+    """``restart_confirm``: a 10 s window, a bin 2π/10 = 0.628 rad/s, a quarter bin 0.157. Two peaks 0.1 apart,
+    0.3 and 0.4 rad/s off ω̂ with a restart's 1σ of 0.1: confirmed; each condition broken in turn: not."""
+    assert _rpem.confirms_restart([20.5, 20.6], 20.2, 0.1, 10.0, 2)
+    assert not _rpem.confirms_restart([20.6], 20.2, 0.1, 10.0, 2)               # one look only
+    assert not _rpem.confirms_restart([20.4, 20.6], 20.2, 0.1, 10.0, 2)         # the peaks 0.2 apart
+    assert not _rpem.confirms_restart([20.5, 20.6], 20.2, 0.35, 10.0, 2)        # 0.3 off, within its 1σ
+    assert not _rpem.confirms_restart([20.3, 20.4], 20.2, 0.05, 10.0, 2)        # 0.1 off, within a quarter bin
+    assert _rpem.confirms_restart([19.8, 19.9, 19.85], 20.2, 0.1, 10.0, 3)      # below ω̂ as well

@@ -73,7 +73,10 @@ AMBIENT = {"akf_ambient+rate": {"frequency_model": "trend"},
            # the window recursion's restarts: a scale trimmed at half the gate, a restart's σ at least the start's
            "rpem_ambient+trimmed": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
                                     "pair_peaks": True, "rate_test": "after_change", "restart_scale": "trimmed",
-                                    "restart_sigma": "start"}}
+                                    "restart_sigma": "start"},
+           # a confirming restart for one window after a restart of the window recursion
+           "rpem_ambient+confirm": {"frequency_model": "trend", "recursions": "two", "score_reset": True,
+                                    "pair_peaks": True, "rate_test": "after_change", "restart_confirm": True}}
 
 
 def _options(name):
