@@ -23,3 +23,40 @@ def white_force_drift(cfg) -> bool:
     """A drift under a white force alone: no slosh, no thruster pulses."""
     return (cfg.schedule.drift is not None and not cfg.schedule.slosh and cfg.excitation.disturbance_force_n > 0
             and cfg.excitation.thruster_torque_n_m == 0)
+
+
+def ambient_configs(which: str, seed: int, replicates: int) -> dict:
+    """The white-force and slosh cells of ``tracking_ambient`` (``which="ambient"``) or ``tracking_unseen``'s
+    ambient records (``"unseen"``), label → config."""
+    if which == "ambient":
+        from experiments.benchmarks.tracking_ambient import configs
+        return configs(seed, replicates)
+    from experiments.benchmarks.tracking_unseen import configs
+    return configs(seed, replicates, records="ambient")
+
+
+def reconvergence_s(t, f, truth, dt: float, step_s: float) -> float:
+    """s after the step until every column of ``f`` holds 1 % for 2 s (``score_track``'s rule; NaN: never)."""
+    import numpy as np
+
+    from experiments.report.tracking_metrics import score_track
+    return score_track(t, f, np.ones(f.shape, bool), 1.0, truth, dt, step_time_s=step_s)["t_reconverge_s"]
+
+
+def fmt_times(xs) -> str:
+    """Times in s joined by "/", "—" for never."""
+    import math
+    return "/".join("—" if not math.isfinite(x) else f"{x:.1f}" for x in xs)
+
+
+def step_cells(cfgs: dict, cells: str):
+    """(label, cell, Δt, step time, truth) of each config whose label holds one of the comma-separated ``cells``
+    and whose record has a step."""
+    import math
+    for label, cfg in cfgs.items():
+        if not any(c in label for c in cells.split(",")):
+            continue
+        cell = make_cell(cfg)
+        st = float(cell["step_time_s"])
+        if math.isfinite(st):
+            yield label, cell, float(cell["dt_s"]), st, cell["truth_freq_rad_s"]

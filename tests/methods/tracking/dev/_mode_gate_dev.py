@@ -32,27 +32,18 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
+from _cells import ambient_configs, fmt_times, reconvergence_s, step_cells  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
-from experiments.report.tracking_metrics import score_track  # noqa: E402
-from experiments.simulate.tracking_data import make_cell  # noqa: E402
 from methods.tracking import _ambient, _rpem  # noqa: E402
 
 TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
 WINDOW = "rpem_ambient:frequency_model=trend+pair_peaks=true"
 
 
-def _reconv(t, f, truth, dt, st) -> float:
-    return score_track(t, f, np.ones(f.shape, bool), 1.0, truth, dt, step_time_s=st)["t_reconverge_s"]
-
-
 def _per_mode(t, f, truth, dt, st) -> list[float]:
-    return [_reconv(t, f[:, [i]], truth[:, [i]], dt, st) for i in range(f.shape[1])]
-
-
-def _fmt(xs) -> str:
-    return "/".join("—" if not np.isfinite(x) else f"{x:.1f}" for x in xs)
+    return [reconvergence_s(t, f[:, [i]], truth[:, [i]], dt, st) for i in range(f.shape[1])]
 
 
 def main() -> None:
@@ -64,12 +55,7 @@ def main() -> None:
     ap.add_argument("--extra", default="")
     ap.add_argument("--trace", type=int, default=0, help="a mode (1…m): its numbers at each look 0–30 s after the step")
     args = ap.parse_args()
-    if args.set == "ambient":
-        from experiments.benchmarks.tracking_ambient import configs
-        cfgs = configs(args.seed, args.replicates)
-    else:
-        from experiments.benchmarks.tracking_unseen import configs
-        cfgs = configs(args.seed, args.replicates, records="ambient")
+    cfgs = ambient_configs(args.set, args.seed, args.replicates)
     name, opts = parse_row(TWO + args.extra)
     wname, wopts = parse_row(WINDOW)
     looks: list = []
@@ -97,13 +83,7 @@ def main() -> None:
 
     _ambient.periodogram_look, _rpem._reset_from_window, _rpem._mode_gains = look, reset, gains
     thr = 0.5 * 4.0 ** 2
-    for label, cfg in cfgs.items():
-        if not any(c in label for c in args.cells.split(",")):
-            continue
-        cell = make_cell(cfg)
-        dt, st, truth = float(cell["dt_s"]), float(cell["step_time_s"]), cell["truth_freq_rad_s"]
-        if not np.isfinite(st):
-            continue
+    for label, cell, dt, st, truth in step_cells(cfgs, args.cells):
         for r in range(args.replicates):
             prior = cell["prior_rad_s"][r]
             W_len, hop = _ambient._window_samples(_rpem.Options(), dt, prior)
@@ -112,7 +92,7 @@ def main() -> None:
             trace = list(looks)
             looks.clear()
             tw = methods.track(wname, cell["accel_m_s2"][r], dt, prior, **wopts)
-            rc = _reconv(tr.t_s, tr.frequencies, truth, dt, st)
+            rc = reconvergence_s(tr.t_s, tr.frequencies, truth, dt, st)
             own = _per_mode(tr.t_s, tr.frequencies, truth, dt, st)
             win = _per_mode(tw.t_s, tw.frequencies, truth, dt, st)
             # the looks after the start's: the j-th (from 0) ends at sample W − 1 + (j + 1)·hop
@@ -130,10 +110,11 @@ def main() -> None:
             G = np.array([trace[j].get("G", np.full(m, np.nan)) for j in range(kl.size)])
             gate = np.flatnonzero(after & (L > thr))
             g_first = [np.flatnonzero(after & (G[:, i] > thr)) for i in range(m)]
-            print(f"{args.seed} | {label} | r{r} | re-conv. {_fmt([rc])} s, per mode {_fmt(own)} | window "
-                  f"{W_len * dt:.1f} s, peaks within 1 % from {_fmt(peak_ok)} | window recursion {_fmt(win)} | "
-                  f"Λ_W open {_fmt([tl[gate[0]] - st] if gate.size else [np.nan])} | Gᵢ open "
-                  + _fmt([tl[g[0]] - st if g.size else np.nan for g in g_first]), flush=True)
+            print(f"{args.seed} | {label} | r{r} | re-conv. {fmt_times([rc])} s, per mode {fmt_times(own)} | window "
+                  f"{W_len * dt:.1f} s, peaks within 1 % from {fmt_times(peak_ok)} | window recursion "
+                  f"{fmt_times(win)} | "
+                  f"Λ_W open {fmt_times([tl[gate[0]] - st] if gate.size else [np.nan])} | Gᵢ open "
+                  + fmt_times([tl[g[0]] - st if g.size else np.nan for g in g_first]), flush=True)
             rs = []
             for j in np.flatnonzero(after):
                 for i, w in trace[j].get("reset", []):

@@ -20,11 +20,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
-from _cells import cached_cell  # noqa: E402
+from _cells import ambient_configs, cached_cell, reconvergence_s  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
-from experiments.report.tracking_metrics import score_track  # noqa: E402
 
 TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
 SETTLE_S = 30.0
@@ -43,12 +42,7 @@ def main() -> None:
     ap.add_argument("--cells", default="step")
     ap.add_argument("--cache", default=None)
     args = ap.parse_args()
-    if args.set == "ambient":
-        from experiments.benchmarks.tracking_ambient import configs
-        cfgs = configs(args.seed, args.replicates)
-    else:
-        from experiments.benchmarks.tracking_unseen import configs
-        cfgs = configs(args.seed, args.replicates, records="ambient")
+    cfgs = ambient_configs(args.set, args.seed, args.replicates)
     rows = args.rows.split(",")
     for i, (label, cfg) in enumerate(cfgs.items()):
         if "white force" not in label or "slosh" in label or not any(c in label for c in args.cells.split(",")):
@@ -70,8 +64,7 @@ def main() -> None:
                 segs = {"before": (tr.t_s >= SETTLE_S) & (tr.t_s < st), "0-20 s": (tr.t_s >= st) & (tr.t_s < st + 20),
                         "later": tr.t_s >= st + 20}
                 late = tr.t_s >= SETTLE_S
-                rc = score_track(tr.t_s, tr.frequencies, np.ones(tr.frequencies.shape, bool), 1.0, truth, dt,
-                                 step_time_s=st)["t_reconverge_s"]
+                rc = reconvergence_s(tr.t_s, tr.frequencies, truth, dt, st)
                 res[row] = (segs, e, b, float(np.nanmedian(e[late])), float(np.median(b[late])), rc)
             ne = res.get("next_era")
             for row, (segs, e, b, med, bmed, rc) in res.items():

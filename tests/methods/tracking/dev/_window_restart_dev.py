@@ -21,22 +21,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
+from _cells import ambient_configs, fmt_times, reconvergence_s, step_cells  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
-from experiments.report.tracking_metrics import score_track  # noqa: E402
-from experiments.simulate.tracking_data import make_cell  # noqa: E402
 from methods.tracking import _ambient, _rpem  # noqa: E402
 
 WINDOW = "rpem_ambient:frequency_model=trend+pair_peaks=true"
-
-
-def _reconv(t, f, truth, dt, st) -> float:
-    return score_track(t, f, np.ones(f.shape, bool), 1.0, truth, dt, step_time_s=st)["t_reconverge_s"]
-
-
-def _fmt(xs) -> str:
-    return "/".join("—" if not np.isfinite(x) else f"{x:.1f}" for x in xs)
 
 
 def main() -> None:
@@ -49,12 +40,7 @@ def main() -> None:
     ap.add_argument("--extra", default="")
     ap.add_argument("--trace", default="", help="modes (1…m, comma-separated) to trace look by look")
     args = ap.parse_args()
-    if args.set == "ambient":
-        from experiments.benchmarks.tracking_ambient import configs
-        cfgs = configs(args.seed, args.replicates)
-    else:
-        from experiments.benchmarks.tracking_unseen import configs
-        cfgs = configs(args.seed, args.replicates, records="ambient")
+    cfgs = ambient_configs(args.set, args.seed, args.replicates)
     name, opts = parse_row(WINDOW + args.extra)
     looks: list = []
     orig = _ambient.modes_to_restart
@@ -73,13 +59,7 @@ def main() -> None:
     _rpem._ambient.modes_to_restart = spy
     trace = [int(v) - 1 for v in args.trace.split(",") if v]
     try:
-        for label, cfg in cfgs.items():
-            if not any(c in label for c in args.cells.split(",")):
-                continue
-            cell = make_cell(cfg)
-            dt, st, truth = float(cell["dt_s"]), float(cell["step_time_s"]), cell["truth_freq_rad_s"]
-            if not np.isfinite(st):
-                continue
+        for label, cell, dt, st, truth in step_cells(cfgs, args.cells):
             for r in range(args.replicates):
                 if args.only >= 0 and r != args.only:
                     continue
@@ -88,8 +68,8 @@ def main() -> None:
                 looks.clear()
                 tw = methods.track(name, cell["accel_m_s2"][r], dt, prior, **opts)
                 m = truth.shape[1]
-                win = [_reconv(tw.t_s, tw.frequencies[:, [i]], truth[:, [i]], dt, st) for i in range(m)]
-                print(f"{args.seed} | {label} | r{r} | window recursion per mode {_fmt(win)} s | {tw.message}",
+                win = [reconvergence_s(tw.t_s, tw.frequencies[:, [i]], truth[:, [i]], dt, st) for i in range(m)]
+                print(f"{args.seed} | {label} | r{r} | window recursion per mode {fmt_times(win)} s | {tw.message}",
                       flush=True)
                 kl = np.array([W_len - 1 + (j + 1) * hop for j in range(len(looks))])
                 kmid = kl - (W_len - 1) // 2
