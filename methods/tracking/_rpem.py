@@ -556,6 +556,24 @@ class _Run(_ambient._Run):
     second_pass_s: float | None = None
 
 
+def _copy_state(filt: list) -> list:
+    """A recursion's state (θ, P, x̂, W, Λ) copied: its arrays copied, Λ as it is."""
+    return [a.copy() if isinstance(a, np.ndarray) else a for a in filt]
+
+
+def _start_again(theta: np.ndarray, P: np.ndarray, W: np.ndarray, idx, value, cov) -> None:
+    """The parameters ``idx`` of one recursion start again, in place: θ[idx] = ``value``, their covariance with
+    every other parameter and their sensitivities W 0, their own block of P ``cov`` (a block, or the variances of a
+    diagonal one) — a restart, a reset or its back-dated run."""
+    idx = np.atleast_1d(np.asarray(idx, dtype=int))
+    cov = np.asarray(cov, dtype=float)
+    theta[idx] = value
+    P[idx, :] = 0.0
+    P[:, idx] = 0.0
+    P[np.ix_(idx, idx)] = cov if cov.ndim == 2 else np.diag(np.broadcast_to(cov, idx.shape))
+    W[:, idx] = 0.0
+
+
 def _advance(m: int, est_z: bool, trend: bool, filt, y_seg: np.ndarray, const: np.ndarray):
     """One mapaccum call of the recursion over ``y_seg``: (θ, P, x̂, W, Λ) of ``filt`` after it, and the
     per-sample outputs (ω̂; P_ωω; ζ̂; pulse) as rows."""
@@ -697,21 +715,11 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
         j = np.array([iw[i], ia[i]])
         if peak is not None and np.isfinite(peak[i]) and (peak[i] - theta[iw[i]]) * gap[i] < 0:
             v = P[iw[i], iw[i]] + (peak[i] - theta[iw[i]]) ** 2
-            theta[iw[i]], theta[ia[i]] = peak[i], 0.0
-            P[j, :] = 0.0
-            P[:, j] = 0.0
-            P[iw[i], iw[i]], P[ia[i], ia[i]] = v, rate_var[i]
-            W_win[:, j] = 0.0
-        th_l[j] = theta[j]
-        P_l[j, :] = 0.0
-        P_l[:, j] = 0.0
-        W_l[:, j] = 0.0
+            _start_again(theta, P, W_win, j, (peak[i], 0.0), (v, rate_var[i]))
         if z_score is None:
-            P_l[np.ix_(j, j)] = P[np.ix_(j, j)]
+            _start_again(th_l, P_l, W_l, j, theta[j], P[np.ix_(j, j)])
         else:
-            th_l[ia[i]] = 0.0
-            P_l[iw[i], iw[i]] = P[iw[i], iw[i]]
-            P_l[ia[i], ia[i]] = rate_var[i]
+            _start_again(th_l, P_l, W_l, j, (theta[iw[i]], 0.0), (P[iw[i], iw[i]], rate_var[i]))
     return modes
 
 
@@ -743,27 +751,21 @@ def _restart_from_change(hist: list, modes, since: np.ndarray, theta: np.ndarray
     [h, k1) (columns) and the history with the re-run's looks in place of the old ones."""
     j = max([i for i, (s, _) in enumerate(hist) if s <= tau] or [0])
     h, start = hist[j]
-    filt = [a.copy() if isinstance(a, np.ndarray) else a for a in start]
-    th, Pl, Wl = filt[0], filt[1], filt[3]
+    filt = _copy_state(start)
     restart = np.union1d(np.asarray(modes, dtype=int), np.flatnonzero(since > h)).astype(int)
     for i in restart:
-        jj = np.array([iw[i], ia[i]])
         w_i = theta[iw[i]]
         far = abs(peak[i] - w_i) if np.isfinite(peak[i]) else math.sqrt(max(P[iw[i], iw[i]], 0.0))
-        th[jj] = w_i, 0.0
-        Pl[jj, :] = 0.0
-        Pl[:, jj] = 0.0
-        Pl[iw[i], iw[i]] = (far + START_RESOLUTION_SHARE * resolution) ** 2
-        Pl[ia[i], ia[i]] = rate_var[i]
-        Wl[:, jj] = 0.0
+        _start_again(filt[0], filt[1], filt[3], (iw[i], ia[i]), (w_i, 0.0),
+                     ((far + START_RESOLUTION_SHARE * resolution) ** 2, rate_var[i]))
     bounds = [s for s, _ in hist[j + 1:] if s < k1] + [k1]
-    kept, outs, s0 = hist[:j] + [(h, [a.copy() if isinstance(a, np.ndarray) else a for a in filt])], [], h
+    kept, outs, s0 = hist[:j] + [(h, _copy_state(filt))], [], h
     for s in bounds:
         if s > s0:
             *filt, out = run(filt, y[s0:s])
             outs.append(out)
         if s < k1:
-            kept.append((s, [a.copy() if isinstance(a, np.ndarray) else a for a in filt]))
+            kept.append((s, _copy_state(filt)))
         s0 = s
     return filt, h, restart, (np.concatenate(outs, axis=1) if outs else None), kept
 
@@ -825,14 +827,8 @@ def _constant_reset(const_filt: list, long: list, modes, iw) -> None:
     """``rate_zero="recursion"``: the modes ``modes`` just reset in the whole-record line recursion ``long`` start
     again in the constant-frequency one (``const_filt``, changed in place) at the same ω̂ᵢ and variance, their
     cross-covariances and sensitivities 0 (a reset is a change: both memories start again there)."""
-    th, Pc, Wc = const_filt[0], const_filt[1], const_filt[3]
     for i in modes:
-        j = iw[i]
-        th[j] = long[0][j]
-        Pc[j, :] = 0.0
-        Pc[:, j] = 0.0
-        Pc[j, j] = long[1][j, j]
-        Wc[:, j] = 0.0
+        _start_again(const_filt[0], const_filt[1], const_filt[3], iw[i], long[0][iw[i]], long[1][iw[i], iw[i]])
 
 
 def _era_start(seg: np.ndarray, dt: float, prior: np.ndarray, band: float, peak: np.ndarray):
@@ -958,17 +954,19 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         const_long[1] = opts.rate_rel_per_s ** 2 * dt
         const_long[5 + 2 * m:5 + 2 * m + p] = q_long
         long = [theta.copy(), P.copy(), x.copy(), Wm.copy(), lam]
-        start = [theta.copy(), P.copy(), x.copy(), Wm.copy(), lam]
-        ell_win_all = np.zeros(n)                  # the window recursion's ℓ per sample (``second_pass``)
-        second_done = not opts.second_pass
+    second_done = not (two and opts.second_pass)
+    if not second_done:     # ``second_pass``: the start it replays from, the window recursion's ℓ per sample
+        start = _copy_state(long)
+        ell_win_all = np.zeros(n)
     cst = None          # ``rate_zero="recursion"``: the whole-record recursion with a constant frequency
     if two and opts.rate_zero == "recursion":
         cst, const_c = _constant_start(theta, P, x, Wm, lam, const_long, ia.size)
     back = two and opts.reset_from == "change"
     if back:    # the whole-record recursion's states at the looks of the last window
-        hist = [(W_len, [a.copy() if isinstance(a, np.ndarray) else a for a in long])]
+        hist = [(W_len, _copy_state(long))]
         rerun_at = np.full(m, -n)      # each mode's last back-dated restart (the look's sample)
         change_times: list[tuple[float, float]] = []     # (s, s) the look and the change time it estimated
+    j0 = 2 * m + iz.size        # the step's output rows of the ω scores Σ ψᵢe/S, then of their information
     k0 = W_len
     while k0 < n:
         # the samples up to the next look (k + 1 − W a multiple of the hop), one mapaccum call
@@ -977,7 +975,8 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         freq[k0:k1], var[k0:k1] = out[iw].T, out[m + iw].T
         if two:     # the whole-record recursion over the same samples; it is the one reported
             ell_win = out[-2]
-            ell_win_all[k0:k1] = ell_win
+            if not second_done:
+                ell_win_all[k0:k1] = ell_win
             *long, out = _advance(m, est_z, trend, long, y[k0:k1], const_long)
             zero = None
             if cst is not None:
@@ -987,7 +986,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             if opts.gate == "cusum":
                 g_seq, last0 = _page_cusum(out[-2] - ell_win, cusum)
                 cusum, tau = float(g_seq[-1]), (k0 + last0 + 1 if last0 >= 0 else tau)
-            j0 = 2 * m + iz.size
             cum_s[k0 + 1:k1 + 1] = cum_s[k0] + np.cumsum(out[j0:j0 + m].T, axis=0)
             cum_i[k0 + 1:k1 + 1] = cum_i[k0] + np.cumsum(out[j0 + m:j0 + 2 * m].T, axis=0)
             ks = np.arange(k0 + 1, k1 + 1)
@@ -1035,16 +1033,11 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                         todo.append((i, conf_s[i]))
                         confirmed.add(i)
             for i, s_i in todo:
-                theta[iw[i]] = peak[i]
-                P[iw[i], :] = 0.0
-                P[:, iw[i]] = 0.0
-                P[iw[i], iw[i]] = _restart_variance(s_i, peak[i], W_len * dt, opts.restart_sigma)
-                Wm[:, iw[i]] = 0.0
+                v = _restart_variance(s_i, peak[i], W_len * dt, opts.restart_sigma)
                 if trend:                  # its rate starts again at 0 ± the stated rate
-                    theta[ia[i]] = 0.0
-                    P[ia[i], :] = 0.0
-                    P[:, ia[i]] = 0.0
-                    P[ia[i], ia[i]] = rate_var[i]
+                    _start_again(theta, P, Wm, (iw[i], ia[i]), (peak[i], 0.0), (v, rate_var[i]))
+                else:
+                    _start_again(theta, P, Wm, iw[i], peak[i], v)
                 n_restarts += 1
                 # a gate's restart opens one window for a confirming one; a confirming one closes it
                 conf_left[i], conf_peaks[i] = (-1 if i in confirmed else -(-W_len // hop)), []
@@ -1085,7 +1078,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                         hist, nr, since, theta, P, peak, rate_var, iw, ia, 2 * math.pi / (W_len * dt), tau_c, y, k + 1,
                         lambda f, seg: _advance(m, est_z, trend, f, seg, const_long))
                     if out_r is not None:   # the scores' sums with the re-run's (Λ_W keeps its own: docstring)
-                        j0 = 2 * m + iz.size
                         cum_s[h + 1:k + 2] = cum_s[h] + np.cumsum(out_r[j0:j0 + m].T, axis=0)
                         cum_i[h + 1:k + 2] = cum_i[h] + np.cumsum(out_r[j0 + m:j0 + 2 * m].T, axis=0)
                     since[again] = h
@@ -1094,7 +1086,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     second_done = True      # once: the whole-record recursion again from its start (causal)
                     *long, out2 = _second_pass(m, est_z, start, long, y[W_len:k + 1], const_long, iw, ia, lo_w,
                                                np.minimum(hi_w, nyq), dt)
-                    j0 = 2 * m + iz.size
                     cum[W_len + 1:k + 2] = cum[W_len] + np.cumsum(out2[-2] - ell_win_all[W_len:k + 1])
                     cum_s[W_len + 1:k + 2] = cum_s[W_len] + np.cumsum(out2[j0:j0 + m].T, axis=0)
                     cum_i[W_len + 1:k + 2] = cum_i[W_len] + np.cumsum(out2[j0 + m:j0 + 2 * m].T, axis=0)
@@ -1121,7 +1112,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             th_out = long[0] if two else theta
             damp[k] = th_out[iz] if est_z else opts.damping_ratio
             if back:
-                hist.append((k + 1, [a.copy() if isinstance(a, np.ndarray) else a for a in long]))
+                hist.append((k + 1, _copy_state(long)))
                 hist = [hs for hs in hist if hs[0] >= k + 1 - W_len - hop]
     return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets,
                 reset_times_s=tuple(reset_times), cusum_alarms_s=tuple(alarms),

@@ -60,3 +60,37 @@ def step_cells(cfgs: dict, cells: str):
         st = float(cell["step_time_s"])
         if math.isfinite(st):
             yield label, cell, float(cell["dt_s"]), st, cell["truth_freq_rad_s"]
+
+
+# the times (s) at which the development scripts print a track's errors
+MARKS = (20, 30, 45, 60, 75, 90, 105, 120)
+
+
+def step_parser(doc: str, cells: str = "issue: −7"):
+    """The arguments every step script takes: a seed, the set of records, the cells by label, the replicates."""
+    import argparse
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("seed", type=int)
+    ap.add_argument("--set", default="ambient", choices=("ambient", "unseen"))
+    ap.add_argument("--cells", default=cells)
+    ap.add_argument("--replicates", type=int, default=2)
+    return ap
+
+
+def print_marks(tr, e, b, bound_name: str, clamp: bool) -> None:
+    """A track's signed error ``e`` (relative, samples × modes at the track's times), the bound's 1σ ``b`` and its
+    own σ at each of :data:`MARKS` (``clamp``: a mark after the record's end prints its last time; else none),
+    then its resets and message."""
+    import numpy as np
+    for t in MARKS:
+        j = np.searchsorted(tr.t_s, t)
+        if j >= tr.t_s.size:
+            if not clamp:
+                continue
+            j = tr.t_s.size - 1
+        print(f"     {t:4d} s: e % " + " ".join(f"{100 * x:+6.2f}" for x in e[j])
+              + f" | {bound_name} % " + " ".join(f"{100 * x:5.2f}" for x in b[j])
+              + " | σ % " + " ".join(f"{100 * x:5.2f}" for x in tr.std[j] / tr.frequencies[j]))
+    if tr.extra.get("reset_times_s"):
+        print("     resets " + " ".join(f"{a:.1f}/m{i + 1}" for a, i in tr.extra["reset_times_s"]))
+    print(f"     {tr.message}")

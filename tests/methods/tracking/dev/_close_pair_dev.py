@@ -26,7 +26,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
-from _cells import cached_cell, white_force_drift  # noqa: E402
+from _cells import cached_cell, print_marks, white_force_drift  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks import tracking_ambient, tracking_unseen  # noqa: E402
@@ -35,7 +35,6 @@ from methods.tracking import _ambient, _rpem  # noqa: E402
 
 BASE = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
 WINDOW = "rpem_ambient:frequency_model=trend+pair_peaks=true"
-MARKS = (20, 30, 45, 60, 75, 90, 105, 120)
 LOOK = _ambient.periodogram_look
 
 
@@ -103,14 +102,7 @@ def main() -> None:
                 per.append(np.nanmedian(np.abs(e[on]), axis=0) / np.median(b[on], axis=0))
                 if args.marks:
                     print(f"   r{r} {row}: × line {xs[-1]:.2f} | per mode " + "/".join(f"{x:.1f}" for x in per[-1]))
-                    for t in MARKS:
-                        j = min(np.searchsorted(tr.t_s, t), tr.t_s.size - 1)
-                        print(f"     {t:4d} s: e % " + " ".join(f"{100 * x:+6.2f}" for x in e[j])
-                              + " | σ_line % " + " ".join(f"{100 * x:5.2f}" for x in b[j])
-                              + " | σ % " + " ".join(f"{100 * x:5.2f}" for x in tr.std[j] / tr.frequencies[j]))
-                    if tr.extra.get("reset_times_s"):
-                        print("     resets " + " ".join(f"{a:.1f}/m{i + 1}" for a, i in tr.extra["reset_times_s"]))
-                    print(f"     {tr.message}")
+                    print_marks(tr, e, b, "σ_line", clamp=True)
             print(f"   {row:40s} × line {np.median(xs):.2f} (" + "/".join(f"{x:.2f}" for x in xs) + ") | per mode "
                   + "/".join(f"{x:.1f}" for x in np.median(per, axis=0)) + " | r: "
                   + " ; ".join("/".join(f"{x:.1f}" for x in p) for p in per), flush=True)

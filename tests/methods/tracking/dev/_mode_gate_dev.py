@@ -23,7 +23,6 @@ out) plus ``--extra``:
   and the whole-record recursion's error (%, before this look's reset), the whole-record score zᵢ (σ) and Gᵢ.
 """
 
-import argparse
 import os
 import sys
 from pathlib import Path
@@ -32,7 +31,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
-from _cells import ambient_configs, fmt_times, reconvergence_s, step_cells  # noqa: E402
+from _cells import ambient_configs, fmt_times, reconvergence_s, step_cells, step_parser  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -47,11 +46,7 @@ def _per_mode(t, f, truth, dt, st) -> list[float]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("seed", type=int)
-    ap.add_argument("--set", default="ambient", choices=("ambient", "unseen"))
-    ap.add_argument("--cells", default="issue: −7")
-    ap.add_argument("--replicates", type=int, default=2)
+    ap = step_parser(__doc__)
     ap.add_argument("--extra", default="")
     ap.add_argument("--trace", type=int, default=0, help="a mode (1…m): its numbers at each look 0–30 s after the step")
     args = ap.parse_args()

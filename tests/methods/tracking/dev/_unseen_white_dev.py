@@ -24,7 +24,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
-from _cells import cached_cell  # noqa: E402
+from _cells import cached_cell, print_marks  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -33,7 +33,6 @@ from experiments.report.tracking_metrics import score_track  # noqa: E402
 
 TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true"
 ROWS = {"window": "rpem_ambient:frequency_model=trend+pair_peaks=true", "reported": TWO}
-MARKS = (20, 30, 45, 60, 75, 90, 105, 120)
 
 
 def cells(seed: int, replicates: int, cache: str | None):
@@ -78,15 +77,7 @@ def main() -> None:
                 print(f"r{r} {row:8s} × bound {xb:.2f} | per mode " + "/".join(f"{x:.1f}" for x in per)
                       + " | signed % " + "/".join(f"{x:+.2f}" for x in sgn) + rc, flush=True)
                 if args.per_record:
-                    for t in MARKS:
-                        j = np.searchsorted(tr.t_s, t)
-                        if j < tr.t_s.size:
-                            print(f"     {t:4d} s: e % " + " ".join(f"{100 * x:+6.2f}" for x in e[j])
-                                  + " | σ_B % " + " ".join(f"{100 * x:5.2f}" for x in b[j])
-                                  + " | σ % " + " ".join(f"{100 * x:5.2f}" for x in tr.std[j] / tr.frequencies[j]))
-                    if tr.extra.get("reset_times_s"):
-                        print("     resets " + " ".join(f"{a:.1f}/m{i + 1}" for a, i in tr.extra["reset_times_s"]))
-                    print(f"     {tr.message}")
+                    print_marks(tr, e, b, "σ_B", clamp=False)
 
 
 if __name__ == "__main__":

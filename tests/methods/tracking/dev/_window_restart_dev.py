@@ -12,7 +12,6 @@ the truth at the look (%), the restart threshold max(restart_gate·sᵢ·ω̂, r
 restart with its running scale sᵢ (%; the 1σ it starts with unless ``restart_sigma="start"`` raises it).
 """
 
-import argparse
 import os
 import sys
 from pathlib import Path
@@ -21,7 +20,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
-from _cells import ambient_configs, fmt_times, reconvergence_s, step_cells  # noqa: E402
+from _cells import ambient_configs, fmt_times, reconvergence_s, step_cells, step_parser  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -31,11 +30,7 @@ WINDOW = "rpem_ambient:frequency_model=trend+pair_peaks=true"
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("seed", type=int)
-    ap.add_argument("--set", default="ambient", choices=("ambient", "unseen"))
-    ap.add_argument("--cells", default="issue: −7")
-    ap.add_argument("--replicates", type=int, default=2)
+    ap = step_parser(__doc__)
     ap.add_argument("--only", type=int, default=-1, help="only this replicate")
     ap.add_argument("--extra", default="")
     ap.add_argument("--trace", default="", help="modes (1…m, comma-separated) to trace look by look")
