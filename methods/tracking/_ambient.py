@@ -316,7 +316,7 @@ def visible(var: np.ndarray, r: float, ref: np.ndarray, band: float, dt: float) 
 
 
 def modes_to_restart(modes, deviation: np.ndarray, scale, floor: float, d_log: np.ndarray, strikes: np.ndarray,
-                     hist_d: list[list[float]], opts: SharedOptions, trim: bool = False) -> list[tuple[int, float]]:
+                     hist_d: list[list[float]], opts: SharedOptions) -> list[tuple[int, float]]:
     """The restart rule both ambient filters share: which modes restart at the window's peak this look.
 
     A mode's disagreement with the window's peak is judged against its running robust scale
@@ -326,9 +326,6 @@ def modes_to_restart(modes, deviation: np.ndarray, scale, floor: float, d_log: n
     the window's middle by its rate, the floor 2π/T with a rate in θ, else none). A disagreement is a strike,
     an agreement clears the strikes and joins the history; ``restart_after`` strikes in a row restart the
     mode. ``strikes`` and ``hist_d`` are updated in place.
-    ``trim`` (``rpem_ambient``'s ``restart_scale="trimmed"``): an agreement joins the history only when it lies
-    within half the gate, |deviation_i| ≤ ½ restart_gate · s_i · scale_i (:func:`joins_scale`), so that the
-    climb of a step, a run of disagreements each below the gate, does not inflate the scale that gates it.
 
     Returns
     -------
@@ -343,26 +340,11 @@ def modes_to_restart(modes, deviation: np.ndarray, scale, floor: float, d_log: n
             strikes[i] += 1
         else:
             strikes[i] = 0
-            if not trim or joins_scale(deviation[i], s_i, scale[i], opts.restart_gate):
-                hist_d[i] = (hist_d[i] + [float(d_log[i])])[-30:]
+            hist_d[i] = (hist_d[i] + [float(d_log[i])])[-30:]
         if strikes[i] >= opts.restart_after:
             strikes[i] = 0
             restarts.append((i, s_i))
     return restarts
-
-
-def joins_scale(deviation: float, s_i: float, scale: float, gate: float) -> bool:
-    """Whether an agreeing look's disagreement may teach the running robust scale s_i (``trim``): only within
-    half the restart gate, |deviation| ≤ ½ · gate · s_i · scale (always while s_i is ∞, before three looks).
-
-    A scale learnt from every look below the gate follows a step's climb: the window's peak walks off the
-    estimate by 1, 2, 3 % over a window, each below a gate of 4 s_i, and each widens s_i, until the gate (at
-    4 s_i, 3–10 % of ω on the close pair) has outrun the step it should have caught. Trimmed at half the gate
-    (2σ of a normal disagreement), the median of |d| of a stationary history is 0.64σ instead of 0.6745σ: the
-    scale reads 5 % low, and a scale that is too small still grows as it replaces its history (about ×1.5 per
-    history when the disagreements' σ is twice it: their median within ±2 s_i). Written by hand: a
-    trimmed median of a 30-look history (no kept library updates a running scale with a rejection band)."""
-    return not math.isfinite(s_i) or abs(deviation) <= 0.5 * gate * s_i * scale
 
 
 def slosh_look(logw: np.ndarray, weights: np.ndarray, dt_block: float, f_band: tuple[float, float],

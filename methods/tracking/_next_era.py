@@ -137,22 +137,3 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
                  message=f"NExT-ERA (order {order}, {lags} lags) on {ends.size} windows of {W} samples every {H}",
                  extra={"window_end_sample": ends, "order": order})
 
-
-def era_look(seg: np.ndarray, dt: float, ref: np.ndarray, band: float, max_damping: float = 0.2,
-             extra_order: int = 3, lags_fraction: float = 0.5) -> np.ndarray:
-    """One window's modes by NExT + ERA, matched to ``ref`` (rad/s, (m,)) within ±``band`` (relative): ω rad/s (m,),
-    NaN where no pole matched. ``next_era``'s look at one window, with its defaults (order 2m + 1 +
-    ``extra_order``, L = ``lags_fraction``·W lags); ``rpem_ambient``'s ``look="era"`` starts from it.
-
-    A parametric look is not limited by the periodogram's resolution: two modes closer than the Hann main lobe
-    (4 bins of 2π/T) merge into one peak there, while ERA's realisation of the correlation separates them."""
-    m = np.size(ref)
-    lags = int(lags_fraction * seg.size)
-    order = 2 * m + 1 + extra_order
-    out = np.full(m, np.nan)
-    if lags - 1 < 2 * order or flat_record(seg):
-        return out
-    cand = era_poles(seg, dt, lags, order, max_damping)
-    rr, cc = match(cand, np.log(np.asarray(ref, float)), float(np.log1p(band)))
-    out[cc] = cand[rr]
-    return out

@@ -1,7 +1,7 @@
 """``rpem_ambient:two`` after a step, look by look — a development table, not a test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_mode_gate_dev.py SEED [--set ambient|unseen] [--cells "issue: −7"]
-        [--replicates 2] [--extra "+mode_gate=true"] [--trace MODE]
+        [--replicates 2] [--extra "+opt=value"] [--trace MODE]
 
 On the step cells of ``tracking_ambient`` (``--set ambient``) or ``tracking_unseen``'s white-force step (``--set
 unseen``) whose label holds one of ``--cells``, per replicate, for the row ``rpem_ambient:two`` (its options spelled
@@ -14,13 +14,12 @@ out) plus ``--extra``:
   tracker's looks) within 1 % of the truth at the look;
 * the window-memory recursion alone (``rpem_ambient:frequency_model=trend+pair_peaks=true``, the same arithmetic as
   the one beside the reported recursion): each mode's own re-convergence;
-* the first look after the step at which the whole window's Λ_W opens the reset gate (> ``restart_gate``²/2), and
-  per mode the first at which its own gain Gᵢ (``_rpem._mode_gains``) does;
+* the first look after the step at which the whole window's Λ_W opens the reset gate (> ``restart_gate``²/2);
 * every reset after the step: time, mode, the error of the value it took (the window recursion's ω̂ᵢ', %);
 * per mode, the share of the time beyond 1 % from 10 s after the step to the re-convergence (or 30 s), for the
   reported and the window recursion;
 * ``--trace MODE``: that mode at each look 0–30 s after the step: Λ_W, the look's peak, the window recursion's
-  and the whole-record recursion's error (%, before this look's reset), the whole-record score zᵢ (σ) and Gᵢ.
+  and the whole-record recursion's error (%, before this look's reset) and the whole-record score zᵢ (σ).
 """
 
 import os
@@ -54,18 +53,13 @@ def main() -> None:
     name, opts = parse_row(TWO + args.extra)
     wname, wopts = parse_row(WINDOW)
     looks: list = []
-    orig_look, orig_reset, orig_gain = _ambient.periodogram_look, _rpem._reset_from_window, _rpem._mode_gains
+    orig_look, orig_reset = _ambient.periodogram_look, _rpem._reset_from_window
 
     def look(seg, dt, ref, *a, **kw):
         out = orig_look(seg, dt, ref, *a, **kw)
         if seg.size > 8 and kw.get("pair_edges") is not None:
             looks.append({"peak": out[0].copy()})
         return out
-
-    def gains(w_long, w_win, s, info):
-        g = orig_gain(w_long, w_win, s, info)
-        looks[-1]["G"] = g.copy()
-        return g
 
     def reset(long, theta, P, iw, ia, gain, o, *a, **kw):
         looks[-1]["L"] = gain
@@ -76,7 +70,7 @@ def main() -> None:
         looks[-1]["reset"] = [(int(i), float(long[0][iw[i]])) for i in modes]
         return modes
 
-    _ambient.periodogram_look, _rpem._reset_from_window, _rpem._mode_gains = look, reset, gains
+    _ambient.periodogram_look, _rpem._reset_from_window = look, reset
     thr = 0.5 * 4.0 ** 2
     for label, cell, dt, st, truth in step_cells(cfgs, args.cells):
         for r in range(args.replicates):
@@ -102,14 +96,11 @@ def main() -> None:
                 run3 = np.flatnonzero(ok[:-2] & ok[1:-1] & ok[2:])
                 peak_ok.append(tl[run3[0]] - st if run3.size else np.nan)
             L = np.array([trace[j].get("L", np.nan) for j in range(kl.size)])
-            G = np.array([trace[j].get("G", np.full(m, np.nan)) for j in range(kl.size)])
             gate = np.flatnonzero(after & (L > thr))
-            g_first = [np.flatnonzero(after & (G[:, i] > thr)) for i in range(m)]
             print(f"{args.seed} | {label} | r{r} | re-conv. {fmt_times([rc])} s, per mode {fmt_times(own)} | window "
                   f"{W_len * dt:.1f} s, peaks within 1 % from {fmt_times(peak_ok)} | window recursion "
                   f"{fmt_times(win)} | "
-                  f"Λ_W open {fmt_times([tl[gate[0]] - st] if gate.size else [np.nan])} | Gᵢ open "
-                  + fmt_times([tl[g[0]] - st if g.size else np.nan for g in g_first]), flush=True)
+                  f"Λ_W open {fmt_times([tl[gate[0]] - st] if gate.size else [np.nan])}", flush=True)
             rs = []
             for j in np.flatnonzero(after):
                 for i, w in trace[j].get("reset", []):
@@ -122,9 +113,6 @@ def main() -> None:
                 print(f"     {lab}: share beyond 1 % per mode from 10 s after the step to the re-convergence (or 30 s) "
                       + "/".join(f"{v:.2f}" for v in np.mean(np.abs(f_[h] / truth[kk[h]] - 1) > 0.01, axis=0)))
             print(f"     {tr.message}")
-            if tr.extra.get("change_times_s"):     # ``reset_from="change"``: each back-dated reset's change time
-                print("     back-dated resets (look/estimated change, s after the step): " + " ".join(
-                    f"{a - st:.1f}/{b - st:+.1f}" for a, b in tr.extra["change_times_s"] if a >= st))
             if args.trace:
                 i = args.trace - 1
                 for j in np.flatnonzero(after & (tl < st + 30)):
@@ -133,10 +121,9 @@ def main() -> None:
                     print(f"     {tl[j] - st:5.1f} s Λ_W {c.get('L', np.nan):7.1f} | peak "
                           f"{100 * (c['peak'][i] / tv - 1):+6.2f} | window "
                           f"{100 * (c['w_win'][i] / tv - 1):+6.2f} | whole (before reset) "
-                          f"{100 * (c['w_long'][i] / tv - 1):+6.2f} | z {c['z'][i]:+5.1f} | "
-                          f"G {c.get('G', np.full(m, np.nan))[i]:7.1f}"
+                          f"{100 * (c['w_long'][i] / tv - 1):+6.2f} | z {c['z'][i]:+5.1f}"
                           + (" reset" if any(q == i for q, _ in c.get("reset", [])) else ""))
-    _ambient.periodogram_look, _rpem._reset_from_window, _rpem._mode_gains = orig_look, orig_reset, orig_gain
+    _ambient.periodogram_look, _rpem._reset_from_window = orig_look, orig_reset
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 development table, not a test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_rate_zero_dev.py SEED [--set ambient|unseen] [--replicates 2]
-        [--rows "next_era,rpem_ambient:two,rpem_ambient:two+rate_zero=recursion"] [--cells "step"] [--cache DIR]
+        [--rows "next_era,rpem_ambient:two"] [--cells "step"] [--cache DIR]
 
 On the white-force step records of ``tracking_ambient`` (``--set ambient``: the grid steps and the issue's) or
 ``tracking_unseen`` (``--set unseen``) whose label holds one of ``--cells``, per replicate and row: each mode's median
@@ -38,7 +38,7 @@ def main() -> None:
     ap.add_argument("seed", type=int)
     ap.add_argument("--set", default="ambient", choices=("ambient", "unseen"))
     ap.add_argument("--replicates", type=int, default=2)
-    ap.add_argument("--rows", default="next_era,rpem_ambient:two,rpem_ambient:two+rate_zero=recursion")
+    ap.add_argument("--rows", default="next_era,rpem_ambient:two")
     ap.add_argument("--cells", default="step")
     ap.add_argument("--cache", default=None)
     args = ap.parse_args()

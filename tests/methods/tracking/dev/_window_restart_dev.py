@@ -1,7 +1,7 @@
 """The window-memory recursion's restarts after a step, look by look — a development table, not a test.
 
     python tests/methods/tracking/dev/_window_restart_dev.py SEED [--set ambient|unseen] [--cells "issue: −7"]
-        [--replicates 2] [--extra "+restart_scale=..."] [--trace 2,3]
+        [--replicates 2] [--extra "+opt=value"] [--trace 2,3]
 
 On the step cells whose label holds one of ``--cells``, per replicate, the window-memory recursion
 (``rpem_ambient:frequency_model=trend+pair_peaks=true`` plus ``--extra``, the arithmetic beside the reported
@@ -9,7 +9,7 @@ recursion of ``rpem_ambient:two``): each mode's own re-convergence, its restarts
 peak's error, σ, and the nearest true mode where it is a neighbour's), and for the ``--trace`` modes at each look
 0–25 s after the step: the look's peak and the recursion's ω̂ (carried to the window's middle) as errors against
 the truth at the look (%), the restart threshold max(restart_gate·sᵢ·ω̂, resolution) in %, the strikes, and a
-restart with its running scale sᵢ (%; the 1σ it starts with unless ``restart_sigma="start"`` raises it).
+restart with its running scale sᵢ (%; the 1σ it starts with).
 """
 
 import os
