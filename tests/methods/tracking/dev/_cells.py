@@ -1,5 +1,5 @@
 """Shared pieces of the development scripts (not a test; pytest does not collect it): a benchmark cell
-simulated once and kept as a pickle, and which configs are white-force drifts."""
+simulated once and kept as a pickle, which configs are white-force drifts, the variant's row, the arguments."""
 
 import pickle
 from pathlib import Path
@@ -66,14 +66,28 @@ def step_cells(cfgs: dict, cells: str):
 MARKS = (20, 30, 45, 60, 75, 90, 105, 120)
 
 
-def step_parser(doc: str, cells: str = "issue: −7"):
-    """The arguments every step script takes: a seed, the set of records, the cells by label, the replicates."""
+# ``rpem_ambient:two`` (configs/tracker/rpem_ambient_two.yaml) spelled out, so that a script can append options
+VARIANT_TWO = ("rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true"
+               "+rate_test=after_change")
+
+
+def record_parser(doc: str, cache: bool = True):
+    """The arguments every script over the benchmarks' records takes: a seed, the set of records (``ambient``:
+    ``tracking_ambient``'s, ``unseen``: ``tracking_unseen``'s), the replicates and (``cache``) a folder of cells."""
     import argparse
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("seed", type=int)
     ap.add_argument("--set", default="ambient", choices=("ambient", "unseen"))
-    ap.add_argument("--cells", default=cells)
     ap.add_argument("--replicates", type=int, default=2)
+    if cache:
+        ap.add_argument("--cache", default=None)
+    return ap
+
+
+def step_parser(doc: str, cells: str = "issue: −7"):
+    """:func:`record_parser` (no cache) and the cells by label."""
+    ap = record_parser(doc, cache=False)
+    ap.add_argument("--cells", default=cells)
     return ap
 
 

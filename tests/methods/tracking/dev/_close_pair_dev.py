@@ -17,7 +17,6 @@ replaced by the truth).
 ``methods.tracking._rpem`` (the diagnosis's one-factor switches, at the commit that had them).
 """
 
-import argparse
 import os
 import sys
 from pathlib import Path
@@ -26,14 +25,14 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
-from _cells import cached_cell, print_marks, white_force_drift  # noqa: E402
+from _cells import VARIANT_TWO as BASE  # noqa: E402
+from _cells import cached_cell, print_marks, record_parser, white_force_drift  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks import tracking_ambient, tracking_unseen  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
 from methods.tracking import _ambient, _rpem  # noqa: E402
 
-BASE = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
 WINDOW = "rpem_ambient:frequency_model=trend+pair_peaks=true"
 LOOK = _ambient.periodogram_look
 
@@ -60,13 +59,9 @@ def cells(which: str, seed: int, replicates: int, match: str, cache: str | None,
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("seed", type=int)
-    ap.add_argument("--set", default="ambient", choices=("ambient", "unseen"))
-    ap.add_argument("--replicates", type=int, default=2)
+    ap = record_parser(__doc__)
     ap.add_argument("--rows", default="base")
     ap.add_argument("--match", default="")
-    ap.add_argument("--cache", default=None)
     ap.add_argument("--marks", action="store_true")
     ap.add_argument("--switch", default="", help="NAME=VALUE,…: module switches of methods.tracking._rpem (diagnosis)")
     ap.add_argument("--slosh", action="store_true",

@@ -14,7 +14,6 @@ after 30 s over the bound's median 1σ after 30 s, as the benchmarks'), and each
 bound; the ratio of the two bounds' medians.
 """
 
-import argparse
 import os
 import sys
 from pathlib import Path
@@ -23,7 +22,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
-from _cells import white_force_drift  # noqa: E402
+from _cells import record_parser, white_force_drift  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks import tracking_ambient, tracking_unseen  # noqa: E402
@@ -57,10 +56,7 @@ def line_bound(cfg, cell, rate_rel: float) -> np.ndarray:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("seed", type=int)
-    ap.add_argument("--set", default="ambient", choices=("ambient", "unseen"))
-    ap.add_argument("--replicates", type=int, default=2)
+    ap = record_parser(__doc__, cache=False)
     ap.add_argument("--trackers", default="next_era,rpem_ambient:two")
     ap.add_argument("--rates", default="0.001,0.01")
     args = ap.parse_args()

@@ -30,13 +30,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
+from _cells import VARIANT_TWO as TWO  # noqa: E402
 from _cells import ambient_configs, fmt_times, reconvergence_s, step_cells, step_parser  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
 from methods.tracking import _ambient, _rpem  # noqa: E402
 
-TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
 WINDOW = "rpem_ambient:frequency_model=trend+pair_peaks=true"
 
 

@@ -21,14 +21,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
+from _cells import VARIANT_TWO as TWO  # noqa: E402
 from _cells import ambient_configs, cached_cell  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
 from methods.tracking import _ambient  # noqa: E402
 
-TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
 MARGIN = 0.5    # % of ω
+REPLICATES = 2
 
 
 def main() -> None:
@@ -42,10 +43,10 @@ def main() -> None:
     tally = {c: [0, 0, 0] for c in bins}
     for which in ("ambient", "unseen"):
         for seed in (int(s) for s in args.seeds.split(",")):
-            for label, cfg in ambient_configs(which, seed, 2).items():
+            for idx, (label, cfg) in enumerate(ambient_configs(which, seed, REPLICATES).items()):
                 if cfg.schedule.slosh or cfg.excitation.thruster_torque_n_m > 0:
                     continue
-                cell = cached_cell(cfg, args.cache, f"{which}_{seed}_{label}")
+                cell = cached_cell(cfg, args.cache, f"{which}_{seed}_{REPLICATES}_{idx}")
                 dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
                 for r in range(cell["accel_m_s2"].shape[0]):
                     y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]

@@ -11,7 +11,6 @@ NExT-ERA's in the same segment; the benchmark's × bound and × NExT-ERA (median
 and the re-convergence. A ``+opt=value`` tail on a row adds options to ``rpem_ambient:two``'s (spelled out here).
 """
 
-import argparse
 import os
 import sys
 from pathlib import Path
@@ -20,12 +19,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
-from _cells import ambient_configs, cached_cell, reconvergence_s  # noqa: E402
+from _cells import VARIANT_TWO as TWO  # noqa: E402
+from _cells import ambient_configs, cached_cell, reconvergence_s, record_parser  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
 
-TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
 SETTLE_S = 30.0
 
 
@@ -34,13 +33,9 @@ def _spec(row: str) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("seed", type=int)
-    ap.add_argument("--set", default="ambient", choices=("ambient", "unseen"))
-    ap.add_argument("--replicates", type=int, default=2)
+    ap = record_parser(__doc__)
     ap.add_argument("--rows", default="next_era,rpem_ambient:two")
     ap.add_argument("--cells", default="step")
-    ap.add_argument("--cache", default=None)
     args = ap.parse_args()
     cfgs = ambient_configs(args.set, args.seed, args.replicates)
     rows = args.rows.split(",")

@@ -30,6 +30,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
+from _cells import VARIANT_TWO as ROW  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -40,7 +41,6 @@ from methods.tracking._defaults import pencil_sizes  # noqa: E402
 from methods.tracking._gated_pencil import Options as GatedOptions  # noqa: E402
 from methods.tracking._gated_pencil import pulse_flags  # noqa: E402
 
-ROW = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true+rate_test=after_change"
 STEP = {"step": [0.0, 0.0, 0.06, -0.04], "step_time_s": 60.0}                         # configs/grid/tracking.yaml
 SPARSE = {"disturbance_force_n": 5.0, "thruster_torque_n_m": 100.0, "thruster_rate_hz": 0.05}
 SCORING = {20261121, 20261128, 20261129, 4723, 4733}
