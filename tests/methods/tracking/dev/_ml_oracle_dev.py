@@ -1,0 +1,200 @@
+"""What the samples allow where ``rpem_ambient:two`` errs most: batch prediction-error fits of the ambient model
+before a step and on the first window — a development table, not a test (pytest does not collect it).
+
+    python tests/methods/tracking/dev/_ml_oracle_dev.py SEED [--set ambient|unseen] [--replicates R]
+        [--cells "step"] [--cache DIR] [--first-window]
+
+The modal model under any stationary white excitation (one force or several, a direct term, white measurement
+noise) is an ARMA(2m, 2m) process whose autoregressive part is fixed by the modes, A(z) = Πᵢ(z² − 2e^(−ζᵢωᵢΔt)
+cos(ωᵢ√(1 − ζᵢ²)Δt) z + e^(−2ζᵢωᵢΔt)), and whose monic moving-average part B(z) is free (minimum phase): the
+innovation form with a free gain, as ``rpem_ambient`` models it. Its prediction errors are e = (A/B) y
+(``scipy.signal.lfilter``), less the filter's free response to an unknown initial state (2m columns, projected
+out by least squares); ``scipy.optimize.least_squares`` minimises Σe² over (ω, ζ, B): the prediction-error
+(asymptotically maximum-likelihood) estimate of a stationary stretch, which a recursion approaches only once its
+start is forgotten.
+
+* Default: on the white-force step records whose label holds one of ``--cells``, per replicate, the fit of
+  [0, step) — started at the truth with the truth's B (a genie: the steady Kalman predictor of the simulated
+  model, its gains regressed from the cell's modal states and inputs), and blind from the tracker's estimate just
+  before the step (B from the modes' poles pulled in, ω held while ζ and B settle, then all free) — beside the
+  tracker's estimate there.
+* ``--first-window``: on every white-force record (drifts too), the blind fit of the first window (the one the
+  tracker starts from, five periods of the slowest prior mode), from the prior and from that window's Hann peaks
+  (the lower Σe² kept), beside the peaks and the tracker at the window's end; tallied as ``_pair_window_dev.py``
+  does on the closest prior pair (better / worse by 0.5 % of ω, or alike).
+"""
+
+import os
+import sys
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
+
+import numpy as np  # noqa: E402
+import scipy.linalg  # noqa: E402
+import scipy.optimize  # noqa: E402
+import scipy.signal  # noqa: E402
+from _cells import VARIANT_TWO as TWO  # noqa: E402
+from _cells import ambient_configs, cached_cell, step_parser  # noqa: E402
+
+import methods  # noqa: E402
+from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
+from methods.kalman import modal_transition  # noqa: E402
+from methods.tracking import _ambient  # noqa: E402
+
+MARGIN = 0.5    # % of ω
+
+
+def ar_poly(w, z, dt):
+    """A(z) of the modes, highest power first (2m + 1 coefficients)."""
+    a = np.array([1.0])
+    for wi, zi in zip(w, z, strict=True):
+        r = np.exp(-zi * wi * dt)
+        a = np.convolve(a, [1.0, -2 * r * np.cos(wi * np.sqrt(1 - zi * zi) * dt), r * r])
+    return a
+
+
+def residuals(theta, y, dt, m):
+    """Prediction errors of (ω, ζ, b), the initial state projected out; large where B is not minimum phase."""
+    w, z, b = theta[:m], theta[m:2 * m], theta[2 * m:]
+    B = np.concatenate(([1.0], b))
+    if np.max(np.abs(np.roots(B))) >= 0.9995:
+        return np.full(y.size, 1e3 * np.std(y))
+    A = ar_poly(w, z, dt)
+    e0 = scipy.signal.lfilter(A, B, y)
+    n0 = 2 * m
+    G = np.empty((y.size, n0))
+    zeros = np.zeros(y.size)
+    for j in range(n0):
+        zi = np.zeros(n0)
+        zi[j] = 1.0
+        G[:, j] = scipy.signal.lfilter(A, B, zeros, zi=zi)[0]
+    c, *_ = np.linalg.lstsq(G, e0, rcond=None)
+    return e0 - G @ c
+
+
+def true_b(cell, r: int, k_a: int, k_b: int) -> np.ndarray:
+    """The truth's B(z) over samples [k_a, k_b) (a genie): the steady Kalman predictor of the simulated model —
+    each mode's gain to the white force, the output row and the direct term regressed from the cell's modal
+    states and inputs (the modal states are not in tip units), the force's and the noise's variances — as
+    ``np.poly(Φ − K C)`` without its leading 1."""
+    dt, zeta = float(cell["dt_s"]), np.asarray(cell["truth_damping"], float)
+    w = cell["truth_freq_rad_s"][k_a]
+    X = cell["modal_state"][r, k_a:k_b].astype(float)
+    u = cell["inputs"][r, k_a:k_b].astype(float)
+    f = u[:, int(np.argmax(u.std(axis=0)))]
+    phi, _ = modal_transition(w, zeta, dt)
+    g = _ambient._gamma(phi, w, zeta)
+    gains = np.array([np.sum((X[1:, i] - X[:-1, i] @ phi[i].T) * g[i] * f[:-1, None])
+                      / np.sum((g[i] * f[:-1, None]) ** 2) for i in range(w.size)])
+    clean = cell["accel_clean_m_s2"][r, k_a:k_b]
+    coef, *_ = np.linalg.lstsq(np.column_stack([X.reshape(len(X), -1), f]), clean, rcond=None)
+    C, d = coef[None, :-1], float(coef[-1])
+    F = scipy.linalg.block_diag(*phi)
+    G = np.concatenate([g[i] * gains[i] for i in range(w.size)])
+    qf, sig2 = float(f.var()), float(cell["noise_std_m_s2"]) ** 2
+    Q, R, S = qf * np.outer(G, G), np.array([[qf * d * d + sig2]]), qf * d * G[:, None]
+    P = scipy.linalg.solve_discrete_are(F.T, C.T, Q, R, s=S)
+    K = (F @ P @ C.T + S) / (C @ P @ C.T + R)
+    return np.poly(F - K @ C)[1:]
+
+
+def fit(y, dt, w0, z0, b0):
+    """(ω, ζ, b) of least Σe² from (ω₀, ζ₀, b₀); ω bounded to ±15 % of its start, ζ to [1e-4, 0.3]."""
+    m = w0.size
+    x0 = np.concatenate((w0, z0, b0))
+    lo = np.concatenate((0.85 * w0, np.full(m, 1e-4), np.full(2 * m, -np.inf)))
+    hi = np.concatenate((1.15 * w0, np.full(m, 0.3), np.full(2 * m, np.inf)))
+    x0 = np.clip(x0, lo + 1e-12, hi - 1e-12)
+    res = scipy.optimize.least_squares(residuals, x0, bounds=(lo, hi), args=(y, dt, m), x_scale="jac",
+                                       diff_step=1e-7, max_nfev=400)
+    return res.x[:m], res.x[m:2 * m], res.x[2 * m:]
+
+
+def blind_fit(y, dt, w0):
+    """A fit from ω₀ alone: ζ = 1 %, B(z) = A(z/ρ) for ρ = 0.5, 0.8, 0.95, each with ω held while ζ and B settle;
+    the least Σe² of the three is then fitted with ω free. Returns (ω, Σe²)."""
+    m = w0.size
+    z0 = np.full(m, 0.01)
+    lo = np.concatenate((np.full(m, 1e-4), np.full(2 * m, -np.inf)))
+    hi = np.concatenate((np.full(m, 0.3), np.full(2 * m, np.inf)))
+    best = None
+    for rho in (0.5, 0.8, 0.95):
+        b = ar_poly(w0, z0, dt)[1:] * rho ** np.arange(1, 2 * m + 1)
+        res = scipy.optimize.least_squares(lambda x: residuals(np.concatenate((w0, x)), y, dt, m),
+                                           np.concatenate((z0, b)), bounds=(lo, hi), x_scale="jac",
+                                           diff_step=1e-7, max_nfev=200)
+        if best is None or res.cost < best.cost:
+            best = res
+    w, z, b = fit(y, dt, w0, best.x[:m], best.x[m:])
+    return w, float(np.sum(residuals(np.concatenate((w, z, b)), y, dt, m) ** 2))
+
+
+def pct(w, truth) -> str:
+    return "/".join(f"{x:+.2f}" for x in 100 * (np.asarray(w) / truth - 1))
+
+
+def white_force(cfg) -> bool:
+    return not cfg.schedule.slosh and cfg.excitation.thruster_torque_n_m == 0
+
+
+def before_the_step(args, name, opts) -> None:
+    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
+        if not any(c in label for c in args.cells.split(",")) or not white_force(cfg):
+            continue
+        cell = cached_cell(cfg, args.cache, f"{args.set}_{args.seed}_{args.replicates}_{idx}")
+        st = float(cell["step_time_s"])
+        if not np.isfinite(st):
+            continue
+        dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
+        zeta = np.asarray(cell["truth_damping"], float)
+        k0 = int(round(st / dt))
+        print(label, flush=True)
+        for r in range(cell["accel_m_s2"].shape[0]):
+            y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
+            tr = methods.track(name, y, dt, prior, **opts)
+            w_trk = tr.frequencies[np.searchsorted(tr.t_s, st - dt / 2) - 1]
+            w_genie, _, _ = fit(y[:k0], dt, truth[k0 - 1], zeta, true_b(cell, r, 0, k0))
+            w_blind, _ = blind_fit(y[:k0], dt, w_trk)
+            print(f"  r{r} e % at the step: genie ML {pct(w_genie, truth[k0 - 1])} | blind ML from the tracker "
+                  f"{pct(w_blind, truth[k0 - 1])} | tracker {pct(w_trk, truth[k0 - 1])}", flush=True)
+
+
+def first_window(args, name, opts) -> None:
+    tally = [0, 0, 0]
+    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
+        if not white_force(cfg):
+            continue
+        cell = cached_cell(cfg, args.cache, f"{args.set}_{args.seed}_{args.replicates}_{idx}")
+        dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
+        for r in range(cell["accel_m_s2"].shape[0]):
+            y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
+            n = int(round(5 * 2 * np.pi / prior[0] / dt))
+            peak, *_ = _ambient.periodogram_look(y[:n], dt, prior, 0.1, 0.005, pair_edges=True)
+            fits = [blind_fit(y[:n], dt, w0) for w0 in (prior, np.where(np.isfinite(peak), peak, prior))]
+            w_ml = min(fits, key=lambda f: f[1])[0]
+            tr = methods.track(name, y, dt, prior, **opts)
+            w_trk = tr.frequencies[min(np.searchsorted(tr.t_s, n * dt), tr.t_s.size - 1)]
+            i = int(np.argmin(np.diff(prior)))
+            pair = [i, i + 1]
+            a = np.max(np.abs(100 * (w_trk[pair] / truth[n - 1, pair] - 1)))
+            b = np.max(np.abs(100 * (w_ml[pair] / truth[n - 1, pair] - 1)))
+            tally[0 if b < a - MARGIN else 1 if b > a + MARGIN else 2] += 1
+            print(f"{label[:40]:40s} r{r} {n * dt:4.1f} s e %: peaks {pct(peak, truth[n - 1])} | blind ML "
+                  f"{pct(w_ml, truth[n - 1])} | tracker {pct(w_trk, truth[n - 1])}", flush=True)
+    print(f"the first window's ML places the closest prior pair better on {tally[0]}, worse on {tally[1]}, "
+          f"alike on {tally[2]}")
+
+
+def main() -> None:
+    ap = step_parser(__doc__, cells="step")
+    ap.add_argument("--cache", default=None)
+    ap.add_argument("--first-window", action="store_true")
+    args = ap.parse_args()
+    name, opts = parse_row(TWO)
+    (first_window if args.first_window else before_the_step)(args, name, opts)
+
+
+if __name__ == "__main__":
+    main()
