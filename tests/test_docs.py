@@ -65,6 +65,43 @@ def test_every_relative_link_of_a_page_exists(page):
     assert page.name != "README.md" or page.parent != ROOT or targets, "the README links no file"
 
 
+def heading_anchors(text: str) -> set[str]:
+    """The anchors a Markdown renderer gives a page's headings (GitHub's rule: lower case, every character but
+    letters, digits, "_", "-" and spaces dropped, spaces to hyphens); fenced code is not a heading."""
+    anchors, fenced = set(), False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+        elif not fenced and re.match(r"#{1,6} ", line):
+            anchors.add(re.sub(r"[^\w\- ]", "", line.lstrip("#").strip().lower()).replace(" ", "-"))
+    return anchors
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_section_a_page_links_to_exists(page):
+    text = page.read_text(encoding="utf-8")
+    missing = []
+    for target in LINK.findall(text):
+        if "#" not in target or re.match(r"[a-z]+:", target):
+            continue
+        name, anchor = target.split("#", 1)
+        linked = page.parent / name if name else page
+        if linked.suffix == ".md" and linked.is_file() and anchor not in heading_anchors(
+                linked.read_text(encoding="utf-8")):
+            missing.append(target)
+    assert not missing, f"{page.relative_to(ROOT)} links to sections that do not exist: {missing}"
+
+
+@pytest.mark.parametrize(("text", "anchor"), [
+    ("## `akf_ambient`, `rpem_ambient`", "akf_ambient-rpem_ambient"),
+    ("### The kick test (`split_kicks=true`)", "the-kick-test-split_kickstrue"),
+    ("## As shipped, on records unlike the grid's", "as-shipped-on-records-unlike-the-grids"),
+    ("```\n# a comment in code\n```", None),
+])
+def test_heading_anchors_follow_the_renderers_rule(text, anchor):
+    assert heading_anchors(text) == ({anchor} if anchor else set())
+
+
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_every_repository_file_a_page_names_exists(page):
     names = REPO_PATH.findall(page.read_text(encoding="utf-8"))

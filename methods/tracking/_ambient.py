@@ -278,7 +278,7 @@ def _pair_edge_peaks(w, f, p, lp, peak, lo, hi, ref) -> np.ndarray:
     against a midpoint of 20.2–20.4) and the mode sees no peak at all until its estimate has walked there.
     A mode whose band holds only its neighbour's skirt takes a ripple of it (a noise maximum or a side lobe):
     one look's strike, which the restart rule's ``restart_after`` looks in a row and its running scale absorb
-    (the design seeds' drifts were unchanged to ±0.1× the bound, docs/measured/tracking.md)."""
+    (the design seeds' drifts were unchanged to ±0.1× the bound, docs/measured/tracking_ambient.md)."""
     out = peak.copy()
     m = ref.size
     bin_w = w[1] - w[0]

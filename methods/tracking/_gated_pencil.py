@@ -443,7 +443,7 @@ def shrunk_rows(flags: np.ndarray, pulses: np.ndarray, rows: int, floor: int, mi
     nothing, though each pulse-free run is a free decay longer than a column needs. Under a white force the
     pulse detector flags next to nothing and the kick test's splits (a continuing force read as kicks, about a
     slowest period apart) are what leave too few columns: there short-row estimates from the scraps between
-    them pull the trend away (docs/measured/tracking.md), so the rule stays silent; so it does where the
+    them pull the trend away (docs/measured/tracking_gated_pencil.md), so the rule stays silent; so it does where the
     pulses lie closer than ``min_run`` on average."""
     n = flags.size
     cum = _flag_sums(flags)

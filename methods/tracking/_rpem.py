@@ -72,7 +72,7 @@ recursion's rate holds the step's climb, which the whole-record recursion (no wa
 A test of the rates (``rate_test``, with ``score_reset``). The whole-record recursion models each frequency as a
 line; a mode that does not move is then reported at a line's end point, whose variance is about four times
 that of a constant fitted to the same samples (least squares over [0, T]: 4σ²/N against σ²/N), and its ω̂
-wanders by its own score and the rate that score teaches (docs/measured/tracking.md: the slow mode 1 after
+wanders by its own score and the rate that score teaches (docs/measured/tracking_ambient.md: the slow mode 1 after
 the benchmark's steps is this, the same with the step removed). Two nested models are averaged instead: the
 rate free (the recursion's posterior) and the rate 0 (that posterior conditioned on ω̇ = 0, which for a
 linear-Gaussian model is the rate-0 model's own posterior), weighted at equal prior odds by the Savage–Dickey
@@ -87,9 +87,9 @@ same), and is in the variant ``rpem_ambient:two`` (configs/tracker/rpem_ambient_
 
 A frequency error barely changes one sample's prediction under a white force (its own innovation dominates),
 but summed over a window it does: in the 20 s after the benchmark's steps the window recursion is ahead by
-16–155 nats over 10 s, on its drifts by at most 4.2 (design seeds 7 and 11, docs/measured/tracking.md). filterpy's
-``IMMEstimator`` mixes the states of Kalman filters of one state vector by a Markov chain of model switches; a
-recursion here is (θ, P, x̂, W, Λ) stepped by a CasADi function, and a soft mix of two θ would blur a step's
+16–155 nats over 10 s, on its drifts by at most 4.2 (design seeds 7 and 11, docs/measured/tracking_ambient.md).
+filterpy's ``IMMEstimator`` mixes the states of Kalman filters of one state vector by a Markov chain of model
+switches; a recursion here is (θ, P, x̂, W, Λ) stepped by a CasADi function, and a soft mix of two θ would blur a step's
 before and after — so the interaction is a hard reset of the modes that disagree, and written here.
 
 Written by hand: no maintained Python library has a recursive prediction-error method for a state-space
@@ -101,7 +101,7 @@ sample cost 0.4–0.6 ms on this machine). The step is built once per process an
 not), in about 0.04 s.
 
 Tried and not kept (each off by default, measured on design seeds only, then removed; the option and its
-section's commands run at commit 681eb87, "measured at 681eb87"; sections of docs/measured/tracking.md):
+section's commands run at commit 681eb87, "measured at 681eb87"; sections of docs/measured/tracking_ambient.md):
 
 * ``reset_peak``: a reset mode starts at the look's peak beyond the walking window estimate — "Mode 3 after the
   grid's step: a reset to the look's peak", measured at 681eb87;
@@ -177,7 +177,7 @@ class Options(_ambient.SharedOptions):
         between the neighbour's peak and its far edge (:func:`methods.tracking._ambient._pair_edge_peaks`),
         instead of no peak. After a step of a close pair the stepped mode's new peak can lie beyond that
         midpoint, and the mode would not restart until its walk had carried it there. Measured with
-        ``recursions="two"``; with one recursion it loses on the drifts (docs/measured/tracking.md).
+        ``recursions="two"``; with one recursion it loses on the drifts (docs/measured/tracking_ambient.md).
     rate_test : str
         ``"off"`` (default); with ``score_reset``, ``"mode"``: the reported ω̂ᵢ of the whole-record recursion is
         the average of two nested models, its rate free (the recursion's ω̂ᵢ, Pᵢ) and its rate 0 (the same

@@ -25,7 +25,7 @@ still holds a sample from before the end of the first gated window — one that 
 re-initialise the mode at its own estimate (level variance R, rate 0) instead of updating it, until the first
 window wholly after that point. The hold removes a ramp's overshoot but is not the default: it slowed the
 re-convergence on six-mode and short-dwell records (likely because its windows are not gated;
-docs/measured/tracking.md, "The trend stage after a step"). "freeze" (an option of ``gated_pencil``,
+docs/measured/tracking_gated_pencil.md, "The trend stage after a step"). "freeze" (an option of ``gated_pencil``,
 ``trend_restart_rate``; not its default, same page) keeps the gate: the first window the gate refuses, ending
 at t_f, holds the change somewhere in its span, so the windows that ended before its start are the last wholly
 before it; the rate (and its variance) goes back to the one after the last of them (what the ramp taught since

@@ -198,7 +198,7 @@ def test_whittle_fit_finds_the_sign_pattern_and_direct_term_of_one_force():
 def test_reported_std_covers_its_error_60_to_75_percent_on_stationary_records():
     """The filter's own 1σ covers |ω̂ − ω| in 60–75 % of (time, mode) after 30 s, pooled over three stationary
     white-force records (a Gaussian error within its true 1σ: 68 %). Only stationary records: on the grid's
-    drift and step cells it covers 46–63 % (docs/measured/tracking.md), which this test does not claim."""
+    drift and step cells it covers 46–63 % (docs/measured/tracking_ambient.md), which this test does not claim."""
     inside = []
     for seed in (1, 2, 3):
         w = schedule(4500)

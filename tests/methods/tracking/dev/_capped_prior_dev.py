@@ -1,8 +1,8 @@
-"""The capped design records (docs/measured/tracking.md, ``capped_rows`` and ``capped_either``): the unseen pulsed
-cell "step +5/−5/0/+8 % at 40 s, 150 N·m every 5 s" (``tracking_unseen.configs(seed, 2, records="pulses")``
-through ``make_cell`` without its bounds), both replicates, the prior as drawn but its modes 2 and 3 moved to
-their mean × (1 ∓ g/2) — a prior pair the capped window cannot resolve — each track scored by the benchmark's
-``score_record``. A development script, not a test (pytest does not collect it).
+"""The capped design records (docs/measured/tracking_gated_pencil.md, ``capped_rows`` and ``capped_either``): the
+unseen pulsed cell "step +5/−5/0/+8 % at 40 s, 150 N·m every 5 s" (``tracking_unseen.configs(seed, 2,
+records="pulses")`` through ``make_cell`` without its bounds), both replicates, the prior as drawn but its
+modes 2 and 3 moved to their mean × (1 ∓ g/2) — a prior pair the capped window cannot resolve — each track
+scored by the benchmark's ``score_record``. A development script, not a test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_capped_prior_dev.py SEEDS --trackers gated_pencil,gated_pencil:key=value
         [--gap 0.003]       # --gap 0: the prior as drawn

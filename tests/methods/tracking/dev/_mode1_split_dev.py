@@ -14,7 +14,7 @@ the Gauss–Newton step of the mode's ω and rate, L e = P⁻ψ e/S, into the pa
 same split for the rate (the change of ω̇ in %/s); the whole-record recursion's resets; and the mode's own
 zero-rate conditional ω̂ − (P_ωω̇/P_ω̇ω̇) ω̇ (its error, %) with its Savage–Dickey weight μ₀ (``rate_test="mode"``).
 ``--no-step``: the same record, the same force and noise draws, with the schedule's step set to 0.
-Findings: docs/measured/tracking.md, "What moves mode 1 after a step".
+Findings: docs/measured/tracking_ambient.md, "What moves mode 1 after a step".
 """
 
 import argparse
