@@ -136,4 +136,3 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     return Track(ends * dt, freq, np.nan, found,
                  message=f"NExT-ERA (order {order}, {lags} lags) on {ends.size} windows of {W} samples every {H}",
                  extra={"window_end_sample": ends, "order": order})
-

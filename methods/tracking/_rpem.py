@@ -423,7 +423,6 @@ def _zero_rate_average(w, v, a, v_wa, v_aa, prior_var, joint: bool = False):
     μ₀(V₀ + (ω̂₀ − ω̄)²) + (1 − μ₀)(P_ωω + (ω̂ − ω̄)²). Per mode (``joint`` False: each mode's own rate, the
     diagonals of the blocks) or every rate at once (``joint``: one B and μ₀ for all modes). A rate block that
     is not positive definite leaves the modes as they are."""
-
     a = np.asarray(a, dtype=float)
     v_wa, v_aa = np.asarray(v_wa, dtype=float), np.asarray(v_aa, dtype=float)
     if joint:

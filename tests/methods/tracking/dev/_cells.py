@@ -19,10 +19,14 @@ def cached_cell(cfg, cache: str | None, key: str) -> dict:
     return cell
 
 
+def white_force(cfg) -> bool:
+    """A record under a white force alone: no slosh, no thruster pulses."""
+    return not cfg.schedule.slosh and cfg.excitation.disturbance_force_n > 0 and cfg.excitation.thruster_torque_n_m == 0
+
+
 def white_force_drift(cfg) -> bool:
-    """A drift under a white force alone: no slosh, no thruster pulses."""
-    return (cfg.schedule.drift is not None and not cfg.schedule.slosh and cfg.excitation.disturbance_force_n > 0
-            and cfg.excitation.thruster_torque_n_m == 0)
+    """A drift under a white force alone."""
+    return cfg.schedule.drift is not None and white_force(cfg)
 
 
 def ambient_configs(which: str, seed: int, replicates: int) -> dict:

@@ -15,9 +15,8 @@ start is forgotten.
 
 * Default: on the white-force step records whose label holds one of ``--cells``, per replicate, the fit of
   [0, step) — started at the truth with the truth's B (a genie: the steady Kalman predictor of the simulated
-  model, its gains regressed from the cell's modal states and inputs), and blind from the tracker's estimate just
-  before the step (B from the modes' poles pulled in, ω held while ζ and B settle, then all free) — beside the
-  tracker's estimate there.
+  model), and blind from the tracker's estimate just before the step (B from the modes' poles pulled in, ω held
+  while ζ and B settle, then all free) — beside the tracker's estimate there.
 * ``--first-window``: on every white-force record (drifts too), the blind fit of the first window (the one the
   tracker starts from, five periods of the slowest prior mode), from the prior and from that window's Hann peaks
   (the lower Σe² kept), beside the peaks and the tracker at the window's end; tallied as ``_pair_window_dev.py``
@@ -36,11 +35,13 @@ import scipy.linalg  # noqa: E402
 import scipy.optimize  # noqa: E402
 import scipy.signal  # noqa: E402
 from _cells import VARIANT_TWO as TWO  # noqa: E402
-from _cells import ambient_configs, cached_cell, step_parser  # noqa: E402
+from _cells import ambient_configs, cached_cell, step_parser, white_force  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
-from methods.kalman import modal_transition  # noqa: E402
+from experiments.simulate.pcrb_force import force_noise  # noqa: E402
+from experiments.simulate.plant import build_plant  # noqa: E402
+from experiments.simulate.timevarying import modal_model, oscillator_transition  # noqa: E402
 from methods.tracking import _ambient  # noqa: E402
 
 MARGIN = 0.5    # % of ω
@@ -74,27 +75,23 @@ def residuals(theta, y, dt, m):
     return e0 - G @ c
 
 
-def true_b(cell, r: int, k_a: int, k_b: int) -> np.ndarray:
-    """The truth's B(z) over samples [k_a, k_b) (a genie): the steady Kalman predictor of the simulated model —
-    each mode's gain to the white force, the output row and the direct term regressed from the cell's modal
-    states and inputs (the modal states are not in tip units), the force's and the noise's variances — as
-    ``np.poly(Φ − K C)`` without its leading 1."""
-    dt, zeta = float(cell["dt_s"]), np.asarray(cell["truth_damping"], float)
-    w = cell["truth_freq_rad_s"][k_a]
-    X = cell["modal_state"][r, k_a:k_b].astype(float)
-    u = cell["inputs"][r, k_a:k_b].astype(float)
-    f = u[:, int(np.argmax(u.std(axis=0)))]
-    phi, _ = modal_transition(w, zeta, dt)
-    g = _ambient._gamma(phi, w, zeta)
-    gains = np.array([np.sum((X[1:, i] - X[:-1, i] @ phi[i].T) * g[i] * f[:-1, None])
-                      / np.sum((g[i] * f[:-1, None]) ** 2) for i in range(w.size)])
-    clean = cell["accel_clean_m_s2"][r, k_a:k_b]
-    coef, *_ = np.linalg.lstsq(np.column_stack([X.reshape(len(X), -1), f]), clean, rcond=None)
-    C, d = coef[None, :-1], float(coef[-1])
+def true_b(cfg, cell, k: int) -> np.ndarray:
+    """The truth's B(z) at sample ``k`` (a genie): the steady Kalman predictor of the simulated model at that
+    sample's frequencies — the plant's modal model (``timevarying.modal_model``), its unknown white force as the
+    bound models it (``pcrb_force.force_noise``: process noise, its covariance with the measurement and the
+    direct term's share), the sensor noise — as ``np.poly(Φ − K C)`` without its leading 1."""
+    dt, w = float(cell["dt_s"]), cell["truth_freq_rad_s"][k]
+    model = modal_model(build_plant(cfg.plant))
+    z = model.damping
+    phi, _ = oscillator_transition(w, z, dt)
     F = scipy.linalg.block_diag(*phi)
-    G = np.concatenate([g[i] * gains[i] for i in range(w.size)])
-    qf, sig2 = float(f.var()), float(cell["noise_std_m_s2"]) ** 2
-    Q, R, S = qf * np.outer(G, G), np.array([[qf * d * d + sig2]]), qf * d * G[:, None]
+    C = np.concatenate([g * np.array([-wi * wi, -2 * zi * wi]) for g, wi, zi in
+                        zip(model.tip_gain, w, z, strict=True)])[None, :]
+    force = "force_body_y" if cfg.excitation.disturbance_at == "body" else "force_tip"
+    Q, S, direct_var = force_noise(model, w[None, :], dt, cfg.excitation.disturbance_force_n, force, damping=False)
+    m2 = 2 * w.size
+    Q, S = Q[0, :m2, :m2], S[0, :m2, None]
+    R = np.array([[direct_var + float(cell["noise_std_m_s2"]) ** 2]])
     P = scipy.linalg.solve_discrete_are(F.T, C.T, Q, R, s=S)
     K = (F @ P @ C.T + S) / (C @ P @ C.T + R)
     return np.poly(F - K @ C)[1:]
@@ -135,10 +132,6 @@ def pct(w, truth) -> str:
     return "/".join(f"{x:+.2f}" for x in 100 * (np.asarray(w) / truth - 1))
 
 
-def white_force(cfg) -> bool:
-    return not cfg.schedule.slosh and cfg.excitation.thruster_torque_n_m == 0
-
-
 def before_the_step(args, name, opts) -> None:
     for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
         if not any(c in label for c in args.cells.split(",")) or not white_force(cfg):
@@ -155,7 +148,7 @@ def before_the_step(args, name, opts) -> None:
             y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
             tr = methods.track(name, y, dt, prior, **opts)
             w_trk = tr.frequencies[np.searchsorted(tr.t_s, st - dt / 2) - 1]
-            w_genie, _, _ = fit(y[:k0], dt, truth[k0 - 1], zeta, true_b(cell, r, 0, k0))
+            w_genie, _, _ = fit(y[:k0], dt, truth[k0 - 1], zeta, true_b(cfg, cell, 0))
             w_blind, _ = blind_fit(y[:k0], dt, w_trk)
             print(f"  r{r} e % at the step: genie ML {pct(w_genie, truth[k0 - 1])} | blind ML from the tracker "
                   f"{pct(w_blind, truth[k0 - 1])} | tracker {pct(w_trk, truth[k0 - 1])}", flush=True)

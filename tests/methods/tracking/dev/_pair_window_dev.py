@@ -22,7 +22,7 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
 from _cells import VARIANT_TWO as TWO  # noqa: E402
-from _cells import ambient_configs, cached_cell  # noqa: E402
+from _cells import ambient_configs, cached_cell, white_force  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -44,7 +44,7 @@ def main() -> None:
     for which in ("ambient", "unseen"):
         for seed in (int(s) for s in args.seeds.split(",")):
             for idx, (label, cfg) in enumerate(ambient_configs(which, seed, REPLICATES).items()):
-                if cfg.schedule.slosh or cfg.excitation.thruster_torque_n_m > 0:
+                if not white_force(cfg):
                     continue
                 cell = cached_cell(cfg, args.cache, f"{which}_{seed}_{REPLICATES}_{idx}")
                 dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
