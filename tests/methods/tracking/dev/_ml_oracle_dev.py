@@ -2,7 +2,7 @@
 before a step and on the first window — a development table, not a test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_ml_oracle_dev.py SEED [--set ambient|unseen] [--replicates R]
-        [--cells "step"] [--cache DIR] [--first-window]
+        [--cells "step"] [--cache DIR] [--first-window | --after-step]
 
 The modal model under any stationary white excitation (one force or several, a direct term, white measurement
 noise) is an ARMA(2m, 2m) process whose autoregressive part is fixed by the modes, A(z) = Πᵢ(z² − 2e^(−ζᵢωᵢΔt)
@@ -17,6 +17,9 @@ start is forgotten.
   [0, step) — started at the truth with the truth's B (a genie: the steady Kalman predictor of the simulated
   model), and blind from the tracker's estimate just before the step (B from the modes' poles pulled in, ω held
   while ζ and B settle, then all free) — beside the tracker's estimate there.
+* ``--after-step``: on the same records, the fits of [step, step + T) for T = 5, 10, 15, 20 s — the genie's, blind
+  from the tracker's estimate at step + T, the modes of a least-squares AR(30) and a grid over the closest prior
+  pair with B held at the truth's before the step — beside the tracker there and its re-convergence.
 * ``--first-window``: on every white-force record (drifts too), the blind fit of the first window (the one the
   tracker starts from, five periods of the slowest prior mode), from the prior and from that window's Hann peaks
   (the lower Σe² kept), beside the peaks and the tracker at the window's end; tallied as ``_pair_window_dev.py``
@@ -35,7 +38,7 @@ import scipy.linalg  # noqa: E402
 import scipy.optimize  # noqa: E402
 import scipy.signal  # noqa: E402
 from _cells import VARIANT_TWO as TWO  # noqa: E402
-from _cells import ambient_configs, cached_cell, step_parser, white_force  # noqa: E402
+from _cells import ambient_configs, cached_cell, reconvergence_s, step_parser, white_force  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -154,6 +157,78 @@ def before_the_step(args, name, opts) -> None:
                   f"{pct(w_blind, truth[k0 - 1])} | tracker {pct(w_trk, truth[k0 - 1])}", flush=True)
 
 
+def ar_modes(y, dt, p: int, ref) -> np.ndarray:
+    """The modes of a least-squares AR(``p``) fit of ``y`` (``scipy.linalg.lstsq``): per reference frequency the
+    nearest pole frequency (ζ < 0.2) within the geometric midpoints to its neighbours (NaN: none)."""
+    Y = scipy.linalg.hankel(y[:y.size - p], y[y.size - p - 1:])
+    a, *_ = scipy.linalg.lstsq(Y[:, :p][:, ::-1], Y[:, p])
+    s = np.log(np.roots(np.concatenate(([1.0], -a))).astype(complex)) / dt
+    w = np.abs(s)[(s.imag > 0) & (-s.real < 0.2 * np.abs(s))]
+    out = np.full(ref.size, np.nan)
+    for i, wr in enumerate(ref):
+        lo = np.sqrt(ref[i - 1] * wr) if i else 0.7 * wr
+        hi = np.sqrt(ref[i + 1] * wr) if i + 1 < ref.size else 1.3 * wr
+        c = w[(w > lo) & (w < hi)]
+        if c.size:
+            out[i] = c[np.argmin(np.abs(c - wr))]
+    return out
+
+
+def grid_pair(y, dt, w, z, b, pair, span: float = 0.12, n: int = 49, skip: int = 25) -> np.ndarray:
+    """ω with the two modes of ``pair`` at the least Σe² (B held at ``b``, the first ``skip`` errors dropped) of an
+    n × n grid ±``span`` about ``w``."""
+    i, j = pair
+    best, arg = np.inf, w
+    B = np.concatenate(([1.0], b))
+    for a in w[i] * (1 + np.linspace(-span, span, n)):
+        for c in w[j] * (1 + np.linspace(-span, span, n)):
+            if c <= 1.01 * a:
+                continue
+            ww = w.copy()
+            ww[i], ww[j] = a, c
+            e = scipy.signal.lfilter(ar_poly(ww, z, dt), B, y)[skip:]
+            if e @ e < best:
+                best, arg = e @ e, ww
+    return arg
+
+
+def after_the_step(args, name, opts) -> None:
+    """The fits of [step, step + T) for T = 5, 10, 15, 20 s beside the tracker at step + T and its re-convergence:
+    the genie (truth after the step, its B), blind from the tracker's estimate, a least-squares AR(30), and a grid over
+    the closest prior pair (the other modes at the tracker's, B the truth's before the step, a genie) refitted."""
+    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
+        if not any(c in label for c in args.cells.split(",")) or not white_force(cfg):
+            continue
+        cell = cached_cell(cfg, args.cache, f"{args.set}_{args.seed}_{args.replicates}_{idx}")
+        st = float(cell["step_time_s"])
+        if not np.isfinite(st):
+            continue
+        dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
+        zeta = np.asarray(cell["truth_damping"], float)
+        k0 = int(round(st / dt))
+        b_true, b_pre = true_b(cfg, cell, k0 + 1), true_b(cfg, cell, k0 - 1)
+        print(label, flush=True)
+        for r in range(cell["accel_m_s2"].shape[0]):
+            y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
+            tr = methods.track(name, y, dt, prior, **opts)
+            rc = reconvergence_s(tr.t_s, tr.frequencies, truth, dt, st)
+            print(f"  r{r} tracker back in {rc:.1f} s", flush=True)
+            for T in (5.0, 10.0, 15.0, 20.0):
+                k1 = k0 + int(round(T / dt))
+                if k1 > y.size:
+                    break
+                w_trk = tr.frequencies[np.searchsorted(tr.t_s, st + T - dt / 2) - 1]
+                w_genie, _, _ = fit(y[k0:k1], dt, truth[k1 - 1], zeta, b_true)
+                w_blind, _ = blind_fit(y[k0:k1], dt, w_trk)
+                w_ar = ar_modes(y[k0:k1], dt, 30, w_trk)
+                i = int(np.argmin(np.diff(prior)))
+                w_grid = grid_pair(y[k0:k1], dt, w_trk, zeta, b_pre, (i, i + 1))
+                w_grid, _, _ = fit(y[k0:k1], dt, w_grid, zeta, b_pre)
+                print(f"    T {T:4.1f} s e %: genie ML {pct(w_genie, truth[k1 - 1])} | blind ML from the tracker "
+                      f"{pct(w_blind, truth[k1 - 1])} | AR(30) {pct(w_ar, truth[k1 - 1])} | pair grid "
+                      f"{pct(w_grid, truth[k1 - 1])} | tracker {pct(w_trk, truth[k1 - 1])}", flush=True)
+
+
 def first_window(args, name, opts) -> None:
     tally = [0, 0, 0]
     for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
@@ -184,9 +259,11 @@ def main() -> None:
     ap = step_parser(__doc__, cells="step")
     ap.add_argument("--cache", default=None)
     ap.add_argument("--first-window", action="store_true")
+    ap.add_argument("--after-step", action="store_true")
     args = ap.parse_args()
     name, opts = parse_row(TWO)
-    (first_window if args.first_window else before_the_step)(args, name, opts)
+    run = first_window if args.first_window else after_the_step if args.after_step else before_the_step
+    run(args, name, opts)
 
 
 if __name__ == "__main__":
