@@ -2,7 +2,7 @@
 before a step and on the first window — a development table, not a test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_ml_oracle_dev.py SEED [--set ambient|unseen] [--replicates R]
-        [--cells "step"] [--cache DIR] [--first-window | --after-step]
+        [--cells "step"] [--cache DIR] [--first-window | --after-step [--kalman-grid]]
 
 The modal model under any stationary white excitation (one force or several, a direct term, white measurement
 noise) is an ARMA(2m, 2m) process whose autoregressive part is fixed by the modes, A(z) = Πᵢ(z² − 2e^(−ζᵢωᵢΔt)
@@ -19,7 +19,11 @@ start is forgotten.
   while ζ and B settle, then all free) — beside the tracker's estimate there.
 * ``--after-step``: on the same records, the fits of [step, step + T) for T = 5, 10, 15, 20 s — the genie's, blind
   from the tracker's estimate at step + T, the modes of a least-squares AR(30) and a grid over the closest prior
-  pair with B held at the truth's before the step — beside the tracker there and its re-convergence.
+  pair with B held at the truth's before the step — beside the tracker there and its re-convergence. With
+  ``--kalman-grid`` also the same grid scored by the likelihood of a steady Kalman predictor whose noise model moves
+  with each hypothesis of the pair (the modes not in the pair at the tracker's before the step): the genie's model,
+  and a blind one, one white force (gains per mode, a direct term, the sensor noise; ζ = 1 %) fitted by its
+  likelihood to the 30 s before the step at the tracker's ω there.
 * ``--first-window``: on every white-force record (drifts too), the blind fit of the first window (the one the
   tracker starts from, five periods of the slowest prior mode), from the prior and from that window's Hann peaks
   (the lower Σe² kept), beside the peaks and the tracker at the window's end; tallied as ``_pair_window_dev.py``
@@ -78,12 +82,11 @@ def residuals(theta, y, dt, m):
     return e0 - G @ c
 
 
-def true_b(cfg, cell, k: int) -> np.ndarray:
-    """The truth's B(z) at sample ``k`` (a genie): the steady Kalman predictor of the simulated model at that
-    sample's frequencies — the plant's modal model (``timevarying.modal_model``), its unknown white force as the
-    bound models it (``pcrb_force.force_noise``: process noise, its covariance with the measurement and the
-    direct term's share), the sensor noise — as ``np.poly(Φ − K C)`` without its leading 1."""
-    dt, w = float(cell["dt_s"]), cell["truth_freq_rad_s"][k]
+def genie_model(cfg, cell, w):
+    """(Φ, C, Q, S, R) of the simulated model at frequencies ``w`` (a genie): the plant's modal model
+    (``timevarying.modal_model``), its unknown white force as the bound models it (``pcrb_force.force_noise``:
+    process noise, its covariance with the measurement and the direct term's share), the sensor noise."""
+    dt = float(cell["dt_s"])
     model = modal_model(build_plant(cfg.plant))
     z = model.damping
     phi, _ = oscillator_transition(w, z, dt)
@@ -93,11 +96,80 @@ def true_b(cfg, cell, k: int) -> np.ndarray:
     force = "force_body_y" if cfg.excitation.disturbance_at == "body" else "force_tip"
     Q, S, direct_var = force_noise(model, w[None, :], dt, cfg.excitation.disturbance_force_n, force, damping=False)
     m2 = 2 * w.size
-    Q, S = Q[0, :m2, :m2], S[0, :m2, None]
     R = np.array([[direct_var + float(cell["noise_std_m_s2"]) ** 2]])
+    return F, C, Q[0, :m2, :m2], S[0, :m2, None], R
+
+
+def predictor(F, C, Q, S, R):
+    """The steady Kalman predictor of (Φ, C, Q, S, R) (``scipy.linalg.solve_discrete_are``): its gain K and
+    innovation variance."""
     P = scipy.linalg.solve_discrete_are(F.T, C.T, Q, R, s=S)
-    K = (F @ P @ C.T + S) / (C @ P @ C.T + R)
+    var = float((C @ P @ C.T + R)[0, 0])
+    return (F @ P @ C.T + S) / var, var
+
+
+def true_b(cfg, cell, k: int) -> np.ndarray:
+    """The truth's B(z) at sample ``k`` (a genie): ``np.poly(Φ − K C)`` of the steady Kalman predictor of
+    :func:`genie_model` at that sample's frequencies, without its leading 1."""
+    F, C, *noise = genie_model(cfg, cell, cell["truth_freq_rad_s"][k])
+    K, _ = predictor(F, C, *noise)
     return np.poly(F - K @ C)[1:]
+
+
+def kalman_nll(y, F, C, Q, S, R, skip: int = 25) -> float:
+    """The negative log-likelihood of ``y`` under the steady Kalman predictor of (Φ, C, Q, S, R): the innovations
+    e = (A/B) y (``scipy.signal.lfilter``), A = det(zI − Φ), B = det(zI − Φ + K C), the first ``skip`` dropped."""
+    K, var = predictor(F, C, Q, S, R)
+    e = scipy.signal.lfilter(np.poly(F), np.poly(F - K @ C), y)[skip:]
+    return 0.5 * (e.size * np.log(var) + e @ e / var)
+
+
+def force_model(w, z, dt, theta):
+    """A blind noise model: one white force, zero-order held, x⁺ = Φx + Γb f, y = Cx + d f + v, f ~ N(0, 1),
+    C = [−ωᵢ², −2ζᵢωᵢ] per mode (tip units); ``theta`` = [b₁…bₘ, d, ln var v]."""
+    m = w.size
+    phi, gamma = oscillator_transition(w[None, :], z[None, :], dt)
+    F = scipy.linalg.block_diag(*phi[0])
+    g = (gamma[0, :, :, 1] * theta[:m, None]).reshape(2 * m)
+    C = np.concatenate([np.array([-wi * wi, -2 * zi * wi]) for wi, zi in zip(w, z, strict=True)])[None, :]
+    d = theta[m]
+    return F, C, np.outer(g, g), (d * g)[:, None], np.array([[d * d + np.exp(theta[m + 1])]])
+
+
+def fit_force_model(y, w, z, dt) -> np.ndarray:
+    """:func:`force_model`'s θ of least :func:`kalman_nll` on ``y`` at (ω, ζ) held (``scipy.optimize.minimize``,
+    Nelder–Mead from two starts)."""
+    m, sd = w.size, float(np.std(y))
+    best = None
+    for x0 in (np.concatenate((np.full(m, sd), [0.1 * sd, np.log(0.01 * sd ** 2)])),
+               np.concatenate((sd * w / w[0], [sd, np.log(0.1 * sd ** 2)]))):
+        def cost(th):
+            try:
+                return kalman_nll(y, *force_model(w, z, dt, th))
+            except (ValueError, np.linalg.LinAlgError):
+                return 1e12
+        res = scipy.optimize.minimize(cost, x0, method="Nelder-Mead",
+                                      options={"maxfev": 3000, "xatol": 1e-6, "fatol": 1e-3})
+        if best is None or res.fun < best.fun:
+            best = res
+    return best.x
+
+
+def kalman_grid(y, w, pair, model, span: float = 0.12, n: int = 33) -> np.ndarray:
+    """ω with the two modes of ``pair`` at the least :func:`kalman_nll` of an n × n grid ±``span`` about ``w``, the
+    noise model ``model(ω)`` → (Φ, C, Q, S, R) moving with each hypothesis."""
+    i, j = pair
+    best, arg = np.inf, w
+    for a in 1 + np.linspace(-span, span, n):
+        for c in 1 + np.linspace(-span, span, n):
+            ww = w.copy()
+            ww[i], ww[j] = w[i] * a, w[j] * c
+            if ww[j] <= 1.01 * ww[i]:
+                continue
+            v = kalman_nll(y, *model(ww))
+            if v < best:
+                best, arg = v, ww
+    return arg
 
 
 def fit(y, dt, w0, z0, b0):
@@ -224,9 +296,20 @@ def after_the_step(args, name, opts) -> None:
                 i = int(np.argmin(np.diff(prior)))
                 w_grid = grid_pair(y[k0:k1], dt, w_trk, zeta, b_pre, (i, i + 1))
                 w_grid, _, _ = fit(y[k0:k1], dt, w_grid, zeta, b_pre)
-                print(f"    T {T:4.1f} s e %: genie ML {pct(w_genie, truth[k1 - 1])} | blind ML from the tracker "
-                      f"{pct(w_blind, truth[k1 - 1])} | AR(30) {pct(w_ar, truth[k1 - 1])} | pair grid "
-                      f"{pct(w_grid, truth[k1 - 1])} | tracker {pct(w_trk, truth[k1 - 1])}", flush=True)
+                line = (f"    T {T:4.1f} s e %: genie ML {pct(w_genie, truth[k1 - 1])} | blind ML from the tracker "
+                        f"{pct(w_blind, truth[k1 - 1])} | AR(30) {pct(w_ar, truth[k1 - 1])} | pair grid "
+                        f"{pct(w_grid, truth[k1 - 1])}")
+                if args.kalman_grid:
+                    pre = tr.frequencies[np.searchsorted(tr.t_s, st - dt / 2) - 1]
+                    z1 = np.full(pre.size, 0.01)
+                    if T == 5.0:
+                        theta = fit_force_model(y[k0 - int(round(30 / dt)):k0], pre, z1, dt)
+                    w_kg = kalman_grid(y[k0:k1], pre, (i, i + 1), lambda w, c=cfg, cl=cell: genie_model(c, cl, w))
+                    w_kb = kalman_grid(y[k0:k1], pre, (i, i + 1),
+                                       lambda w, th=theta, z=z1, d=dt: force_model(w, z, d, th))
+                    line += (f" | Kalman grid, genie noise {pct(w_kg, truth[k1 - 1])} | Kalman grid, blind noise "
+                             f"{pct(w_kb, truth[k1 - 1])}")
+                print(line + f" | tracker {pct(w_trk, truth[k1 - 1])}", flush=True)
 
 
 def first_window(args, name, opts) -> None:
@@ -260,6 +343,7 @@ def main() -> None:
     ap.add_argument("--cache", default=None)
     ap.add_argument("--first-window", action="store_true")
     ap.add_argument("--after-step", action="store_true")
+    ap.add_argument("--kalman-grid", action="store_true")
     args = ap.parse_args()
     name, opts = parse_row(TWO)
     run = first_window if args.first_window else after_the_step if args.after_step else before_the_step
