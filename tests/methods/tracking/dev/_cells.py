@@ -24,6 +24,19 @@ def white_force(cfg) -> bool:
     return not cfg.schedule.slosh and cfg.excitation.disturbance_force_n > 0 and cfg.excitation.thruster_torque_n_m == 0
 
 
+def white_step_cells(args, prefix: str = ""):
+    """(label, config, cell) of each white-force record with a step whose label holds one of ``args.cells`` (comma-
+    separated), in ``args.set`` for ``args.seed`` and ``args.replicates``, each kept under ``args.cache`` as
+    ``<prefix><set>_<seed>_<replicates>_<index>``."""
+    import math
+    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
+        if not any(c in label for c in args.cells.split(",")) or not white_force(cfg):
+            continue
+        cell = cached_cell(cfg, args.cache, f"{prefix}{args.set}_{args.seed}_{args.replicates}_{idx}")
+        if math.isfinite(float(cell["step_time_s"])):
+            yield label, cfg, cell
+
+
 def white_force_drift(cfg) -> bool:
     """A drift under a white force alone."""
     return cfg.schedule.drift is not None and white_force(cfg)

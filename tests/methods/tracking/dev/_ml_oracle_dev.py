@@ -42,7 +42,7 @@ import scipy.linalg  # noqa: E402
 import scipy.optimize  # noqa: E402
 import scipy.signal  # noqa: E402
 from _cells import VARIANT_TWO as TWO  # noqa: E402
-from _cells import ambient_configs, cached_cell, reconvergence_s, step_parser, white_force  # noqa: E402
+from _cells import ambient_configs, cached_cell, reconvergence_s, step_parser, white_force, white_step_cells  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -208,13 +208,8 @@ def pct(w, truth) -> str:
 
 
 def before_the_step(args, name, opts) -> None:
-    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
-        if not any(c in label for c in args.cells.split(",")) or not white_force(cfg):
-            continue
-        cell = cached_cell(cfg, args.cache, f"{args.set}_{args.seed}_{args.replicates}_{idx}")
+    for label, cfg, cell in white_step_cells(args):
         st = float(cell["step_time_s"])
-        if not np.isfinite(st):
-            continue
         dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
         zeta = np.asarray(cell["truth_damping"], float)
         k0 = int(round(st / dt))
@@ -268,13 +263,8 @@ def after_the_step(args, name, opts) -> None:
     """The fits of [step, step + T) for T = 5, 10, 15, 20 s beside the tracker at step + T and its re-convergence:
     the genie (truth after the step, its B), blind from the tracker's estimate, a least-squares AR(30), and a grid over
     the closest prior pair (the other modes at the tracker's, B the truth's before the step, a genie) refitted."""
-    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
-        if not any(c in label for c in args.cells.split(",")) or not white_force(cfg):
-            continue
-        cell = cached_cell(cfg, args.cache, f"{args.set}_{args.seed}_{args.replicates}_{idx}")
+    for label, cfg, cell in white_step_cells(args):
         st = float(cell["step_time_s"])
-        if not np.isfinite(st):
-            continue
         dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
         zeta = np.asarray(cell["truth_damping"], float)
         k0 = int(round(st / dt))

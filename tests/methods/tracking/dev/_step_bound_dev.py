@@ -24,6 +24,7 @@ schedule, so a step's walk jumps at the step's sample — the bound knows when t
 
 import os
 import sys
+import zlib
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -32,7 +33,7 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 import numpy as np  # noqa: E402
 import scipy.stats  # noqa: E402
 from _cells import VARIANT_TWO as TWO  # noqa: E402
-from _cells import ambient_configs, cached_cell, fmt_times, reconvergence_s, step_parser, white_force  # noqa: E402
+from _cells import fmt_times, reconvergence_s, step_parser, white_step_cells  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -82,21 +83,16 @@ def main() -> None:
     ap.add_argument("--cache", default=None)
     ap.add_argument("--draws", type=int, default=100)
     args = ap.parse_args()
-    rng = np.random.default_rng(0)
     name, opts = parse_row(TWO)
-    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
-        if not any(c in label for c in args.cells.split(",")) or not white_force(cfg):
-            continue
-        cell = cached_cell(cfg, args.cache, f"bound_{args.set}_{args.seed}_{args.replicates}_{idx}")
+    for label, _, cell in white_step_cells(args, prefix="bound_"):
         st = float(cell["step_time_s"])
-        if not np.isfinite(st):
-            continue
         dt, truth, t = float(cell["dt_s"]), cell["truth_freq_rad_s"], cell["t_s"]
         late = (t >= st + 10) & (t <= st + HORIZON_S)
         for r in range(cell["accel_m_s2"].shape[0]):
             rel = cell["pcrb_unknown_force_std_rad_s"][r] / truth
             tb = bound_times(rel, t, st)
             beyond = np.mean(2 * scipy.stats.norm.sf(0.01 / rel[late]), axis=0)
+            rng = np.random.default_rng([zlib.crc32(label.encode()), args.seed, r])   # the same draws in any selection
             eff = efficient_draws(rel, truth, t, dt, st, args.draws, rng)
             med = np.median(eff)
             tr = methods.track(name, cell["accel_m_s2"][r], dt, cell["prior_rad_s"][r], **opts)
