@@ -189,18 +189,6 @@ class Options(_ambient.SharedOptions):
         ``"mode"``, from the first look at which the last window's likelihood ratio opens the reset gate (Λ_W >
         ``restart_gate``²/2: the record has changed, so every mode's rate since the start is in doubt), the
         whole-record recursion's ω̂ before it — a record that never opens the gate keeps its rates.
-    change_search : bool
-        ``recursions="two"``: once the reset gate opens (a change), and as soon as the samples since the change
-        (from the gate's opening on) span ``search_beats`` beat periods of the prior's closest pair, 2π/min Δω̄ (at
-        most a window; half a window for one mode), the modes are searched
-        on those samples by the likelihood of the steady Kalman predictor of each hypothesis, its noise model the
-        whole-record recursion's innovation form (module docstring); a mode whose best hypothesis beats the
-        recursion's ω̂ by ``restart_gate``²/2 nats starts again there in both recursions (:func:`_change_search`).
-    search_span : float
-        ``change_search``: the hypotheses of each mode span ±this share of its ω̂.
-    search_beats : float
-        ``change_search``: the samples searched, from the gate's opening on, in beat periods of the prior's
-        closest pair (at most a window).
     """
 
     estimate_damping: bool = True
@@ -211,15 +199,12 @@ class Options(_ambient.SharedOptions):
     score_reset: bool = False
     pair_peaks: bool = False
     rate_test: str = "off"
-    change_search: bool = False
-    search_span: float = 0.12
-    search_beats: float = 1.5
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = make_options(Options, options, name)
     _ambient.check_shared(name, opts, prior, dt, n_samples)
-    for field in ("estimate_damping", "score_reset", "pair_peaks", "change_search"):
+    for field in ("estimate_damping", "score_reset", "pair_peaks"):
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
@@ -232,14 +217,6 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
         raise ValueError(f"{name}: recursions = 'two' needs frequency_model = 'trend' (got {opts.frequency_model!r})")
-    if opts.change_search and opts.recursions != "two":
-        raise ValueError(f"{name}: change_search = true needs recursions = 'two' (got {opts.recursions!r})")
-    sb = opts.search_beats
-    if isinstance(sb, bool) or not (isinstance(sb, (int, float)) and math.isfinite(sb) and sb > 0):
-        raise ValueError(f"{name}: search_beats = {sb!r} must be a positive number")
-    sp = opts.search_span
-    if isinstance(sp, bool) or not (isinstance(sp, (int, float)) and math.isfinite(sp) and 0 < sp < 0.5):
-        raise ValueError(f"{name}: search_span = {sp!r} must be a number in (0, 0.5)")
     g = opts.reset_gate
     if isinstance(g, bool) or not (isinstance(g, (int, float)) and math.isfinite(g) and g > 0):
         raise ValueError(f"{name}: reset_gate = {g!r} must be a positive number")
@@ -504,100 +481,6 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
     return modes
 
 
-def _innovation_sse(y: np.ndarray, w: np.ndarray, z: np.ndarray, K: np.ndarray, dt: float, skip: int) -> float:
-    """Σe² (the first ``skip`` dropped) of the steady Kalman predictor at frequencies ``w`` whose noise model is the
-    innovation form's: x⁺ = Φx + K e, y = Cx + e (Q = KKᵀ, S = K, R = 1, regularised by 10⁻⁶ of their scale),
-    e = (A/B) y with A = det(zI − Φ), B = det(zI − Φ + K'C) (``scipy.signal.lfilter``), K' its steady gain at ``w``
-    (``scipy.linalg.solve_discrete_are``). The innovations' scale drops out of the concentrated likelihood,
-    N/2 ln Σe². inf where the Riccati equation has no stabilising solution."""
-    m = w.size
-    phi, _ = modal_transition(w, z, dt)
-    F = scipy.linalg.block_diag(*phi)
-    C = np.column_stack([-w * w, -2 * z * w]).ravel()[None, :]
-    Q = np.outer(K, K)
-    Q += 1e-6 * (np.trace(Q) / (2 * m) + 1e-300) * np.eye(2 * m)
-    try:
-        P = scipy.linalg.solve_discrete_are(F.T, C.T, Q, np.array([[1.0 + 1e-6]]), s=K[:, None])
-    except (ValueError, np.linalg.LinAlgError):
-        return math.inf
-    Kp = (F @ P @ C.T + K[:, None]) / float((C @ P @ C.T)[0, 0] + 1.0 + 1e-6)
-    B = np.poly(F - Kp @ C)
-    if np.max(np.abs(np.roots(B))) >= 1.0:
-        return math.inf
-    e = scipy.signal.lfilter(np.poly(F), B, y)[skip:]
-    return float(e @ e)
-
-
-def _change_search(y: np.ndarray, w0: np.ndarray, z: np.ndarray, K: np.ndarray, dt: float, span: float,
-                   gate_nats: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The modes after a change, searched on ``y`` (the samples since it) by the concentrated likelihood
-    N/2 ln Σe² of :func:`_innovation_sse`: the prior's closest pair on a coarse 2-D grid ±``span`` about ``w0``
-    (17 × 17) then a fine one (9 × 9, ±two coarse steps), every other mode on a 1-D grid (25, then 9), twice over.
-    A mode keeps its best hypothesis when it beats ``w0`` there, the others at their best, by ``gate_nats``.
-    Returns (ω, accepted, variance): the variance from the likelihood's curvature at the best hypothesis
-    (three points one fine step apart), floored at a fine step².
-
-    Written here: a grid of likelihoods over hypotheses of a close pair is no library's; each hypothesis is one
-    ``solve_discrete_are`` and one ``lfilter``."""
-    m, n = w0.size, y.size
-    skip = min(n // 4, int(round(2 * 2 * math.pi / float(np.min(w0)) / dt)))   # two periods of the slowest mode
-    nll = {}
-
-    def cost(w):
-        key = tuple(np.round(w, 12))
-        if key not in nll:
-            nll[key] = 0.5 * (n - skip) * math.log(max(_innovation_sse(y, w, z, K, dt, skip), 1e-300))
-        return nll[key]
-
-    w = w0.copy()
-    pair = (int(np.argmin(np.diff(w0))),) if m > 1 else ()
-    pair = (pair[0], pair[0] + 1) if pair else ()
-    fine = np.zeros(m)
-    for rnd in range(2):
-        sp = span if rnd == 0 else span / 4
-        if pair:
-            i, j = pair
-            for n_g, h in ((17, sp), (9, 2 * sp / 16)):
-                best, arg = math.inf, w
-                for a in np.linspace(-h, h, n_g):
-                    for b in np.linspace(-h, h, n_g):
-                        ww = w.copy()
-                        ww[i], ww[j] = w[i] * (1 + a), w[j] * (1 + b)
-                        if ww[j] <= ww[i]:
-                            continue
-                        c = cost(ww)
-                        if c < best:
-                            best, arg = c, ww
-                w = arg
-                fine[[i, j]] = 2 * h / (n_g - 1) * w[[i, j]]
-        for i in (k for k in range(m) if k not in pair):
-            for n_g, h in ((25, sp), (9, 2 * sp / 24)):
-                best, arg = math.inf, w
-                for a in np.linspace(-h, h, n_g):
-                    ww = w.copy()
-                    ww[i] = w[i] * (1 + a)
-                    if (i > 0 and ww[i] <= ww[i - 1]) or (i + 1 < m and ww[i] >= ww[i + 1]):
-                        continue
-                    c = cost(ww)
-                    if c < best:
-                        best, arg = c, ww
-                w = arg
-                fine[i] = 2 * h / (n_g - 1) * w[i]
-    base = cost(w)
-    accepted = np.zeros(m, dtype=bool)
-    var = np.empty(m)
-    for i in range(m):
-        back = w.copy()
-        back[i] = w0[i]
-        accepted[i] = cost(back) - base > gate_nats
-        lo, hi = w.copy(), w.copy()
-        lo[i] -= fine[i]
-        hi[i] += fine[i]
-        curv = (cost(lo) - 2 * base + cost(hi)) / fine[i] ** 2
-        var[i] = max(1.0 / curv if curv > 0 else math.inf, fine[i] ** 2)
-    return w, accepted, var
-
-
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
     """The recursion of the module docstring over the record."""
     m, n = prior.size, y.size
@@ -622,7 +505,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     nyq = math.pi / dt
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
-    n_restarts = n_pulses = n_resets = n_searches = 0
+    n_restarts = n_pulses = n_resets = 0
     reset_times: list[tuple[float, int]] = []      # (s, mode) of each reset of the whole-record recursion
     resolution = 2 * math.pi / (W_len * dt) if trend else 0.0
     gam = dt / (W_len * dt)                     # innovation variance memory: one window
@@ -692,12 +575,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         const_long[5 + 2 * m:5 + 2 * m + p] = q_long
         long = [theta.copy(), P.copy(), x.copy(), Wm.copy(), lam]
     j0 = 2 * m + iz.size        # the step's output rows of the ω scores Σ ψᵢe/S, then of their information
-    # change_search: armed until the gate opens, pending until enough samples follow the change, re-armed when the
-    # gate shuts; the samples it needs: ``search_beats`` beat periods of the prior's closest pair (half a window for
-    # one mode)
-    search_state = "armed"
-    beat = 2 * math.pi / float(np.min(np.diff(prior))) if m > 1 else math.nan
-    n_search = min(W_len, int(math.ceil(opts.search_beats * beat / dt))) if m > 1 else W_len // 2
     k0 = W_len
     while k0 < n:
         # the samples up to the next look (k + 1 − W a multiple of the hop), one mapaccum call
@@ -760,23 +637,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     s_sum = cum_s[k + 1] - cum_s[a, iw]
                     z_score = s_sum / np.sqrt(np.where(info > 0, info, np.inf))
                 nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var)
-                if opts.change_search:
-                    is_open = gain > 0.5 * opts.restart_gate ** 2
-                    if search_state == "armed" and is_open:
-                        search_state, tau = "pending", k + 1      # the samples from the gate's opening on
-                    elif search_state == "done" and not is_open:
-                        search_state = "armed"
-                    if search_state == "pending":
-                        if k + 1 - tau >= n_search:
-                            w_l, z_l, K_l = unpack(long[0])
-                            w_s, acc, v_s = _change_search(y[tau:k + 1], w_l, z_l, K_l, dt, opts.search_span,
-                                                           0.5 * opts.restart_gate ** 2)
-                            for i in np.flatnonzero(acc):
-                                for th_, P_, W_ in ((long[0], long[1], long[3]), (theta, P, Wm)):
-                                    _start_again(th_, P_, W_, (iw[i], ia[i]), (w_s[i], 0.0), (v_s[i], rate_var[i]))
-                            nr = np.union1d(nr, np.flatnonzero(acc)).astype(int)
-                            n_searches += 1
-                            search_state = "done"
                 since[nr] = k + 1
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]

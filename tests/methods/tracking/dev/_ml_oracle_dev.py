@@ -2,7 +2,7 @@
 before a step and on the first window — a development table, not a test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_ml_oracle_dev.py SEED [--set ambient|unseen] [--replicates R]
-        [--cells "step"] [--cache DIR] [--first-window | --after-step [--kalman-grid]]
+        [--cells "step"] [--cache DIR] [--first-window | --after-step [--kalman-grid] | --refit]
 
 The modal model under any stationary white excitation (one force or several, a direct term, white measurement
 noise) is an ARMA(2m, 2m) process whose autoregressive part is fixed by the modes, A(z) = Πᵢ(z² − 2e^(−ζᵢωᵢΔt)
@@ -24,6 +24,9 @@ start is forgotten.
   with each hypothesis of the pair (the modes not in the pair at the tracker's before the step): the genie's model,
   and a blind one, one white force (gains per mode, a direct term, the sensor noise; ζ = 1 %) fitted by its
   likelihood to the 30 s before the step at the tracker's ω there.
+* ``--refit``: on the same records, at the whole-record recursion's last look before the step, the ω of every mode
+  refitted over every sample so far by the likelihood of the steady Kalman predictor whose noise model is the
+  recursion's own innovation form (its ζ and gain K held), beside the recursion's, and the likelihood it gains.
 * ``--first-window``: on every white-force record (drifts too), the blind fit of the first window (the one the
   tracker starts from, five periods of the slowest prior mode), from the prior and from that window's Hann peaks
   (the lower Σe² kept), beside the peaks and the tracker at the window's end; tallied as ``_pair_window_dev.py``
@@ -32,6 +35,7 @@ start is forgotten.
 
 import os
 import sys
+import time
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -49,6 +53,7 @@ from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
 from experiments.simulate.pcrb_force import force_noise  # noqa: E402
 from experiments.simulate.plant import build_plant  # noqa: E402
 from experiments.simulate.timevarying import modal_model, oscillator_transition  # noqa: E402
+from methods.kalman import modal_transition  # noqa: E402
 from methods.tracking import _ambient  # noqa: E402
 
 MARGIN = 0.5    # % of ω
@@ -203,6 +208,30 @@ def blind_fit(y, dt, w0):
     return w, float(np.sum(residuals(np.concatenate((w, z, b)), y, dt, m) ** 2))
 
 
+def innovation_sse(y: np.ndarray, w: np.ndarray, z: np.ndarray, K: np.ndarray, dt: float, skip: int) -> float:
+    """Σe² (the first ``skip`` dropped) of the steady Kalman predictor at frequencies ``w`` whose noise model is the
+    innovation form's: x⁺ = Φx + K e, y = Cx + e (Q = KKᵀ, S = K, R = 1, regularised by 10⁻⁶ of their scale),
+    e = (A/B) y with A = det(zI − Φ), B = det(zI − Φ + K'C) (``scipy.signal.lfilter``), K' its steady gain at ``w``
+    (``scipy.linalg.solve_discrete_are``). The innovations' scale drops out of the concentrated likelihood,
+    N/2 ln Σe² (so the noise model's scale is free). inf where the Riccati equation has no stabilising solution."""
+    m = w.size
+    phi, _ = modal_transition(w, z, dt)
+    F = scipy.linalg.block_diag(*phi)
+    C = np.column_stack([-w * w, -2 * z * w]).ravel()[None, :]
+    Q = np.outer(K, K)
+    Q += 1e-6 * (np.trace(Q) / (2 * m) + 1e-300) * np.eye(2 * m)
+    try:
+        P = scipy.linalg.solve_discrete_are(F.T, C.T, Q, np.array([[1.0 + 1e-6]]), s=K[:, None])
+    except (ValueError, np.linalg.LinAlgError):
+        return np.inf
+    Kp = (F @ P @ C.T + K[:, None]) / float((C @ P @ C.T)[0, 0] + 1.0 + 1e-6)
+    B = np.poly(F - Kp @ C)
+    if np.max(np.abs(np.roots(B))) >= 1.0:
+        return np.inf
+    e = scipy.signal.lfilter(np.poly(F), B, y)[skip:]
+    return float(e @ e)
+
+
 def pct(w, truth) -> str:
     return "/".join(f"{x:+.2f}" for x in 100 * (np.asarray(w) / truth - 1))
 
@@ -302,6 +331,62 @@ def after_the_step(args, name, opts) -> None:
                 print(line + f" | tracker {pct(w_trk, truth[k1 - 1])}", flush=True)
 
 
+def refit(args, name, opts) -> None:
+    """At the whole-record recursion's last look before the step, the ω (every mode, ζ and K held at the
+    recursion's) of least concentrated likelihood N/2 ln Σe² of :func:`innovation_sse` over every sample so far
+    (Nelder–Mead from the recursion's ω), beside the recursion's; the likelihood gained, in nats, and a tally of
+    the closest prior pair's larger error where the gain passes ``restart_gate``²/2 and where it does not."""
+    from methods.tracking import _rpem
+    looks: list = []
+    orig = _rpem._reset_from_window
+
+    def keep(long, *a, **kw):
+        looks.append(long[0].copy())
+        return orig(long, *a, **kw)
+
+    _rpem._reset_from_window = keep
+    gate = 0.5 * _rpem.Options().restart_gate ** 2
+    tally = {True: [], False: []}
+    for label, _, cell in white_step_cells(args):
+        st = float(cell["step_time_s"])
+        dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
+        print(label, flush=True)
+        for r in range(cell["accel_m_s2"].shape[0]):
+            y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
+            looks.clear()
+            methods.track(name, y, dt, prior, **opts)
+            W_len, hop = _rpem._ambient._window_samples(_rpem.Options(), dt, prior)
+            at = W_len - 1 + hop * (1 + np.arange(len(looks)))
+            j = np.flatnonzero(at < int(round(st / dt)))[-1]
+            m, kl = prior.size, at[j]
+            kscale = np.empty(2 * m)
+            kscale[0::2], kscale[1::2] = 1 / prior ** 2, 1 / prior
+            w0, z0, K0 = looks[j][:m], looks[j][m:2 * m], looks[j][2 * m:4 * m] * kscale
+            seg = y[:kl + 1]
+            skip = int(round(2 * 2 * np.pi / w0.min() / dt))
+
+            def cost(x, seg=seg, w0=w0, z0=z0, K0=K0, skip=skip, dt=dt):
+                return 0.5 * (seg.size - skip) * np.log(max(innovation_sse(seg, w0 * np.exp(x), z0, K0, dt, skip),
+                                                            1e-300))
+
+            c0 = time.process_time()
+            res = scipy.optimize.minimize(cost, np.zeros(m), method="Nelder-Mead",
+                                          options={"xatol": 1e-5, "fatol": 0.01, "maxfev": 400})
+            cpu = time.process_time() - c0
+            w1, gain = w0 * np.exp(res.x), cost(np.zeros(m)) - res.fun
+            i = int(np.argmin(np.diff(prior)))
+            e0, e1 = (float(np.max(np.abs(100 * (w[[i, i + 1]] / truth[kl, [i, i + 1]] - 1)))) for w in (w0, w1))
+            tally[bool(gain > gate)].append((e0, e1))
+            print(f"  r{r} at {kl * dt:.1f} s e %: recursion {pct(w0, truth[kl])} | refit {pct(w1, truth[kl])} | "
+                  f"gain {gain:.1f} nats | {res.nfev} evaluations, {cpu:.2f} s CPU", flush=True)
+    for passed, pairs in tally.items():
+        if pairs:
+            e = np.array(pairs)
+            print(f"gain {'>' if passed else '≤'} {gate:g} nats: {len(pairs)} replicates, the pair's larger error "
+                  f"recursion → refit: median {np.median(e[:, 0]):.2f} → {np.median(e[:, 1]):.2f} %, better on "
+                  f"{int(np.sum(e[:, 1] < e[:, 0] - MARGIN))}, worse on {int(np.sum(e[:, 1] > e[:, 0] + MARGIN))}")
+
+
 def first_window(args, name, opts) -> None:
     tally = [0, 0, 0]
     for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
@@ -334,9 +419,11 @@ def main() -> None:
     ap.add_argument("--first-window", action="store_true")
     ap.add_argument("--after-step", action="store_true")
     ap.add_argument("--kalman-grid", action="store_true")
+    ap.add_argument("--refit", action="store_true")
     args = ap.parse_args()
     name, opts = parse_row(TWO)
-    run = first_window if args.first_window else after_the_step if args.after_step else before_the_step
+    run = (first_window if args.first_window else after_the_step if args.after_step else refit if args.refit
+           else before_the_step)
     run(args, name, opts)
 
 
