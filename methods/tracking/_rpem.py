@@ -135,8 +135,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
-import scipy.signal
 
 from methods.estimate import make_options
 from methods.kalman import modal_transition
@@ -191,11 +189,6 @@ class Options(_ambient.SharedOptions):
         ``"mode"``, from the first look at which the last window's likelihood ratio opens the reset gate (Λ_W >
         ``restart_gate``²/2: the record has changed, so every mode's rate since the start is in doubt), the
         whole-record recursion's ω̂ before it — a record that never opens the gate keeps its rates.
-    refit : bool
-        ``recursions="two"``: once a window, when two windows or more have passed since the whole-record recursion's
-        latest reset, its ω̂ is refitted over those samples by the concentrated likelihood of its own innovation form
-        (ζ̂ and K held; :func:`_refit`), at the samples' middle (its rate carries the fit to now), and replaces ω̂ when
-        it gains more than ``restart_gate``²/2 nats (the recursion carries its start; the refit does not).
     """
 
     estimate_damping: bool = True
@@ -206,13 +199,12 @@ class Options(_ambient.SharedOptions):
     score_reset: bool = False
     pair_peaks: bool = False
     rate_test: str = "off"
-    refit: bool = False
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = make_options(Options, options, name)
     _ambient.check_shared(name, opts, prior, dt, n_samples)
-    for field in ("estimate_damping", "score_reset", "pair_peaks", "refit"):
+    for field in ("estimate_damping", "score_reset", "pair_peaks"):
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
@@ -225,8 +217,6 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
         raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
         raise ValueError(f"{name}: recursions = 'two' needs frequency_model = 'trend' (got {opts.frequency_model!r})")
-    if opts.refit and opts.recursions != "two":
-        raise ValueError(f"{name}: refit = true needs recursions = 'two' (got {opts.recursions!r})")
     g = opts.reset_gate
     if isinstance(g, bool) or not (isinstance(g, (int, float)) and math.isfinite(g) and g > 0):
         raise ValueError(f"{name}: reset_gate = {g!r} must be a positive number")
@@ -491,50 +481,6 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
     return modes
 
 
-def _innovations(y: np.ndarray, w: np.ndarray, z: np.ndarray, K: np.ndarray, dt: float, skip: int):
-    """The innovations of ``y`` (the first ``skip`` dropped) under the steady Kalman predictor at frequencies ``w``
-    whose noise model is the innovation form's, x⁺ = Φx + K e, y = Cx + e (Q = KKᵀ, S = K, R = 1, regularised by
-    10⁻⁶ of their scale): e = (A/B) y, A = det(zI − Φ), B = det(zI − Φ + K'C) (``scipy.signal.lfilter``), K' the
-    steady gain at ``w`` (``scipy.linalg.solve_discrete_are``); the innovations' scale drops out of the
-    concentrated likelihood N/2 ln Σe². None where the Riccati equation has no stabilising solution."""
-    m = w.size
-    phi, _ = modal_transition(w, z, dt)
-    F = scipy.linalg.block_diag(*phi)
-    C = np.column_stack([-w * w, -2 * z * w]).ravel()[None, :]
-    Q = np.outer(K, K)
-    Q += 1e-6 * (np.trace(Q) / (2 * m) + 1e-300) * np.eye(2 * m)
-    try:
-        P = scipy.linalg.solve_discrete_are(F.T, C.T, Q, np.array([[1.0 + 1e-6]]), s=K[:, None])
-    except (ValueError, np.linalg.LinAlgError):
-        return None
-    Kp = (F @ P @ C.T + K[:, None]) / float((C @ P @ C.T)[0, 0] + 1.0 + 1e-6)
-    B = np.poly(F - Kp @ C)
-    if not np.all(np.isfinite(B)) or np.max(np.abs(np.roots(B))) >= 1.0:
-        return None
-    return scipy.signal.lfilter(np.poly(F), B, y)[skip:]
-
-
-def _refit(y: np.ndarray, w0: np.ndarray, z: np.ndarray, K: np.ndarray, dt: float) -> tuple[np.ndarray, float]:
-    """``refit``: the ω of least Σe² of :func:`_innovations` on ``y`` from ``w0`` (``scipy.optimize.least_squares``
-    on the innovations, ω = w0·e^x), and the concentrated log-likelihood it gains over ``w0``, nats (0: none)."""
-    skip = min(y.size // 4, int(round(2 * 2 * math.pi / float(np.min(w0)) / dt)))   # two periods of the slowest
-    e0 = _innovations(y, w0, z, K, dt, skip)
-    if e0 is None:
-        return w0, 0.0
-    bad = np.full(e0.size, 10.0 * math.sqrt(float(e0 @ e0) / e0.size))
-
-    def resid(x):
-        e = _innovations(y, w0 * np.exp(x), z, K, dt, skip)
-        return bad if e is None else e
-
-    res = scipy.optimize.least_squares(resid, np.zeros(w0.size), diff_step=1e-6, max_nfev=40,
-                                       bounds=(-0.2, 0.2))
-    w = w0 * np.exp(res.x)
-    if np.any(np.diff(w) <= 0):
-        return w0, 0.0
-    return w, 0.5 * e0.size * math.log(float(e0 @ e0) / max(float(res.fun @ res.fun), 1e-300))
-
-
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
     """The recursion of the module docstring over the record."""
     m, n = prior.size, y.size
@@ -559,7 +505,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     nyq = math.pi / dt
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
-    n_restarts = n_pulses = n_resets = n_refits = 0
+    n_restarts = n_pulses = n_resets = 0
     reset_times: list[tuple[float, int]] = []      # (s, mode) of each reset of the whole-record recursion
     resolution = 2 * math.pi / (W_len * dt) if trend else 0.0
     gam = dt / (W_len * dt)                     # innovation variance memory: one window
@@ -629,7 +575,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         const_long[5 + 2 * m:5 + 2 * m + p] = q_long
         long = [theta.copy(), P.copy(), x.copy(), Wm.copy(), lam]
     j0 = 2 * m + iz.size        # the step's output rows of the ω scores Σ ψᵢe/S, then of their information
-    last_refit = W_len          # ``refit``: the sample of the last one
     k0 = W_len
     while k0 < n:
         # the samples up to the next look (k + 1 − W a multiple of the hop), one mapaccum call
@@ -692,16 +637,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     s_sum = cum_s[k + 1] - cum_s[a, iw]
                     z_score = s_sum / np.sqrt(np.where(info > 0, info, np.inf))
                 nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var)
-                a = int(since.max()) if nr.size == 0 else k + 1
-                if opts.refit and k + 1 - last_refit >= W_len and k + 1 - a >= W_len:
-                    last_refit = k + 1
-                    w_l, z_l, K_l = unpack(long[0])
-                    back = long[0][ia] * (k - a) * dt / 2       # the rate carries ω̂ from the middle to now
-                    w_r, nats = _refit(y[a:k + 1], w_l - back, z_l, K_l, dt)
-                    if nats > 0.5 * opts.restart_gate ** 2:
-                        long[0][iw] = w_r + back
-                        long[3][:, iw] = 0.0
-                        n_refits += 1
                 since[nr] = k + 1
                 n_resets += nr.size
                 reset_times += [(k * dt, int(i)) for i in nr]
