@@ -2,7 +2,7 @@
 before a step and on the first window — a development table, not a test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_ml_oracle_dev.py SEED [--set ambient|unseen] [--replicates R]
-        [--cells "step"] [--cache DIR] [--first-window | --after-step [--kalman-grid] | --refit]
+        [--cells "step"] [--cache DIR] [--first-window | --after-step [--kalman-grid] | --refit | --line-refit]
 
 The modal model under any stationary white excitation (one force or several, a direct term, white measurement
 noise) is an ARMA(2m, 2m) process whose autoregressive part is fixed by the modes, A(z) = Πᵢ(z² − 2e^(−ζᵢωᵢΔt)
@@ -27,6 +27,9 @@ start is forgotten.
 * ``--refit``: on the same records, at the whole-record recursion's last look before the step, the ω of every mode
   refitted over every sample so far by the likelihood of the steady Kalman predictor whose noise model is the
   recursion's own innovation form (its ζ and gain K held), beside the recursion's, and the likelihood it gains.
+* ``--line-refit``: on the white-force drift records, at the looks nearest 60 s and 100 s, the recursion's line
+  (every mode's ω and rate) refitted over the samples since its first window by the same likelihood with the
+  frequencies moving along the line (a predictor in segments), and the likelihood it gains.
 * ``--first-window``: on every white-force record (drifts too), the blind fit of the first window (the one the
   tracker starts from, five periods of the slowest prior mode), from the prior and from that window's Hann peaks
   (the lower Σe² kept), beside the peaks and the tracker at the window's end; tallied as ``_pair_window_dev.py``
@@ -387,6 +390,93 @@ def refit(args, name, opts) -> None:
                   f"{int(np.sum(e[:, 1] < e[:, 0] - MARGIN))}, worse on {int(np.sum(e[:, 1] > e[:, 0] + MARGIN))}")
 
 
+def line_innovations(y, dt, w_end, rate, z, K, n_seg: int, skip: int):
+    """The innovations (the first ``skip`` dropped) of the predictor of :func:`innovation_sse`'s noise model when
+    every frequency is a line ending at ``w_end`` with slope ``rate`` (rad/s²): ``n_seg`` segments, each at its
+    middle's frequencies (its own Riccati gain), the state carried across them; a loop over the samples (slow:
+    a diagnosis, about 1 s per fit of 50–100 s). None where a segment's frequencies cross or its Riccati equation
+    has no stabilising solution."""
+    m, n = w_end.size, y.size
+    edges = np.linspace(0, n, n_seg + 1).astype(int)
+    x, e = np.zeros(2 * m), np.empty(n)
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        w = w_end + rate * ((a + b) / 2 - (n - 1)) * dt
+        if np.any(np.diff(w) <= 0) or np.any(w <= 0):
+            return None
+        phi, _ = modal_transition(w, z, dt)
+        F = scipy.linalg.block_diag(*phi)
+        C = np.column_stack([-w * w, -2 * z * w]).ravel()
+        Q = np.outer(K, K) + 1e-6 * float(K @ K) / (2 * m) * np.eye(2 * m)
+        try:
+            P = scipy.linalg.solve_discrete_are(F.T, C[:, None], Q, np.array([[1.0 + 1e-6]]), s=K[:, None])
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        gain = (F @ P @ C + K) / float(C @ P @ C + 1.0 + 1e-6)
+        for k in range(a, b):
+            e[k] = y[k] - C @ x
+            x = F @ x + gain * e[k]
+    return e[skip:]
+
+
+def line_refit(args, name, opts) -> None:
+    """On the white-force drift records, at the looks nearest 60 s and 100 s, the whole-record recursion's line
+    (every mode's ω and rate, ζ and K held) refitted over the samples since its first window by the likelihood of
+    :func:`line_innovations` (``scipy.optimize.least_squares``), beside the recursion's, and the nats it gains."""
+    from _cells import white_force_drift
+
+    from methods.tracking import _rpem
+    looks: list = []
+    orig = _rpem._reset_from_window
+
+    def keep(long, *a, **kw):
+        looks.append(long[0].copy())
+        return orig(long, *a, **kw)
+
+    _rpem._reset_from_window = keep
+    gate = 0.5 * _rpem.Options().restart_gate ** 2
+    rows = []
+    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
+        if not white_force_drift(cfg):
+            continue
+        cell = cached_cell(cfg, args.cache, f"{args.set}_{args.seed}_{args.replicates}_{idx}")
+        dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
+        print(label, flush=True)
+        for r in range(cell["accel_m_s2"].shape[0]):
+            y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
+            looks.clear()
+            methods.track(name, y, dt, prior, **opts)
+            W_len, hop = _rpem._ambient._window_samples(_rpem.Options(), dt, prior)
+            at = W_len - 1 + hop * (1 + np.arange(len(looks)))
+            m = prior.size
+            kscale = np.empty(2 * m)
+            kscale[0::2], kscale[1::2] = 1 / prior ** 2, 1 / prior
+            for T in (60.0, 100.0):
+                j = np.flatnonzero(at * dt <= T)[-1]
+                kl, th = at[j], looks[j]
+                w0, z0, K0, r0 = th[:m], th[m:2 * m], th[2 * m:4 * m] * kscale, th[4 * m:5 * m]
+                seg = y[W_len:kl + 1]
+                skip = int(round(2 * 2 * np.pi / w0.min() / dt))
+
+                def resid(x, seg=seg, w0=w0, z0=z0, K0=K0, r0=r0, skip=skip, dt=dt, m=m):
+                    e = line_innovations(seg, dt, w0 * np.exp(x[:m]), r0 + x[m:] * w0, z0, K0, 8, skip)
+                    return np.full(seg.size - skip, 1e3 * np.std(seg)) if e is None else e
+
+                e0 = resid(np.zeros(2 * m))
+                res = scipy.optimize.least_squares(resid, np.zeros(2 * m), diff_step=1e-6, max_nfev=60,
+                                                   x_scale=np.concatenate((np.full(m, 0.01), np.full(m, 1e-4))))
+                gain = 0.5 * e0.size * np.log((e0 @ e0) / (res.fun @ res.fun))
+                w1 = w0 * np.exp(res.x[:m])
+                rows.append((gain, np.abs(w0 / truth[kl] - 1), np.abs(w1 / truth[kl] - 1)))
+                print(f"  r{r} at {kl * dt:5.1f} s e %: recursion {pct(w0, truth[kl])} | line refit "
+                      f"{pct(w1, truth[kl])} | gain {gain:.1f} nats", flush=True)
+    g = np.array([x[0] for x in rows])
+    for sel, what in ((g > gate, f"> {gate:g}"), (g <= gate, f"≤ {gate:g}")):
+        if sel.any():
+            a, b = (np.median(np.array([x[i] for x in rows])[sel], axis=0) for i in (1, 2))
+            print(f"gain {what} nats: {int(sel.sum())} refits, median |e| % per mode recursion "
+                  f"{'/'.join(f'{100 * v:.2f}' for v in a)} → refit {'/'.join(f'{100 * v:.2f}' for v in b)}")
+
+
 def first_window(args, name, opts) -> None:
     tally = [0, 0, 0]
     for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
@@ -420,10 +510,11 @@ def main() -> None:
     ap.add_argument("--after-step", action="store_true")
     ap.add_argument("--kalman-grid", action="store_true")
     ap.add_argument("--refit", action="store_true")
+    ap.add_argument("--line-refit", action="store_true")
     args = ap.parse_args()
     name, opts = parse_row(TWO)
     run = (first_window if args.first_window else after_the_step if args.after_step else refit if args.refit
-           else before_the_step)
+           else line_refit if args.line_refit else before_the_step)
     run(args, name, opts)
 
 
