@@ -124,7 +124,11 @@ section's commands run at commit 681eb87, "measured at 681eb87"; sections of doc
 * ``restart_confirm``: a confirming restart below the one-bin floor — "A confirming restart of the window
   recursion", measured at 681eb87;
 * ``start_look="era"``: the start's close pair from NExT + ERA on the first window — "The close pair from a
-  parametric look", measured at 681eb87.
+  parametric look", measured at 681eb87;
+* ``change_search``: once the reset gate opens, the modes searched on the samples after it by the likelihood of
+  the recursion's own innovation form — "A search of the modes after a change", measured at e3d3ca6;
+* ``refit``: the whole-record recursion's ω refitted once a window by that likelihood — "That refit inside the
+  tracker", measured at 16b0576 (the first section of docs/measured/tracking_ambient.md holds both).
 """
 
 from __future__ import annotations
