@@ -1,5 +1,6 @@
 """What the samples allow where ``rpem_ambient:two`` errs most: batch prediction-error fits of the ambient model
-before a step and on the first window — a development table, not a test (pytest does not collect it).
+before and after a step and on the first window, and refits of the recursion by the likelihood of its own model —
+a development table, not a test (pytest does not collect it).
 
     python tests/methods/tracking/dev/_ml_oracle_dev.py SEED [--set ambient|unseen] [--replicates R]
         [--cells "step"] [--cache DIR] [--first-window | --after-step [--kalman-grid] | --refit | --line-refit]
