@@ -24,15 +24,22 @@ def white_force(cfg) -> bool:
     return not cfg.schedule.slosh and cfg.excitation.disturbance_force_n > 0 and cfg.excitation.thruster_torque_n_m == 0
 
 
+def white_cells(which: str, seed: int, replicates: int, cache: str | None, keep=None, prefix: str = ""):
+    """(label, config, cell) of each record of ``ambient_configs(which, seed, replicates)`` under a white force
+    alone whose (label, config) ``keep`` accepts (None: every one), each kept under ``cache`` as
+    ``<prefix><which>_<seed>_<replicates>_<index>``."""
+    for idx, (label, cfg) in enumerate(ambient_configs(which, seed, replicates).items()):
+        if white_force(cfg) and (keep is None or keep(label, cfg)):
+            yield label, cfg, cached_cell(cfg, cache, f"{prefix}{which}_{seed}_{replicates}_{idx}")
+
+
 def white_step_cells(args, prefix: str = ""):
-    """(label, config, cell) of each white-force record with a step whose label holds one of ``args.cells`` (comma-
-    separated), in ``args.set`` for ``args.seed`` and ``args.replicates``, each kept under ``args.cache`` as
-    ``<prefix><set>_<seed>_<replicates>_<index>``."""
+    """:func:`white_cells` of ``args.set``, ``args.seed``, ``args.replicates`` and ``args.cache`` whose label holds
+    one of ``args.cells`` (comma-separated) and whose record has a step."""
     import math
-    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
-        if not any(c in label for c in args.cells.split(",")) or not white_force(cfg):
-            continue
-        cell = cached_cell(cfg, args.cache, f"{prefix}{args.set}_{args.seed}_{args.replicates}_{idx}")
+    cells = args.cells.split(",")
+    for label, cfg, cell in white_cells(args.set, args.seed, args.replicates, args.cache,
+                                        lambda label, _: any(c in label for c in cells), prefix):
         if math.isfinite(float(cell["step_time_s"])):
             yield label, cfg, cell
 

@@ -50,7 +50,7 @@ import scipy.linalg  # noqa: E402
 import scipy.optimize  # noqa: E402
 import scipy.signal  # noqa: E402
 from _cells import VARIANT_TWO as TWO  # noqa: E402
-from _cells import ambient_configs, cached_cell, reconvergence_s, step_parser, white_force, white_step_cells  # noqa: E402
+from _cells import reconvergence_s, step_parser, white_cells, white_step_cells  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -125,12 +125,30 @@ def true_b(cfg, cell, k: int) -> np.ndarray:
     return np.poly(F - K @ C)[1:]
 
 
-def kalman_nll(y, F, C, Q, S, R, skip: int = 25) -> float:
-    """The negative log-likelihood of ``y`` under the steady Kalman predictor of (Φ, C, Q, S, R): the innovations
-    e = (A/B) y (``scipy.signal.lfilter``), A = det(zI − Φ), B = det(zI − Φ + K C), the first ``skip`` dropped."""
+def predictor_innovations(y, F, C, Q, S, R, skip: int):
+    """The innovations of ``y`` (the first ``skip`` dropped) under the steady Kalman predictor of (Φ, C, Q, S, R):
+    e = (A/B) y (``scipy.signal.lfilter``), A = det(zI − Φ), B = det(zI − Φ + K C); returns (e, their variance, B)."""
     K, var = predictor(F, C, Q, S, R)
-    e = scipy.signal.lfilter(np.poly(F), np.poly(F - K @ C), y)[skip:]
+    B = np.poly(F - K @ C)
+    return scipy.signal.lfilter(np.poly(F), B, y)[skip:], var, B
+
+
+def kalman_nll(y, F, C, Q, S, R, skip: int = 25) -> float:
+    """The negative log-likelihood of ``y`` under the steady Kalman predictor of (Φ, C, Q, S, R)
+    (:func:`predictor_innovations`)."""
+    e, var, _ = predictor_innovations(y, F, C, Q, S, R, skip)
     return 0.5 * (e.size * np.log(var) + e @ e / var)
+
+
+def innovation_model(w, z, K, dt):
+    """(Φ, C, Q, S, R) of the innovation form x⁺ = Φx + K e, y = Cx + e at frequencies ``w`` (Q = KKᵀ, S = K, R = 1,
+    Q and R regularised by 10⁻⁶ of their scale): the noise model ``rpem_ambient`` estimates, moved to other ω."""
+    m = w.size
+    phi, _ = modal_transition(w, z, dt)
+    Q = np.outer(K, K)
+    Q += 1e-6 * (np.trace(Q) / (2 * m) + 1e-300) * np.eye(2 * m)
+    return (scipy.linalg.block_diag(*phi), np.column_stack([-w * w, -2 * z * w]).ravel()[None, :], Q, K[:, None],
+            np.array([[1.0 + 1e-6]]))
 
 
 def force_model(w, z, dt, theta):
@@ -213,27 +231,14 @@ def blind_fit(y, dt, w0):
 
 
 def innovation_sse(y: np.ndarray, w: np.ndarray, z: np.ndarray, K: np.ndarray, dt: float, skip: int) -> float:
-    """Σe² (the first ``skip`` dropped) of the steady Kalman predictor at frequencies ``w`` whose noise model is the
-    innovation form's: x⁺ = Φx + K e, y = Cx + e (Q = KKᵀ, S = K, R = 1, regularised by 10⁻⁶ of their scale),
-    e = (A/B) y with A = det(zI − Φ), B = det(zI − Φ + K'C) (``scipy.signal.lfilter``), K' its steady gain at ``w``
-    (``scipy.linalg.solve_discrete_are``). The innovations' scale drops out of the concentrated likelihood,
+    """Σe² (the first ``skip`` dropped) of the steady Kalman predictor of :func:`innovation_model` at frequencies
+    ``w`` (:func:`predictor_innovations`). The innovations' scale drops out of the concentrated likelihood,
     N/2 ln Σe² (so the noise model's scale is free). inf where the Riccati equation has no stabilising solution."""
-    m = w.size
-    phi, _ = modal_transition(w, z, dt)
-    F = scipy.linalg.block_diag(*phi)
-    C = np.column_stack([-w * w, -2 * z * w]).ravel()[None, :]
-    Q = np.outer(K, K)
-    Q += 1e-6 * (np.trace(Q) / (2 * m) + 1e-300) * np.eye(2 * m)
     try:
-        P = scipy.linalg.solve_discrete_are(F.T, C.T, Q, np.array([[1.0 + 1e-6]]), s=K[:, None])
+        e, _, B = predictor_innovations(y, *innovation_model(w, z, K, dt), skip)
     except (ValueError, np.linalg.LinAlgError):
         return np.inf
-    Kp = (F @ P @ C.T + K[:, None]) / float((C @ P @ C.T)[0, 0] + 1.0 + 1e-6)
-    B = np.poly(F - Kp @ C)
-    if np.max(np.abs(np.roots(B))) >= 1.0:
-        return np.inf
-    e = scipy.signal.lfilter(np.poly(F), B, y)[skip:]
-    return float(e @ e)
+    return np.inf if np.max(np.abs(np.roots(B))) >= 1.0 else float(e @ e)
 
 
 def pct(w, truth) -> str:
@@ -335,11 +340,9 @@ def after_the_step(args, name, opts) -> None:
                 print(line + f" | tracker {pct(w_trk, truth[k1 - 1])}", flush=True)
 
 
-def refit(args, name, opts) -> None:
-    """At the whole-record recursion's last look before the step, the ω (every mode, ζ and K held at the
-    recursion's) of least concentrated likelihood N/2 ln Σe² of :func:`innovation_sse` over every sample so far
-    (Nelder–Mead from the recursion's ω), beside the recursion's; the likelihood gained, in nats, and a tally of
-    the closest prior pair's larger error where the gain passes ``restart_gate``²/2 and where it does not."""
+def recursion_lines(name, opts, y, dt, prior):
+    """The whole-record recursion of ``rpem_ambient`` (``recursions="two"``) at each look: (the window's samples, each
+    look's sample, per look ω, ζ, gain K and rate), read where the tracker hands them to its reset step."""
     from methods.tracking import _rpem
     looks: list = []
     orig = _rpem._reset_from_window
@@ -349,6 +352,24 @@ def refit(args, name, opts) -> None:
         return orig(long, *a, **kw)
 
     _rpem._reset_from_window = keep
+    try:
+        methods.track(name, y, dt, prior, **opts)
+    finally:
+        _rpem._reset_from_window = orig
+    W_len, hop = _rpem._ambient._window_samples(_rpem.Options(), dt, prior)
+    m = prior.size
+    kscale = np.empty(2 * m)
+    kscale[0::2], kscale[1::2] = 1 / prior ** 2, 1 / prior
+    return (W_len, W_len - 1 + hop * (1 + np.arange(len(looks))),
+            [(th[:m], th[m:2 * m], th[2 * m:4 * m] * kscale, th[4 * m:5 * m]) for th in looks])
+
+
+def refit(args, name, opts) -> None:
+    """At the whole-record recursion's last look before the step, the ω (every mode, ζ and K held at the
+    recursion's) of least concentrated likelihood N/2 ln Σe² of :func:`innovation_sse` over every sample so far
+    (Nelder–Mead from the recursion's ω), beside the recursion's; the likelihood gained, in nats, and a tally of
+    the closest prior pair's larger error where the gain passes ``restart_gate``²/2 and where it does not."""
+    from methods.tracking import _rpem
     gate = 0.5 * _rpem.Options().restart_gate ** 2
     tally = {True: [], False: []}
     for label, _, cell in white_step_cells(args):
@@ -357,15 +378,10 @@ def refit(args, name, opts) -> None:
         print(label, flush=True)
         for r in range(cell["accel_m_s2"].shape[0]):
             y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
-            looks.clear()
-            methods.track(name, y, dt, prior, **opts)
-            W_len, hop = _rpem._ambient._window_samples(_rpem.Options(), dt, prior)
-            at = W_len - 1 + hop * (1 + np.arange(len(looks)))
+            _, at, lines = recursion_lines(name, opts, y, dt, prior)
             j = np.flatnonzero(at < int(round(st / dt)))[-1]
             m, kl = prior.size, at[j]
-            kscale = np.empty(2 * m)
-            kscale[0::2], kscale[1::2] = 1 / prior ** 2, 1 / prior
-            w0, z0, K0 = looks[j][:m], looks[j][m:2 * m], looks[j][2 * m:4 * m] * kscale
+            w0, z0, K0, _ = lines[j]
             seg = y[:kl + 1]
             skip = int(round(2 * 2 * np.pi / w0.min() / dt))
 
@@ -404,15 +420,12 @@ def line_innovations(y, dt, w_end, rate, z, K, n_seg: int, skip: int):
         w = w_end + rate * ((a + b) / 2 - (n - 1)) * dt
         if np.any(np.diff(w) <= 0) or np.any(w <= 0):
             return None
-        phi, _ = modal_transition(w, z, dt)
-        F = scipy.linalg.block_diag(*phi)
-        C = np.column_stack([-w * w, -2 * z * w]).ravel()
-        Q = np.outer(K, K) + 1e-6 * float(K @ K) / (2 * m) * np.eye(2 * m)
+        F, C, *noise = innovation_model(w, z, K, dt)
         try:
-            P = scipy.linalg.solve_discrete_are(F.T, C[:, None], Q, np.array([[1.0 + 1e-6]]), s=K[:, None])
+            gain, _ = predictor(F, C, *noise)
         except (ValueError, np.linalg.LinAlgError):
             return None
-        gain = (F @ P @ C + K) / float(C @ P @ C + 1.0 + 1e-6)
+        C, gain = C.ravel(), gain.ravel()
         for k in range(a, b):
             e[k] = y[k] - C @ x
             x = F @ x + gain * e[k]
@@ -426,35 +439,20 @@ def line_refit(args, name, opts) -> None:
     from _cells import white_force_drift
 
     from methods.tracking import _rpem
-    looks: list = []
-    orig = _rpem._reset_from_window
-
-    def keep(long, *a, **kw):
-        looks.append(long[0].copy())
-        return orig(long, *a, **kw)
-
-    _rpem._reset_from_window = keep
     gate = 0.5 * _rpem.Options().restart_gate ** 2
     rows = []
-    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
-        if not white_force_drift(cfg):
-            continue
-        cell = cached_cell(cfg, args.cache, f"{args.set}_{args.seed}_{args.replicates}_{idx}")
+    for label, _, cell in white_cells(args.set, args.seed, args.replicates, args.cache,
+                                      lambda _, cfg: white_force_drift(cfg)):
         dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
         print(label, flush=True)
         for r in range(cell["accel_m_s2"].shape[0]):
             y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
-            looks.clear()
-            methods.track(name, y, dt, prior, **opts)
-            W_len, hop = _rpem._ambient._window_samples(_rpem.Options(), dt, prior)
-            at = W_len - 1 + hop * (1 + np.arange(len(looks)))
+            W_len, at, lines = recursion_lines(name, opts, y, dt, prior)
             m = prior.size
-            kscale = np.empty(2 * m)
-            kscale[0::2], kscale[1::2] = 1 / prior ** 2, 1 / prior
             for T in (60.0, 100.0):
                 j = np.flatnonzero(at * dt <= T)[-1]
-                kl, th = at[j], looks[j]
-                w0, z0, K0, r0 = th[:m], th[m:2 * m], th[2 * m:4 * m] * kscale, th[4 * m:5 * m]
+                kl = at[j]
+                w0, z0, K0, r0 = lines[j]
                 seg = y[W_len:kl + 1]
                 skip = int(round(2 * 2 * np.pi / w0.min() / dt))
 
@@ -480,10 +478,7 @@ def line_refit(args, name, opts) -> None:
 
 def first_window(args, name, opts) -> None:
     tally = [0, 0, 0]
-    for idx, (label, cfg) in enumerate(ambient_configs(args.set, args.seed, args.replicates).items()):
-        if not white_force(cfg):
-            continue
-        cell = cached_cell(cfg, args.cache, f"{args.set}_{args.seed}_{args.replicates}_{idx}")
+    for label, _, cell in white_cells(args.set, args.seed, args.replicates, args.cache):
         dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
         for r in range(cell["accel_m_s2"].shape[0]):
             y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]

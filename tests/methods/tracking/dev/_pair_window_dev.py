@@ -22,7 +22,7 @@ sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
 from _cells import VARIANT_TWO as TWO  # noqa: E402
-from _cells import ambient_configs, cached_cell, white_force  # noqa: E402
+from _cells import white_cells  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
@@ -43,10 +43,7 @@ def main() -> None:
     tally = {c: [0, 0, 0] for c in bins}
     for which in ("ambient", "unseen"):
         for seed in (int(s) for s in args.seeds.split(",")):
-            for idx, (label, cfg) in enumerate(ambient_configs(which, seed, REPLICATES).items()):
-                if not white_force(cfg):
-                    continue
-                cell = cached_cell(cfg, args.cache, f"{which}_{seed}_{REPLICATES}_{idx}")
+            for label, _, cell in white_cells(which, seed, REPLICATES, args.cache):
                 dt, truth = float(cell["dt_s"]), cell["truth_freq_rad_s"]
                 for r in range(cell["accel_m_s2"].shape[0]):
                     y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
