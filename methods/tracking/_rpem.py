@@ -128,7 +128,10 @@ section's commands run at commit 681eb87, "measured at 681eb87"; sections of doc
 * ``change_search``: once the reset gate opens, the modes searched on the samples after it by the likelihood of
   the recursion's own innovation form — "A search of the modes after a change", measured at e3d3ca6;
 * ``refit``: the whole-record recursion's ω refitted once a window by that likelihood — "That refit inside the
-  tracker", measured at 16b0576 (the first section of docs/measured/tracking_ambient.md holds both).
+  tracker", measured at 16b0576 (the first section of docs/measured/tracking_ambient.md holds both);
+* ``change_refit``: at the first opening of the reset gate, every mode refitted as a constant over the samples
+  before the last window by that likelihood, each kept where putting it back costs 8 nats — "A refit at the first
+  change", measured at 016310c (the same section).
 """
 
 from __future__ import annotations
@@ -139,8 +142,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
-import scipy.signal
 
 from methods.estimate import make_options
 from methods.kalman import modal_transition
@@ -195,12 +196,6 @@ class Options(_ambient.SharedOptions):
         ``"mode"``, from the first look at which the last window's likelihood ratio opens the reset gate (Λ_W >
         ``restart_gate``²/2: the record has changed, so every mode's rate since the start is in doubt), the
         whole-record recursion's ω̂ before it — a record that never opens the gate keeps its rates.
-    change_refit : bool
-        ``recursions="two"``: at the first look at which the reset gate opens, the whole-record recursion's ω̂ is
-        refitted as constants over the samples before the last window (from the end of the first window) by the
-        concentrated likelihood of its own innovation form (ζ̂ and K held; :func:`_refit`); when the refit gains
-        more than ``restart_gate``²/2 nats, each mode whose refitted ω, put back to ω̂, would cost the fit that
-        much again takes it, its rate starting again at 0 ± the stated rate. Measured, not kept.
     """
 
     estimate_damping: bool = True
@@ -211,13 +206,12 @@ class Options(_ambient.SharedOptions):
     score_reset: bool = False
     pair_peaks: bool = False
     rate_test: str = "off"
-    change_refit: bool = False
 
 
 def check_options(name: str, prior, dt: float, options: dict, n_samples: int | None = None) -> Options:
     opts = make_options(Options, options, name)
     _ambient.check_shared(name, opts, prior, dt, n_samples)
-    for field in ("estimate_damping", "score_reset", "pair_peaks", "change_refit"):
+    for field in ("estimate_damping", "score_reset", "pair_peaks"):
         if not isinstance(getattr(opts, field), bool):
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be true or false")
     for field, allowed in (("frequency_model", ("trend", "walk")), ("recursions", ("one", "two")),
@@ -226,8 +220,6 @@ def check_options(name: str, prior, dt: float, options: dict, n_samples: int | N
             raise ValueError(f"{name}: {field} = {getattr(opts, field)!r} must be {' or '.join(map(repr, allowed))}")
     if opts.rate_test != "off" and not opts.score_reset:
         raise ValueError(f"{name}: rate_test = {opts.rate_test!r} needs score_reset = true (got {opts.score_reset!r})")
-    if opts.change_refit and opts.recursions != "two":
-        raise ValueError(f"{name}: change_refit = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.score_reset and opts.recursions != "two":
         raise ValueError(f"{name}: score_reset = true needs recursions = 'two' (got {opts.recursions!r})")
     if opts.recursions == "two" and opts.frequency_model != "trend":
@@ -379,7 +371,6 @@ class _Run(_ambient._Run):
     damping: np.ndarray = None
     n_resets: int = 0
     reset_times_s: tuple = ()
-    n_refits: int = 0
 
 
 def _start_again(theta: np.ndarray, P: np.ndarray, W: np.ndarray, idx, value, cov) -> None:
@@ -497,50 +488,6 @@ def _reset_from_window(long: list, theta: np.ndarray, P: np.ndarray, iw, ia, gai
     return modes
 
 
-def _innovations(y: np.ndarray, w: np.ndarray, z: np.ndarray, K: np.ndarray, dt: float, skip: int):
-    """The innovations of ``y`` (the first ``skip`` dropped) under the steady Kalman predictor at frequencies ``w``
-    whose noise model is the innovation form's, x⁺ = Φx + K e, y = Cx + e (Q = KKᵀ, S = K, R = 1, regularised by
-    10⁻⁶ of their scale): e = (A/B) y, A = det(zI − Φ), B = det(zI − Φ + K'C) (``scipy.signal.lfilter``), K' the
-    steady gain at ``w`` (``scipy.linalg.solve_discrete_are``); the innovations' scale drops out of the
-    concentrated likelihood N/2 ln Σe². None where the Riccati equation has no stabilising solution."""
-    m = w.size
-    phi, _ = modal_transition(w, z, dt)
-    F = scipy.linalg.block_diag(*phi)
-    C = np.column_stack([-w * w, -2 * z * w]).ravel()[None, :]
-    Q = np.outer(K, K)
-    Q += 1e-6 * (np.trace(Q) / (2 * m) + 1e-300) * np.eye(2 * m)
-    try:
-        P = scipy.linalg.solve_discrete_are(F.T, C.T, Q, np.array([[1.0 + 1e-6]]), s=K[:, None])
-    except (ValueError, np.linalg.LinAlgError):
-        return None
-    Kp = (F @ P @ C.T + K[:, None]) / float((C @ P @ C.T)[0, 0] + 1.0 + 1e-6)
-    B = np.poly(F - Kp @ C)
-    if not np.all(np.isfinite(B)) or np.max(np.abs(np.roots(B))) >= 1.0:
-        return None
-    return scipy.signal.lfilter(np.poly(F), B, y)[skip:]
-
-
-def _refit(y: np.ndarray, w0: np.ndarray, z: np.ndarray, K: np.ndarray, dt: float) -> tuple[np.ndarray, float]:
-    """``refit``: the ω of least Σe² of :func:`_innovations` on ``y`` from ``w0`` (``scipy.optimize.least_squares``
-    on the innovations, ω = w0·e^x), and the concentrated log-likelihood it gains over ``w0``, nats (0: none)."""
-    skip = min(y.size // 4, int(round(2 * 2 * math.pi / float(np.min(w0)) / dt)))   # two periods of the slowest
-    e0 = _innovations(y, w0, z, K, dt, skip)
-    if e0 is None:
-        return w0, 0.0
-    bad = np.full(e0.size, 10.0 * math.sqrt(float(e0 @ e0) / e0.size))
-
-    def resid(x):
-        e = _innovations(y, w0 * np.exp(x), z, K, dt, skip)
-        return bad if e is None else e
-
-    res = scipy.optimize.least_squares(resid, np.zeros(w0.size), diff_step=1e-6, max_nfev=40,
-                                       bounds=(-0.2, 0.2))
-    w = w0 * np.exp(res.x)
-    if np.any(np.diff(w) <= 0):
-        return w0, 0.0
-    return w, 0.5 * e0.size * math.log(float(e0 @ e0) / max(float(res.fun @ res.fun), 1e-300))
-
-
 def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _Run:
     """The recursion of the module docstring over the record."""
     m, n = prior.size, y.size
@@ -565,7 +512,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
     nyq = math.pi / dt
     hist_d: list[list[float]] = [[] for _ in range(m)]
     strikes = np.zeros(m, dtype=int)
-    n_restarts = n_pulses = n_resets = n_refits = 0
+    n_restarts = n_pulses = n_resets = 0
     reset_times: list[tuple[float, int]] = []      # (s, mode) of each reset of the whole-record recursion
     resolution = 2 * math.pi / (W_len * dt) if trend else 0.0
     gam = dt / (W_len * dt)                     # innovation variance memory: one window
@@ -635,7 +582,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
         const_long[5 + 2 * m:5 + 2 * m + p] = q_long
         long = [theta.copy(), P.copy(), x.copy(), Wm.copy(), lam]
     j0 = 2 * m + iz.size        # the step's output rows of the ω scores Σ ψᵢe/S, then of their information
-    refitted = False            # ``change_refit``: done once, at the first opening of the gate
     k0 = W_len
     while k0 < n:
         # the samples up to the next look (k + 1 − W a multiple of the hop), one mapaccum call
@@ -697,30 +643,6 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
                     info = cum_i[k + 1] - cum_i[a, iw]
                     s_sum = cum_s[k + 1] - cum_s[a, iw]
                     z_score = s_sum / np.sqrt(np.where(info > 0, info, np.inf))
-                if (opts.change_refit and not refitted and gain > 0.5 * opts.restart_gate ** 2
-                        and k + 1 - 2 * W_len >= 2 * W_len):
-                    refitted = True
-                    w_l, z_l, K_l = unpack(long[0])
-                    w_r, nats = _refit(y[W_len:k + 1 - W_len], w_l, z_l, K_l, dt)
-                    if nats > 0.5 * opts.restart_gate ** 2:
-                        # each mode keeps its refitted ω only if putting it back costs the fit 8 nats
-                        seg_r = y[W_len:k + 1 - W_len]
-                        skip_r = min(seg_r.size // 4, int(round(2 * 2 * math.pi / float(np.min(w_l)) / dt)))
-                        e_r = _innovations(seg_r, w_r, z_l, K_l, dt, skip_r)
-                        keep = []
-                        for i in range(m):
-                            w_b = w_r.copy()
-                            w_b[i] = w_l[i]
-                            e_b = _innovations(seg_r, w_b, z_l, K_l, dt, skip_r) if np.all(np.diff(w_b) > 0) else None
-                            if e_r is not None and (e_b is None or 0.5 * e_r.size * math.log(
-                                    float(e_b @ e_b) / float(e_r @ e_r)) > 0.5 * opts.restart_gate ** 2):
-                                keep.append(i)
-                        keep = np.array(keep, dtype=int)
-                        if keep.size:
-                            _start_again(long[0], long[1], long[3], ia[keep], 0.0, rate_var[keep])
-                            long[0][iw[keep]] = w_r[keep]
-                            long[3][:, iw[keep]] = 0.0
-                            n_refits += keep.size
                 nr = _reset_from_window(long, theta, P, iw, ia, gain, opts, z_score, rate_var)
                 since[nr] = k + 1
                 n_resets += nr.size
@@ -742,7 +664,7 @@ def rpem_filter(y: np.ndarray, dt: float, prior: np.ndarray, opts: Options) -> _
             th_out = long[0] if two else theta
             damp[k] = th_out[iz] if est_z else opts.damping_ratio
     return _Run(freq, var, started, n_restarts, n_pulses, seen, damping=damp, n_resets=n_resets,
-                reset_times_s=tuple(reset_times), n_refits=n_refits)
+                reset_times_s=tuple(reset_times))
 
 
 def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -> Track:
@@ -751,7 +673,6 @@ def run(name: str, y: np.ndarray, dt: float, prior: np.ndarray, options: dict) -
     k = np.flatnonzero(out.started)
     std = np.sqrt(np.clip(out.var[k], 0.0, None))
     return Track(k * dt, out.freq[k], std, out.seen[k] & (std <= _ambient.DETERMINED_REL_STD * out.freq[k]),
-                 message=f"{name}: {out.n_restarts} restarts, {out.n_resets} resets, {out.n_pulses} pulse samples"
-                 + (f", {out.n_refits} refits" if opts.change_refit else ""),
+                 message=f"{name}: {out.n_restarts} restarts, {out.n_resets} resets, {out.n_pulses} pulse samples",
                  extra={"n_restarts": out.n_restarts, "n_resets": out.n_resets, "reset_times_s": out.reset_times_s,
                         "n_pulses": out.n_pulses, "damping": out.damping[k]})
