@@ -199,115 +199,121 @@ def _recursion_looks(name, opts, y, dt, prior):
     return tr, W_len, hop, W_len - 1 + hop * (1 + np.arange(len(looks))), looks
 
 
-def main() -> None:
-    ap = step_parser(__doc__, cells="white force")
-    ap.add_argument("--cache", default=None)
-    ap.add_argument("--fit-s", type=float, default=30.0)
-    ap.add_argument("--kalman-grid", action="store_true")
-    ap.add_argument("--search", action="store_true")
-    ap.add_argument("--from-step", action="store_true")
-    ap.add_argument("--genie-noise", action="store_true")
-    ap.add_argument("--hold", action="store_true")
-    args = ap.parse_args()
-    name, opts = parse_row(TWO)
+def _record(cfg, cell, r: int, name, opts) -> dict:
+    """One replicate of a step cell and ``rpem_ambient:two`` on it, with its looks."""
+    st, dt = float(cell["step_time_s"]), float(cell["dt_s"])
+    y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
+    tr, W_len, hop, kl, looks = _recursion_looks(name, opts, y, dt, prior)
+    return {"cfg": cfg, "cell": cell, "r": r, "y": y, "prior": prior, "m": prior.size, "dt": dt, "st": st,
+            "k0": int(round(st / dt)), "truth": cell["truth_freq_rad_s"],
+            "zeta": np.asarray(cell["truth_damping"], float), "tr": tr, "W_len": W_len, "kl": kl, "looks": looks}
+
+
+def fit_quality(args, rec, tally) -> None:
+    """The default table: the blind fits' likelihood before the step against the genie's and Nelder–Mead's."""
+    y, dt, k0, truth, zeta, tr, st = (rec[k] for k in ("y", "dt", "k0", "truth", "zeta", "tr", "st"))
+    seg = y[k0 - int(round(args.fit_s / dt)):k0]
+    j = np.searchsorted(tr.t_s, st - dt / 2) - 1
+    _, f_true = fit_one_force(seg, truth[k0 - 1], zeta, dt)
+    _, f_trk = fit_one_force(seg, tr.frequencies[j], tr.extra["damping"][j], dt)
+    f_genie = kalman_nll(seg, *genie_model(rec["cfg"], rec["cell"], truth[k0 - 1]))
+    f_nm = kalman_nll(seg, *force_model(truth[k0 - 1], zeta, dt, fit_force_model(seg, truth[k0 - 1], zeta, dt)))
+    print(f"  r{rec['r']} NLL of {args.fit_s:g} s before the step: genie {f_genie:.1f} | blind at the truth's "
+          f"(ω, ζ) {f_true:.1f} (Nelder–Mead from two starts, as _ml_oracle_dev: {f_nm:.1f}) | blind at "
+          f"the tracker's {f_trk:.1f}", flush=True)
+    tally.setdefault("fit", []).append((f_true - f_genie, f_trk - f_genie, f_nm - f_genie))
+
+
+def grid_after_step(args, rec, tally) -> None:
+    """``--kalman-grid``: the pair's grid after the step under the genie's and the blind noise models."""
+    y, dt, k0, truth, zeta, tr, st = (rec[k] for k in ("y", "dt", "k0", "truth", "zeta", "tr", "st"))
+    cfg, cell = rec["cfg"], rec["cell"]
+    seg = y[k0 - int(round(args.fit_s / dt)):k0]
+    j = np.searchsorted(tr.t_s, st - dt / 2) - 1
+    pre, z_pre = tr.frequencies[j], tr.extra["damping"][j]
+    th_true, _ = fit_one_force(seg, truth[k0 - 1], zeta, dt)
+    th_trk, _ = fit_one_force(seg, pre, z_pre, dt)
+    i = int(np.argmin(np.diff(rec["prior"])))
+    models = {"genie": lambda w: genie_model(cfg, cell, w),
+              "blind at the truth's (ω, ζ)": lambda w: force_model(w, zeta, dt, th_true),
+              "blind at the tracker's": lambda w: force_model(w, z_pre, dt, th_trk)}
+    for T in (5.0, 10.0):
+        k1 = k0 + int(round(T / dt))
+        row = []
+        for key, model in models.items():
+            w_k = kalman_grid(y[k0:k1], pre, (i, i + 1), model)
+            e = float(np.max(np.abs(w_k[[i, i + 1]] / truth[k1 - 1, [i, i + 1]] - 1))) * 100
+            tally.setdefault((T, key), []).append(e)
+            row.append(f"{key} {e:.2f}")
+        w_t = tr.frequencies[np.searchsorted(tr.t_s, st + T - dt / 2) - 1]
+        e_t = float(np.max(np.abs(w_t[[i, i + 1]] / truth[k1 - 1, [i, i + 1]] - 1))) * 100
+        tally.setdefault((T, "tracker"), []).append(e_t)
+        print(f"  r{rec['r']} T {T:.0f} s, the pair's larger error %: " + " | ".join(row) + f" | tracker {e_t:.2f}",
+              flush=True)
+
+
+def search_after(args, rec, tally) -> None:
+    """``--search``: the modes searched after the gate's opening (or the step) beside the recursion."""
+    y, dt, k0, truth, tr, st, m = (rec[k] for k in ("y", "dt", "k0", "truth", "tr", "st", "m"))
+    W_len, kl, looks, r = rec["W_len"], rec["kl"], rec["looks"], rec["r"]
     gate = 0.5 * _rpem.Options().restart_gate ** 2
-    tally: dict = {}
-    for label, cfg, cell in white_step_cells(args):
-        st, dt, truth = float(cell["step_time_s"]), float(cell["dt_s"]), cell["truth_freq_rad_s"]
-        zeta = np.asarray(cell["truth_damping"], float)
-        k0 = int(round(st / dt))
-        n_fit = int(round(args.fit_s / dt))
-        print(label, flush=True)
-        for r in range(cell["accel_m_s2"].shape[0]):
-            y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
-            tr, W_len, hop, kl, looks = _recursion_looks(name, opts, y, dt, prior)
-            m = prior.size
-            if args.search:
-                after = [j for j in range(len(looks)) if kl[j] >= k0 and looks[j][0] > gate]
-                if not after:
-                    print(f"  r{r}: the gate does not open after the step")
-                    continue
-                kg = kl[after[0]] + 1
-                fit_end = kg - W_len
-                if args.from_step:     # told the step: the samples since it, the noise fitted before it
-                    kg = fit_end = k0
-                th_b = looks[int(np.searchsorted(kl, fit_end)) - 1][1]
-                c0 = time.process_time()
-                theta, _ = fit_one_force(y[max(W_len, fit_end - n_fit):fit_end], th_b[:m], th_b[m:2 * m], dt)
-                rc = reconvergence_s(tr.t_s, tr.frequencies, truth, dt, st)
-                print(f"  r{r}: tracker back in {rc:.1f} s, the search from {kg * dt - st:.1f} s after the step, "
-                      f"noise fit {time.process_time() - c0:.1f} s CPU", flush=True)
-                if args.hold:
-                    extras = tuple(float(t) for t in range(4, 26))
-                elif args.from_step:
-                    extras = (5.0, 10.0, 15.0)
-                else:
-                    extras = (4.0, 6.0, 8.0, 10.0)
-                held = []
-                for extra in extras:
-                    k1 = kg + int(round(extra / dt))
-                    w_t = looks[min(int(np.searchsorted(kl, k1 - 1)), len(looks) - 1)][1][:m]
-                    if args.genie_noise:
-                        model = lambda w, c=cfg, cl=cell: genie_model(c, cl, w)  # noqa: E731
-                    else:
-                        model = lambda w, th=theta, z=th_b[m:2 * m], d=dt: force_model(w, z, d, th)  # noqa: E731
-                    w_s = _grid_search(y[kg:k1 + 1], w_t, model, dt)
-                    e_s, e_t = (float(np.max(np.abs(w[1:] / truth[k1, 1:] - 1))) * 100 for w in (w_s, w_t))
-                    # is the search's optimum the likelihood's? its NLL against the truth's (mode 1 at the search's:
-                    # it is not searched)
-                    w_true = truth[k1].copy()
-                    w_true[0] = w_s[0]
-                    skip = min((k1 + 1 - kg) // 4, int(round(2 * 2 * math.pi / float(np.min(w_t)) / dt)))
-                    seg = y[kg:k1 + 1]
-                    d_nll = kalman_nll(seg, *model(w_s), skip=skip) - kalman_nll(seg, *model(w_true), skip=skip)
-                    if args.hold:    # the reported track at that look, as the benchmark scores it
-                        w_t = tr.frequencies[np.searchsorted(tr.t_s, k1 * dt - dt / 2)]
-                        e_t = float(np.max(np.abs(w_t[1:] / truth[k1, 1:] - 1))) * 100
-                        held.append((extra, e_s, e_t))
-                        continue
-                    tally.setdefault(("nll", extra), []).append(d_nll)
-                    tally.setdefault(extra, []).append((e_s, e_t))
-                    print(f"    +{extra:.0f} s ({k1 * dt - st:.1f} s after the step) e %: search "
-                          f"{pct(w_s, truth[k1])} (NLL {d_nll:+.1f} nats from the truth's) | recursion "
-                          f"{pct(w_t, truth[k1])}", flush=True)
-                if args.hold:        # from which look on every later look (to 25 s) is within 1 %
-                    h = np.array(held)
-                    since = [_held_from(h[:, 0], h[:, c] <= 1) for c in (1, 2)]
-                    tally.setdefault("hold", []).append(since)
-                    print(f"    modes 2…m within 1 % at every look to 25 s from: search {since[0]:.0f} s, tracker "
-                          f"(reported) {since[1]:.0f} s after the step", flush=True)
-                continue
-            seg = y[k0 - n_fit:k0]
-            pre = tr.frequencies[np.searchsorted(tr.t_s, st - dt / 2) - 1]
-            z_pre = tr.extra["damping"][np.searchsorted(tr.t_s, st - dt / 2) - 1]
-            th_true, f_true = fit_one_force(seg, truth[k0 - 1], zeta, dt)
-            th_trk, f_trk = fit_one_force(seg, pre, z_pre, dt)
-            if not args.kalman_grid:
-                f_genie = kalman_nll(seg, *genie_model(cfg, cell, truth[k0 - 1]))
-                f_nm = kalman_nll(seg, *force_model(truth[k0 - 1], zeta, dt,
-                                                    fit_force_model(seg, truth[k0 - 1], zeta, dt)))
-                print(f"  r{r} NLL of {args.fit_s:g} s before the step: genie {f_genie:.1f} | blind at the truth's "
-                      f"(ω, ζ) {f_true:.1f} (Nelder–Mead from two starts, as _ml_oracle_dev: {f_nm:.1f}) | blind at "
-                      f"the tracker's {f_trk:.1f}", flush=True)
-                tally.setdefault("fit", []).append((f_true - f_genie, f_trk - f_genie, f_nm - f_genie))
-                continue
-            i = int(np.argmin(np.diff(prior)))
-            models = {"genie": lambda w, c=cfg, cl=cell: genie_model(c, cl, w),
-                      "blind at the truth's (ω, ζ)": lambda w, th=th_true, zt=zeta, d=dt: force_model(w, zt, d, th),
-                      "blind at the tracker's": lambda w, th=th_trk, zp=z_pre, d=dt: force_model(w, zp, d, th)}
-            for T in (5.0, 10.0):
-                k1 = k0 + int(round(T / dt))
-                row = []
-                for key, model in models.items():
-                    w_k = kalman_grid(y[k0:k1], pre, (i, i + 1), model)
-                    e = float(np.max(np.abs(w_k[[i, i + 1]] / truth[k1 - 1, [i, i + 1]] - 1))) * 100
-                    tally.setdefault((T, key), []).append(e)
-                    row.append(f"{key} {e:.2f}")
-                w_t = tr.frequencies[np.searchsorted(tr.t_s, st + T - dt / 2) - 1]
-                e_t = float(np.max(np.abs(w_t[[i, i + 1]] / truth[k1 - 1, [i, i + 1]] - 1))) * 100
-                tally.setdefault((T, "tracker"), []).append(e_t)
-                print(f"  r{r} T {T:.0f} s, the pair's larger error %: " + " | ".join(row) + f" | tracker {e_t:.2f}",
-                      flush=True)
+    after = [j for j in range(len(looks)) if kl[j] >= k0 and looks[j][0] > gate]
+    if not after:
+        print(f"  r{r}: the gate does not open after the step")
+        return
+    kg = kl[after[0]] + 1
+    fit_end = kg - W_len
+    if args.from_step:     # told the step: the samples since it, the noise fitted before it
+        kg = fit_end = k0
+    th_b = looks[int(np.searchsorted(kl, fit_end)) - 1][1]
+    c0 = time.process_time()
+    theta, _ = fit_one_force(y[max(W_len, fit_end - int(round(args.fit_s / dt))):fit_end], th_b[:m], th_b[m:2 * m],
+                             dt)
+    rc = reconvergence_s(tr.t_s, tr.frequencies, truth, dt, st)
+    print(f"  r{r}: tracker back in {rc:.1f} s, the search from {kg * dt - st:.1f} s after the step, "
+          f"noise fit {time.process_time() - c0:.1f} s CPU", flush=True)
+    if args.genie_noise:
+        def model(w):
+            return genie_model(rec["cfg"], rec["cell"], w)
+    else:
+        def model(w):
+            return force_model(w, th_b[m:2 * m], dt, theta)
+    if args.hold:
+        extras = tuple(float(t) for t in range(4, 26))
+    else:
+        extras = (5.0, 10.0, 15.0) if args.from_step else (4.0, 6.0, 8.0, 10.0)
+    held = []
+    for extra in extras:
+        k1 = kg + int(round(extra / dt))
+        w_t = looks[min(int(np.searchsorted(kl, k1 - 1)), len(looks) - 1)][1][:m]
+        w_s = _grid_search(y[kg:k1 + 1], w_t, model, dt)
+        e_s = float(np.max(np.abs(w_s[1:] / truth[k1, 1:] - 1))) * 100
+        if args.hold:    # the reported track at that look, as the benchmark scores it
+            w_r = tr.frequencies[np.searchsorted(tr.t_s, k1 * dt - dt / 2)]
+            held.append((extra, e_s, float(np.max(np.abs(w_r[1:] / truth[k1, 1:] - 1))) * 100))
+            continue
+        e_t = float(np.max(np.abs(w_t[1:] / truth[k1, 1:] - 1))) * 100
+        # is the search's optimum the likelihood's? its NLL against the truth's (mode 1 at the search's: it is not
+        # searched)
+        w_true = truth[k1].copy()
+        w_true[0] = w_s[0]
+        skip = min((k1 + 1 - kg) // 4, int(round(2 * 2 * math.pi / float(np.min(w_t)) / dt)))
+        seg = y[kg:k1 + 1]
+        d_nll = kalman_nll(seg, *model(w_s), skip=skip) - kalman_nll(seg, *model(w_true), skip=skip)
+        tally.setdefault(("nll", extra), []).append(d_nll)
+        tally.setdefault(extra, []).append((e_s, e_t))
+        print(f"    +{extra:.0f} s ({k1 * dt - st:.1f} s after the step) e %: search "
+              f"{pct(w_s, truth[k1])} (NLL {d_nll:+.1f} nats from the truth's) | recursion "
+              f"{pct(w_t, truth[k1])}", flush=True)
+    if args.hold:        # from which look on every later look (to 25 s) is within 1 %
+        h = np.array(held)
+        since = [_held_from(h[:, 0], h[:, c] <= 1) for c in (1, 2)]
+        tally.setdefault("hold", []).append(since)
+        print(f"    modes 2…m within 1 % at every look to 25 s from: search {since[0]:.0f} s, tracker "
+              f"(reported) {since[1]:.0f} s after the step", flush=True)
+
+
+def _summary(args, tally) -> None:
     for key, v in tally.items():
         v = np.asarray(v)
         if key == "hold":
@@ -324,12 +330,31 @@ def main() -> None:
         elif isinstance(key, float):
             since = "step" if args.from_step else "opening"
             print(f"+{key:.0f} s after the {since}: modes 2…m within 1 %: search {int(np.sum(v[:, 0] <= 1))}/{len(v)} "
-                  "(median "
-                  f"{np.median(v[:, 0]):.2f} %), recursion {int(np.sum(v[:, 1] <= 1))}/{len(v)} "
+                  f"(median {np.median(v[:, 0]):.2f} %), recursion {int(np.sum(v[:, 1] <= 1))}/{len(v)} "
                   f"(median {np.median(v[:, 1]):.2f} %)")
         else:
             print(f"T {key[0]:.0f} s {key[1]}: within 1.1 % {int(np.sum(v <= 1.1))}/{v.size}, "
                   f"median {np.median(v):.2f} %")
+
+
+def main() -> None:
+    ap = step_parser(__doc__, cells="white force")
+    ap.add_argument("--cache", default=None)
+    ap.add_argument("--fit-s", type=float, default=30.0)
+    ap.add_argument("--kalman-grid", action="store_true")
+    ap.add_argument("--search", action="store_true")
+    ap.add_argument("--from-step", action="store_true")
+    ap.add_argument("--genie-noise", action="store_true")
+    ap.add_argument("--hold", action="store_true")
+    args = ap.parse_args()
+    name, opts = parse_row(TWO)
+    run = search_after if args.search else grid_after_step if args.kalman_grid else fit_quality
+    tally: dict = {}
+    for label, cfg, cell in white_step_cells(args):
+        print(label, flush=True)
+        for r in range(cell["accel_m_s2"].shape[0]):
+            run(args, _record(cfg, cell, r, name, opts), tally)
+    _summary(args, tally)
 
 
 if __name__ == "__main__":
