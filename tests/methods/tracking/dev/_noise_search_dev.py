@@ -118,7 +118,9 @@ def fit_one_force(y, w, z, dt) -> tuple[np.ndarray, float]:
     v0 = math.log(max(float(np.median(per)), 1e-6) * 0.1)
     for signs in itertools.product((1.0, -1.0), repeat=m - 1):
         x0 = np.concatenate([np.concatenate([[1.0], signs]) * height, [0.0, v0]])
-        x = scipy.optimize.minimize(whittle, x0, jac=True, method="L-BFGS-B").x
+        # ln v bounded (y scaled to unit variance): a step far out would overflow the exponential
+        bounds = [(None, None)] * (m + 1) + [(-50.0, 10.0)]
+        x = scipy.optimize.minimize(whittle, x0, jac=True, method="L-BFGS-B", bounds=bounds).x
         theta = np.concatenate([x[:m + 1] * sd, [x[m + 1] + 2 * math.log(sd)]])
         theta, f = _polish(y, w, z, dt, theta)
         if f < best[0]:
