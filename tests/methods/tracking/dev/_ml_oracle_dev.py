@@ -340,28 +340,35 @@ def after_the_step(args, name, opts) -> None:
                 print(line + f" | tracker {pct(w_trk, truth[k1 - 1])}", flush=True)
 
 
-def recursion_lines(name, opts, y, dt, prior):
-    """The whole-record recursion of ``rpem_ambient`` (``recursions="two"``) at each look: (the window's samples, each
-    look's sample, per look ω, ζ, gain K and rate), read where the tracker hands them to its reset step."""
+def recursion_looks(name, opts, y, dt, prior):
+    """``rpem_ambient`` (``recursions="two"``) on ``y``, read where the tracker hands its whole-record recursion to the
+    reset step: (the track, the window's samples, the hop, each look's sample, per look the last window's likelihood
+    ratio Λ_W and the whole-record recursion's θ)."""
     from methods.tracking import _rpem
     looks: list = []
     orig = _rpem._reset_from_window
 
-    def keep(long, *a, **kw):
-        looks.append(long[0].copy())
-        return orig(long, *a, **kw)
+    def keep(long, theta, P, iw, ia, gain, *a, **kw):
+        looks.append((gain, long[0].copy()))
+        return orig(long, theta, P, iw, ia, gain, *a, **kw)
 
     _rpem._reset_from_window = keep
     try:
-        methods.track(name, y, dt, prior, **opts)
+        tr = methods.track(name, y, dt, prior, **opts)
     finally:
         _rpem._reset_from_window = orig
     W_len, hop = _rpem._ambient._window_samples(_rpem.Options(), dt, prior)
+    return tr, W_len, hop, W_len - 1 + hop * (1 + np.arange(len(looks))), looks
+
+
+def recursion_lines(name, opts, y, dt, prior):
+    """The whole-record recursion at each look (:func:`recursion_looks`): (the window's samples, each look's sample,
+    per look ω, ζ, gain K and rate)."""
+    _, W_len, _, at, looks = recursion_looks(name, opts, y, dt, prior)
     m = prior.size
     kscale = np.empty(2 * m)
     kscale[0::2], kscale[1::2] = 1 / prior ** 2, 1 / prior
-    return (W_len, W_len - 1 + hop * (1 + np.arange(len(looks))),
-            [(th[:m], th[m:2 * m], th[2 * m:4 * m] * kscale, th[4 * m:5 * m]) for th in looks])
+    return W_len, at, [(th[:m], th[m:2 * m], th[2 * m:4 * m] * kscale, th[4 * m:5 * m]) for _, th in looks]
 
 
 def refit(args, name, opts) -> None:

@@ -49,9 +49,16 @@ import numpy as np  # noqa: E402
 import scipy.optimize  # noqa: E402
 from _cells import VARIANT_TWO as TWO  # noqa: E402
 from _cells import reconvergence_s, step_parser, white_step_cells  # noqa: E402
-from _ml_oracle_dev import fit_force_model, force_model, genie_model, kalman_grid, kalman_nll, pct  # noqa: E402
+from _ml_oracle_dev import (  # noqa: E402
+    fit_force_model,
+    force_model,
+    genie_model,
+    kalman_grid,
+    kalman_nll,
+    pct,
+    recursion_looks,  # noqa: E402
+)
 
-import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
 from experiments.simulate.timevarying import oscillator_transition  # noqa: E402
 from methods.tracking import _rpem  # noqa: E402
@@ -183,41 +190,30 @@ def _held_from(times, ok) -> float:
     return float(times[0] if bad.size == 0 else times[bad[-1] + 1])
 
 
-def _recursion_looks(name, opts, y, dt, prior):
-    """The tracker, and at each look the last window's likelihood ratio Λ_W and the whole-record recursion's θ."""
-    looks: list = []
-    orig = _rpem._reset_from_window
-
-    def keep(long, theta, P, iw, ia, gain, *a, **kw):
-        looks.append((gain, long[0].copy()))
-        return orig(long, theta, P, iw, ia, gain, *a, **kw)
-
-    _rpem._reset_from_window = keep
-    try:
-        tr = methods.track(name, y, dt, prior, **opts)
-    finally:
-        _rpem._reset_from_window = orig
-    W_len, hop = _rpem._ambient._window_samples(_rpem.Options(), dt, prior)
-    return tr, W_len, hop, W_len - 1 + hop * (1 + np.arange(len(looks))), looks
-
-
 def _record(cfg, cell, r: int, name, opts) -> dict:
     """One replicate of a step cell and ``rpem_ambient:two`` on it, with its looks."""
     st, dt = float(cell["step_time_s"]), float(cell["dt_s"])
     y, prior = cell["accel_m_s2"][r], cell["prior_rad_s"][r]
-    tr, W_len, hop, kl, looks = _recursion_looks(name, opts, y, dt, prior)
+    tr, W_len, hop, kl, looks = recursion_looks(name, opts, y, dt, prior)
     return {"cfg": cfg, "cell": cell, "r": r, "y": y, "prior": prior, "m": prior.size, "dt": dt, "st": st,
             "k0": int(round(st / dt)), "truth": cell["truth_freq_rad_s"],
             "zeta": np.asarray(cell["truth_damping"], float), "tr": tr, "W_len": W_len, "kl": kl, "looks": looks}
 
 
-def fit_quality(args, rec, tally) -> None:
-    """The default table: the blind fits' likelihood before the step against the genie's and Nelder–Mead's."""
+def _before_step(args, rec):
+    """The ``--fit-s`` seconds before the step, the tracker's ω and ζ at its last sample before it, and the blind fit
+    (θ, NLL) of that stretch at the truth's (ω, ζ) and at the tracker's."""
     y, dt, k0, truth, zeta, tr, st = (rec[k] for k in ("y", "dt", "k0", "truth", "zeta", "tr", "st"))
     seg = y[k0 - int(round(args.fit_s / dt)):k0]
     j = np.searchsorted(tr.t_s, st - dt / 2) - 1
-    _, f_true = fit_one_force(seg, truth[k0 - 1], zeta, dt)
-    _, f_trk = fit_one_force(seg, tr.frequencies[j], tr.extra["damping"][j], dt)
+    pre, z_pre = tr.frequencies[j], tr.extra["damping"][j]
+    return seg, pre, z_pre, fit_one_force(seg, truth[k0 - 1], zeta, dt), fit_one_force(seg, pre, z_pre, dt)
+
+
+def fit_quality(args, rec, tally) -> None:
+    """The default table: the blind fits' likelihood before the step against the genie's and Nelder–Mead's."""
+    dt, k0, truth, zeta = (rec[k] for k in ("dt", "k0", "truth", "zeta"))
+    seg, _, _, (_, f_true), (_, f_trk) = _before_step(args, rec)
     f_genie = kalman_nll(seg, *genie_model(rec["cfg"], rec["cell"], truth[k0 - 1]))
     f_nm = kalman_nll(seg, *force_model(truth[k0 - 1], zeta, dt, fit_force_model(seg, truth[k0 - 1], zeta, dt)))
     print(f"  r{rec['r']} NLL of {args.fit_s:g} s before the step: genie {f_genie:.1f} | blind at the truth's "
@@ -230,11 +226,7 @@ def grid_after_step(args, rec, tally) -> None:
     """``--kalman-grid``: the pair's grid after the step under the genie's and the blind noise models."""
     y, dt, k0, truth, zeta, tr, st = (rec[k] for k in ("y", "dt", "k0", "truth", "zeta", "tr", "st"))
     cfg, cell = rec["cfg"], rec["cell"]
-    seg = y[k0 - int(round(args.fit_s / dt)):k0]
-    j = np.searchsorted(tr.t_s, st - dt / 2) - 1
-    pre, z_pre = tr.frequencies[j], tr.extra["damping"][j]
-    th_true, _ = fit_one_force(seg, truth[k0 - 1], zeta, dt)
-    th_trk, _ = fit_one_force(seg, pre, z_pre, dt)
+    _, pre, z_pre, (th_true, _), (th_trk, _) = _before_step(args, rec)
     i = int(np.argmin(np.diff(rec["prior"])))
     models = {"genie": lambda w: genie_model(cfg, cell, w),
               "blind at the truth's (ω, ζ)": lambda w: force_model(w, zeta, dt, th_true),
