@@ -101,7 +101,8 @@ sample cost 0.4–0.6 ms on this machine). The step is built once per process an
 not), in about 0.04 s.
 
 Tried and not kept (each off by default, measured on design seeds only, then removed; the option and its
-section's commands run at commit 681eb87, "measured at 681eb87"; sections of docs/measured/tracking_ambient.md):
+section's commands run at commit 681eb87, "measured at 681eb87"; sections of
+docs/measured/tracking_ambient_tried.md):
 
 * ``reset_peak``: a reset mode starts at the look's peak beyond the walking window estimate — "Mode 3 after the
   grid's step: a reset to the look's peak", measured at 681eb87;
@@ -128,7 +129,7 @@ section's commands run at commit 681eb87, "measured at 681eb87"; sections of doc
 * ``change_search``: once the reset gate opens, the modes searched on the samples after it by the likelihood of
   the recursion's own innovation form — "A search of the modes after a change", measured at e3d3ca6;
 * ``refit``: the whole-record recursion's ω refitted once a window by that likelihood — "That refit inside the
-  tracker", measured at 16b0576 (the first section of docs/measured/tracking_ambient.md holds both);
+  tracker", measured at 16b0576 (the first section of docs/measured/tracking_ambient_tried.md holds both);
 * ``change_refit``: at the first opening of the reset gate, every mode refitted as a constant over the samples
   before the last window by that likelihood, each kept where putting it back costs 8 nats — "A refit at the first
   change", measured at 016310c (the same section).
