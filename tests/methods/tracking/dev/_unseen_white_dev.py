@@ -70,10 +70,10 @@ def main() -> None:
                 e = (tr.frequencies - truth[k]) / truth[k]
                 b = bound[k] / truth[k]
                 late = tr.t_s >= 30.0
-                xb = np.nanmedian(np.abs(e[late])) / np.median(b[late])
+                med = float(np.nanmedian(np.abs(e[late])))
+                xb = med / np.median(b[late])
                 per = np.nanmedian(np.abs(e[late]), axis=0) / np.median(b[late], axis=0)
                 sgn = 100 * np.nanmedian(e[late], axis=0)
-                med = float(np.nanmedian(np.abs(e[late])))
                 if row == "next_era":
                     base = med
                 xn = f" | × next_era {med / base:.2f}" if base is not None and row != "next_era" else ""
