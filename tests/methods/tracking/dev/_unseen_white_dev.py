@@ -27,22 +27,14 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path[:0] = [str(Path(__file__).resolve().parents[4])]
 
 import numpy as np  # noqa: E402
-from _cells import cached_cell, print_marks  # noqa: E402
+from _cells import print_marks, white_cells  # noqa: E402
 
 import methods  # noqa: E402
 from experiments.benchmarks.tracking_beats import parse_row  # noqa: E402
-from experiments.benchmarks.tracking_unseen import configs  # noqa: E402
 from experiments.report.tracking_metrics import score_track  # noqa: E402
 
 TWO = "rpem_ambient:frequency_model=trend+recursions=two+score_reset=true+pair_peaks=true"
 ROWS = {"window": "rpem_ambient:frequency_model=trend+pair_peaks=true", "reported": TWO, "next_era": "next_era"}
-
-
-def cells(seed: int, replicates: int, cache: str | None):
-    for i, (label, cfg) in enumerate(configs(seed, replicates, records="ambient").items()):
-        if "white force" not in label or "slosh" in label:
-            continue
-        yield label, cached_cell(cfg, cache, f"unseen_{seed}_{replicates}_{i}")
 
 
 def main() -> None:
@@ -57,7 +49,7 @@ def main() -> None:
     rows = {k: ROWS[k] for k in args.rows.split(",") if k}
     if args.extra:
         rows["variant"] = TWO + args.extra
-    for label, cell in cells(args.seed, args.replicates, args.cache):
+    for label, _, cell in white_cells("unseen", args.seed, args.replicates, args.cache):
         dt, st, truth = float(cell["dt_s"]), float(cell["step_time_s"]), cell["truth_freq_rad_s"]
         print(f"## {args.seed} | {label}")
         for r in range(args.replicates):
